@@ -1,0 +1,176 @@
+"""`contact-bench`: list plugins, run a product of configurations, write result files."""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import platform
+import shlex
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import pandas as pd
+
+from bench.errors import BenchError
+from bench.harness import Run, run_table
+from bench.io import write_text
+from bench.registry import cases, make_case, schemes
+
+SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
+         "err_stress_l2", "energy_drift_max", "penetration_max", "wall_s", "status"]
+
+
+def _fmt_table(df: pd.DataFrame) -> str:
+    view = df[SHOWN].copy()
+    for col in view.columns:
+        if col in {"nx", "steps"}:
+            view[col] = view[col].map(lambda v: "" if pd.isna(v) else f"{int(v)}")
+        elif col not in {"case", "scheme", "status"}:
+            view[col] = view[col].map(lambda v: "n/a" if pd.isna(v) else f"{v:.3g}")
+    text = view.to_string(index=False)
+    notes = [f"  {r.case} / {r.scheme}: {r.notes}" for r in df.itertuples() if r.notes]
+    return text + ("\n\nnotes:\n" + "\n".join(notes) if notes else "")
+
+
+def _markdown(df: pd.DataFrame) -> str:
+    view = df[SHOWN + ["notes"]].copy()
+    return view.to_markdown(index=False, floatfmt=".3g")
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    out = ["Cases (scenes):"]
+    for name, cls in cases().plugins.items():
+        case = cls()
+        ref = case.reference or "none"
+        out.append(f"  {name:<20} {cls.summary}")
+        out.append(f"  {'':<20} L={case.L:g} rho={case.rho if not callable(case.rho) else 'x-dep'}"
+                   f" E={case.E if not callable(case.E) else 'x-dep'} g={case.g:g}"
+                   f" far end={case.far_end}; defaults T={case.T:g} nx={case.nx} dt={case.dt:g};"
+                   f" reference={ref}; provides={','.join(sorted(cls.provides)) or '-'}")
+        for key, p in cls.params.items():
+            out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
+    out.append("Schemes:")
+    for name, cls in schemes().plugins.items():
+        sch = cls()
+        tr = sch.traits()
+        out.append(f"  {name:<20} {cls.summary}")
+        out.append(f"  {'':<20} implicit={tr.implicit} massless_contact_node="
+                   f"{tr.massless_contact_node} contact={tr.contact} energy={tr.energy}"
+                   f" mass={sch.mass_kind()}")
+        for key, p in cls.params.items():
+            out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
+    for kind, reg in (("case", cases()), ("scheme", schemes())):
+        for name, err in reg.broken.items():
+            out.append(f"  [broken {kind} module {name}: {err}]")
+    print("\n".join(out))
+    return 0
+
+
+def _provenance(argv: Sequence[str]) -> str:
+    import numba
+    import numpy
+    import scipy
+    import skfem
+
+    cmd = "contact-bench " + " ".join(shlex.quote(a) for a in argv)
+    return (f"made by: `{cmd}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
+            f"python {platform.python_version()}, numpy {numpy.__version__}, "
+            f"scipy {scipy.__version__}, scikit-fem {skfem.__version__}, "
+            f"numba {numba.__version__}, pandas {pd.__version__}")
+
+
+def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]) -> list[Path]:
+    from bench.figures import contact_figure
+
+    prov = _provenance(argv)
+    written = [
+        write_text(out / "runs.csv", df.to_csv(index=False)),
+        write_text(out / "runs.md", f"<!-- {prov} -->\n\n" + _markdown(df) + "\n"),
+    ]
+    for case_spec in dict.fromkeys(df["case"]):
+        case = make_case(case_spec)
+        these = [r for r in runs if r.row["case"] == case_spec]
+        T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
+        exact = case.exact(T) if case.reference == "exact" else None
+        fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
+        written.append(contact_figure(these, exact, case.spec, out / f"{fname}.png"))
+    listing = "\n".join(f"- `{p.name}`" for p in written)
+    write_text(out / "README.md", f"# Results\n\n{prov}\n\nFiles:\n{listing}\n")
+    return written
+
+
+def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    default_job = not (args.case or args.scheme or args.nx or args.dt or args.T)
+    case_names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
+    scheme_names = args.scheme or schemes().names()
+    runs: list[Run] = []
+    df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
+                   args.stride, args.grading, args.allow_unstable, keep=runs)
+    out = args.out or ("results" if default_job else None)
+    if args.format == "csv":
+        sys.stdout.write(df.to_csv(index=False))
+    elif args.format == "json":
+        sys.stdout.write(df.to_json(orient="records", indent=1) + "\n")
+    elif args.format == "markdown":
+        print(_markdown(df))
+    else:
+        print(_fmt_table(df))
+    if out:
+        written = _write_outputs(Path(out), df, runs, argv)
+        if args.format == "table":
+            print(f"\nwrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="contact-bench", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="cases and schemes with their parameters and declarations")
+    r = sub.add_parser("run", help="run cases x schemes x nx x dt (no options: the default job)")
+    r.add_argument("--case", action="append", help="case spec (repeatable)")
+    r.add_argument("--scheme", action="append", help="scheme spec, e.g. redistributed[variant=getfem]")
+    r.add_argument("--nx", action="append", type=str, help="number of elements (repeatable)")
+    r.add_argument("--dt", action="append", type=str, help="time step (repeatable)")
+    r.add_argument("--T", type=str, help="final time (default: the case's)")
+    r.add_argument("--stride", type=str, default="1", help="keep a sample every K steps")
+    r.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x=0 (>= 1)")
+    r.add_argument("--allow-unstable", action="store_true",
+                   help="run an explicit scheme above its stability limit (row is marked)")
+    r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")
+    r.add_argument("--out", help="folder for CSV, Markdown and figures (default job: results/)")
+    return p
+
+
+def _numbers(values: list[str] | None, kind: type, name: str) -> list | None:
+    if not values:
+        return None
+    out = []
+    for v in values:
+        try:
+            x = kind(v) if kind is float else int(v)
+        except ValueError:
+            raise BenchError(f"--{name} must be {'a number' if kind is float else 'an integer'}, "
+                             f"got {v!r}") from None
+        out.append(x)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "list":
+            return cmd_list(args)
+        args.nx = _numbers(args.nx, int, "nx")
+        args.dt = _numbers(args.dt, float, "dt")
+        args.T = _numbers([args.T], float, "T")[0] if args.T else None
+        args.stride = _numbers([args.stride], int, "stride")[0]
+        return cmd_run(args, argv)
+    except BenchError as exc:
+        print(f"contact-bench: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

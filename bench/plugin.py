@@ -1,0 +1,193 @@
+"""The two plugin kinds, schemes and cases (scenes), and what passes between them.
+
+A *case* describes a bar, its data and (if known) its exact solution; it declares what
+exists for it (`Case.quantities`). A *scheme* declares how it integrates in time
+(`Scheme.traits`) and turns a `Semidiscrete` problem into a `Trajectory`. The harness
+only reads these declarations: it never branches on a plugin's name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+
+from bench.params import Param, check_params, format_spec
+
+
+class Plugin:
+    """Base of schemes and cases: declared parameters, checked at construction."""
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    params: ClassVar[dict[str, Param]] = {}
+
+    def __init__(self, **given: Any) -> None:
+        self.values = check_params(self.name, self.params, given)
+        for key, value in self.values.items():
+            setattr(self, key, value)
+        self.validate()
+
+    def validate(self) -> None:
+        """Cross-parameter checks; raise BenchError. Default: nothing to check."""
+
+    @property
+    def spec(self) -> str:
+        return format_spec(self.name, self.params, self.values)
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.spec}>"
+
+
+# ----------------------------------------------------------------------------- cases
+
+
+class Exact(Protocol):
+    """An exact (or reference) solution; arrays broadcast against each other."""
+
+    def u(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def ut(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def ux(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def stress(self, t: np.ndarray) -> np.ndarray: ...
+
+
+class Case(Plugin):
+    """A scene: a bar, its data, a default resolution and its exact solution if any.
+
+    Subclasses set the class attributes (or properties, when they depend on params)
+    and implement `u0`, `v0` and, when there is one, `exact`.
+    """
+
+    L: float = 1.0
+    rho: float = 1.0
+    E: float = 1.0
+    g: float = 0.0
+    far_end: str = "clamped"  # "clamped" (u(L) = u_L) or "free" (u_x(L) = 0)
+    u_L: float = 0.0
+    T: float = 1.0
+    nx: int = 40
+    dt: float = 0.01
+    #: "exact" (closed form or characteristics), "numerical" (a fine run) or None
+    reference: ClassVar[str | None] = None
+    #: quantities the reference provides: subset of {"u", "v", "stress", "energy"}
+    provides: ClassVar[frozenset[str]] = frozenset()
+    #: part of the default `contact-bench run` (the seed's two scenes)
+    in_default_run: ClassVar[bool] = False
+
+    def u0(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def v0(self, x: np.ndarray) -> np.ndarray:
+        return np.zeros_like(np.asarray(x, dtype=float))
+
+    def exact(self, T: float) -> Exact | None:
+        """The reference solution on [0, T], or None."""
+        return None
+
+    @property
+    def exact_energy(self) -> float | None:
+        """The conserved energy of the continuous problem, if known."""
+        return None
+
+    @property
+    def wave_speed(self) -> float:
+        return float(np.sqrt(self.E / self.rho))
+
+    def cannot_run(self, scheme: Scheme) -> str | None:
+        """A reason why this scene cannot be run by the scheme, or None."""
+        return None
+
+
+# --------------------------------------------------------------------------- schemes
+
+
+@dataclass(frozen=True)
+class Semidiscrete:
+    """The space-discrete problem on the free dofs 0..nfree-1 (node 0 = contact node).
+
+    A clamped far end is eliminated: its value sits in `u_fixed` and its coupling in F.
+    The energy of a state is 1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset, which equals
+    kinetic + strain + gravity potential of the full nodal vector.
+    """
+
+    x: np.ndarray
+    nfree: int
+    M: Any  # bench.fem.Tridiag over the free dofs
+    K: Any
+    F: np.ndarray
+    U0: np.ndarray
+    V0: np.ndarray
+    u_fixed: float | None
+    energy_offset: float
+    massless: bool
+    E_contact: float  # Young modulus in the first element (contact stress = E u_x(0))
+    c_max: float  # largest wave speed
+
+    @property
+    def h(self) -> np.ndarray:
+        return np.diff(self.x)
+
+    @property
+    def hmin(self) -> float:
+        return float(self.h.min())
+
+    def full(self, U: np.ndarray, fill_velocity: bool = False) -> np.ndarray:
+        """Nodal values on all nodes (appends the clamped node along the last axis)."""
+        if self.u_fixed is None:
+            return U
+        pad = np.full(U.shape[:-1] + (1,), 0.0 if fill_velocity else self.u_fixed)
+        return np.concatenate([U, pad], axis=-1)
+
+
+@dataclass
+class Trajectory:
+    """What a scheme returns: samples every `stride` steps (and the last step)."""
+
+    t: np.ndarray  # (K,)
+    U: np.ndarray  # (K, nfree) displacement samples
+    V: np.ndarray  # (K, nfree) velocity samples
+    contact_u: np.ndarray  # (K,) u(0, t)
+    stress: np.ndarray  # (K,) numerical contact stress (<= 0 for compression)
+    energy: np.ndarray  # (K,) the scheme's discrete energy (incl. penalty/Nitsche terms)
+    min_contact_u: float  # min over *all* steps of u(0, t_n)
+    steps_done: int
+    blowup_time: float | None = None  # first time NaN/inf or energy > 1e3 E(0)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Traits:
+    """What a scheme declares about itself."""
+
+    implicit: bool
+    massless_contact_node: bool
+    contact: str  # "exact" or e.g. "penalty O(1/kappa)"
+    energy: str  # "conserved", "dissipated" or "may grow"
+    order: int | None = None  # expected time order away from impacts
+
+
+class Scheme(Plugin):
+    """A time-integration / contact scheme. Subclasses implement `traits` and `integrate`."""
+
+    def traits(self) -> Traits:
+        raise NotImplementedError
+
+    def mass_kind(self) -> str:
+        """Which `bench.fem` mass variant the scheme uses."""
+        return "consistent"
+
+    def stability_limit(self, h: float, c: float) -> float | None:
+        """Largest stable dt on a mesh with smallest element h and wave speed c (None: none)."""
+        return None
+
+    def cannot_run(self, case: Case) -> str | None:
+        """A reason why the scheme cannot run this scene, or None."""
+        return None
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        raise NotImplementedError
+
+    def warm_up(self, semi: Semidiscrete) -> None:
+        """Compile the kernels outside any timing (a zero-step run)."""
+        self.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)

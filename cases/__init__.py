@@ -1,0 +1,1 @@
+"""Scenes (cases), one module each (see `bench.registry`)."""

@@ -1,0 +1,1 @@
+"""Time-integration / contact schemes, one module each (see `bench.registry`)."""

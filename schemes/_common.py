@@ -1,0 +1,119 @@
+"""Numba building blocks shared by the stepping kernels, and the Python glue around them.
+
+Kernels are plain `@njit(cache=True)` functions over numpy arrays. Tridiagonal
+symmetric matrices travel as (diag, off). Factorisations are done by LAPACK through
+scipy (`dpttrf`: A = L D L^T) outside the hot loop; the loop only applies them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from scipy.linalg import lapack
+
+from bench.errors import BenchError
+from bench.plugin import Semidiscrete, Trajectory
+
+BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
+
+
+@njit(cache=True)
+def tri_matvec(d, e, x, out):
+    """out = A x for the symmetric tridiagonal A = (d, e)."""
+    n = d.size
+    for i in range(n):
+        out[i] = d[i] * x[i]
+    for i in range(n - 1):
+        out[i] += e[i] * x[i + 1]
+        out[i + 1] += e[i] * x[i]
+
+
+@njit(cache=True)
+def tri_quad(d, e, x):
+    """x^T A x."""
+    s = 0.0
+    n = d.size
+    for i in range(n):
+        s += d[i] * x[i] * x[i]
+    for i in range(n - 1):
+        s += 2.0 * e[i] * x[i] * x[i + 1]
+    return s
+
+
+@njit(cache=True)
+def pt_solve(df, ef, b):
+    """Solve L D L^T x = b in place (factors from LAPACK dpttrf)."""
+    n = df.size
+    for i in range(1, n):
+        b[i] -= ef[i - 1] * b[i - 1]
+    for i in range(n):
+        b[i] /= df[i]
+    for i in range(n - 2, -1, -1):
+        b[i] -= ef[i] * b[i + 1]
+
+
+@njit(cache=True)
+def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
+    """1/2 V.M.V + 1/2 U.K.U - F.U + offset."""
+    s = 0.0
+    for i in range(U.size):
+        s -= F[i] * U[i]
+    return 0.5 * tri_quad(Md, Me, V) + 0.5 * tri_quad(Kd, Ke, U) + s + offset
+
+
+@njit(cache=True)
+def is_sample(step, nsteps, stride):
+    return step % stride == 0 or step == nsteps
+
+
+@njit(cache=True)
+def blown_up(energy, energy0):
+    if not np.isfinite(energy):
+        return True
+    return abs(energy) > BLOWUP_FACTOR * max(abs(energy0), 1e-300)
+
+
+def factor_pt(d: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """LDL^T factors of a symmetric positive definite tridiagonal matrix (LAPACK dpttrf)."""
+    df, ef, info = lapack.dpttrf(np.ascontiguousarray(d, float), np.ascontiguousarray(e, float))
+    if info != 0:
+        raise BenchError(f"system matrix not positive definite (LAPACK dpttrf info={info})")
+    return df, ef
+
+
+def n_samples(nsteps: int, stride: int) -> int:
+    return nsteps // stride + 1 + (1 if nsteps % stride else 0)
+
+
+def allocate(semi: Semidiscrete, nsteps: int, stride: int) -> dict[str, np.ndarray]:
+    """Output buffers of a kernel; memory grows with nfree x samples only."""
+    k = n_samples(nsteps, stride)
+    n = semi.nfree
+    return {
+        "t": np.zeros(k), "U": np.zeros((k, n)), "V": np.zeros((k, n)),
+        "cu": np.zeros(k), "s": np.zeros(k), "E": np.zeros(k),
+    }
+
+
+def trajectory(out: dict[str, np.ndarray], nsample: int, steps_done: int, min_u0: float,
+               blowup_step: int, dt: float, **extra) -> Trajectory:
+    """Wrap kernel buffers (trimmed to the samples actually written)."""
+    k = nsample
+    return Trajectory(
+        t=out["t"][:k], U=out["U"][:k], V=out["V"][:k], contact_u=out["cu"][:k],
+        stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_u0),
+        steps_done=int(steps_done),
+        blowup_time=None if blowup_step < 0 else float(blowup_step * dt), extra=extra,
+    )
+
+
+def initial_acceleration(semi: Semidiscrete) -> np.ndarray:
+    """Solve M A0 = F - K U0 (on nodes 1.. when the contact node is massless)."""
+    r = semi.F - semi.K.matvec(semi.U0)
+    A = np.zeros(semi.nfree)
+    first = 1 if semi.massless else 0
+    df, ef = factor_pt(semi.M.diag[first:], semi.M.off[first:])
+    b = r[first:].copy()
+    pt_solve(df, ef, b)
+    A[first:] = b
+    return A
