@@ -185,6 +185,21 @@ class Scheme(Plugin):
         """A reason why the scheme cannot run this scene, or None."""
         return None
 
+    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
+        """Largest penetration max_t -u(0, t) the scheme admits (exact contact: 0).
+
+        Round-off comes on top: callers compare with bound + 1e-12 * max|U0|.
+        """
+        return 0.0
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        """Bound on max |E(t) - E(0)| / |E(0)| the scheme claims (None: no claim).
+
+        Meaningful for traits().energy == "conserved" (and "dissipated": no growth
+        beyond this bound).
+        """
+        return None
+
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         raise NotImplementedError
 
