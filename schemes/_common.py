@@ -117,3 +117,34 @@ def initial_acceleration(semi: Semidiscrete) -> np.ndarray:
     pt_solve(df, ef, b)
     A[first:] = b
     return A
+
+
+def velocity_scale(semi: Semidiscrete) -> float:
+    """A speed the data can give the contact node: max|v0| + c max|u0'| + sqrt(2 g H).
+
+    d'Alembert bounds |u_t| by max|v0| + c max|u0_x| without gravity; a free fall from
+    the highest initial point H adds sqrt(2 g H). Schemes that allow a penetration of
+    O(dt x impact speed) use it (times a safety factor) in `penetration_bound`.
+    """
+    U = semi.full(semi.U0)
+    slope = float(np.max(np.abs(np.diff(U) / semi.h))) if U.size > 1 else 0.0
+    v = float(np.max(np.abs(semi.V0))) + semi.c_max * slope
+    n = semi.nfree
+    if n >= 3:
+        i = n // 2  # an interior row: its mass row sum is complete
+        row = semi.M.matvec(np.ones(n))[i]
+        g = max(0.0, -float(semi.F[i]) / row) if row > 0 else 0.0
+        v += float(np.sqrt(2.0 * g * max(0.0, float(np.max(U)))))
+    return v
+
+
+@njit(cache=True)
+def eliminate_contact_node(Kd, Ke, F, U):
+    """Set U[0] = max(0, (F0 - K01 u1) / K00), the massless node of (P_U^mod); return lambda.
+
+    lambda = K00 u0 + K01 u1 - F0 >= 0 is the obstacle's force (the contact stress is
+    -lambda); it is 0 when the node is free.
+    """
+    u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
+    U[0] = u0 if u0 > 0.0 else 0.0
+    return Kd[0] * U[0] + Ke[0] * U[1] - F[0]
