@@ -66,7 +66,8 @@ class Tridiag:
         A = sp.csr_matrix(A)
         bandwidth = np.abs(A.tocoo().row - A.tocoo().col).max(initial=0)
         if bandwidth > 1:
-            raise ValueError(f"matrix is not tridiagonal (bandwidth {bandwidth}): nodes not in x order")
+            raise ValueError(
+                f"matrix is not tridiagonal (bandwidth {bandwidth}): nodes not in x order")
         return cls(np.asarray(A.diagonal(0), float).copy(), np.asarray(A.diagonal(1), float).copy())
 
 

@@ -45,7 +45,8 @@ class Registry:
     def get(self, name: str) -> type[Plugin]:
         if name not in self.plugins:
             if name in self.broken:
-                raise BenchError(f"{self.package} plugin {name!r} failed to import: {self.broken[name]}")
+                raise BenchError(
+                    f"{self.package} plugin {name!r} failed to import: {self.broken[name]}")
             raise unknown(self.package[:-1], name, self.plugins)
         return self.plugins[name]
 

@@ -1,0 +1,34 @@
+"""The clamped bar over 1000 periods: does the energy drift accumulate?
+
+The scene of `clamped_bar` (L = 1, rho = E = 1, u0 = 1/2 - x/2, v0 = 0, clamped at
+x = 1, period 3, energy 1/8) run to T = 3000: 1000 periods, 1000 impacts and 1000
+take-offs. Reference: the same closed form (`cases.clamped_bar.ClampedBarExact`,
+exact for all t: it only uses t mod 3 and floor(t / 3)); the characteristics solver
+agrees with it at late times (tests/test_scenes.py).
+
+Stresses: accumulation of the energy error of a contact treatment (a drift per impact
+that is invisible on 4 periods), phase error of the discrete wave over many periods.
+Defaults: nx = 80, dt = 0.005 (600000 steps, well under a second for a Newmark kernel)
+and a sampling stride of 50 (12 samples per period), so the kept samples stay small;
+--stride overrides it.
+
+Every scheme can run it. One whose energy grows at impacts (traits().energy ==
+'may grow', e.g. the standard Newmark scheme) shows up as an 'unstable' row with the
+time of its blow-up (the standard scheme: t = 59.5 at the defaults), which is the
+long-time answer for it.
+"""
+
+from __future__ import annotations
+
+from cases.clamped_bar import ClampedBar, ClampedBarExact
+
+
+class LongTime(ClampedBar):
+    name = "long_time"
+    summary = "clamped_bar over 1000 periods (T = 3000): accumulated energy drift"
+    T, nx, dt = 3000.0, 80, 0.005
+    stride = 50
+    in_default_run = False
+
+    def exact(self, T: float) -> ClampedBarExact:
+        return ClampedBarExact()

@@ -1,0 +1,216 @@
+"""The scene library (issue 3): every scene runs through the CLI and converges; the
+special properties each scene claims hold for its exact (or numerical) reference."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bench.characteristics import CharacteristicsSolution
+from bench.cli import main
+from bench.errors import BenchError
+from bench.fem import mesh_nodes
+from bench.harness import run_one
+from bench.problem import discretise
+from bench.registry import cases, make_case
+
+NEW_SCENES = ["rough_data", "pulse", "grazing", "long_time", "fast_impact", "steel_bar",
+              "heterogeneous_bar"]
+
+# a short final time per scene (several impacts where the scene has them) and the
+# transit time L / c that scales dt
+SHORT = {
+    "rough_data": (2.0, 1.0),  # first contact [0.5, 1.7]
+    "pulse": (3.0, 1.0),  # two contacts
+    "grazing": (1.5, 1.0),  # the touch at t = 1
+    "long_time": (30.0, 1.0),  # 10 periods
+    "fast_impact[mach=0.1]": (2.5, 1.0),  # contact [0.1, 2.1]
+    "steel_bar": (1e-3, 1.0 / 5188.745216627708),  # contact [5e-4, 8.85e-4] s
+    "heterogeneous_bar": (1.5, 0.5),  # c_max = 2
+}
+NXS = (20, 40, 80)
+
+
+def _cli_table(args: list[str], capsys) -> pd.DataFrame:
+    code = main(["run", *args, "--format", "csv"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    return pd.read_csv(io.StringIO(captured.out))
+
+
+@pytest.mark.parametrize("spec", list(SHORT))
+def test_scene_runs_through_the_cli_and_converges(spec, capsys):
+    T, transit = SHORT[spec]
+    dt = 0.25 * transit / NXS[-1]  # CFL 1/4 on the finest mesh
+    args = ["--case", spec, "--scheme", "redistributed", "--T", f"{T!r}", "--dt", f"{dt!r}"]
+    for nx in NXS:
+        args += ["--nx", str(nx)]
+    df = _cli_table(args, capsys)
+    assert list(df["nx"]) == list(NXS)
+    assert (df["status"] == "ok").all(), df["notes"].tolist()
+    case = make_case(spec)
+    columns = ["err_u_linf_l2", "err_u_l2_h1"]
+    if "v" in case.provides:
+        columns.append("err_v_l2_l2")
+    if "stress" in case.provides:
+        columns.append("err_stress_l2")
+    else:
+        assert df["err_stress_l2"].isna().all()
+    for col in columns:
+        e = df[col].to_numpy()
+        assert np.all(np.isfinite(e)) and np.all(np.diff(e) < 0), (col, e)
+    assert df["err_u_linf_l2"].iloc[0] / df["err_u_linf_l2"].iloc[-1] > 1.8  # order >~ 1/2
+    if case.reference == "numerical":
+        assert (df["reference"] == "numerical").all()
+        assert df["notes"].str.contains("numerical reference").all()
+
+
+def test_every_scene_runs_on_a_graded_mesh():
+    short = {spec.split("[")[0]: v for spec, v in SHORT.items()}
+    short.update(clamped_bar=(1.5, 1.0), dropped_bar=(1.5, 1.0 / 3.0))
+    for name in cases().names():
+        case = make_case(name)
+        if name in short:
+            T, transit = short[name]
+            dt = 0.25 * transit / 16
+        else:  # a scene added later: its own dt, a short time
+            T, dt = min(case.T, 200 * case.dt), case.dt
+        run = run_one(case, "redistributed", nx=16, dt=dt, T=T, grading=2.0)
+        assert run.row["status"] == "ok", (name, run.row["notes"])
+        assert run.row["grading"] == 2.0
+        assert run.semi.h[0] == pytest.approx(case.L / 16**2)  # x_i = L (i / nx)^2
+        errs = [run.row[c] for c in ("err_u_linf_l2", "err_v_l2_l2")]
+        assert all(np.isfinite(errs)), (name, errs)
+
+
+def test_graded_mesh_errors_decrease_for_a_new_scene(capsys):
+    errs = [run_one("rough_data", "redistributed", nx=nx, dt=0.25 / 64, T=2.0,
+                    grading=1.5).row["err_u_linf_l2"] for nx in (16, 32, 64)]
+    assert errs[2] < errs[1] < errs[0]
+    # through the CLI, against the numerical reference (computed on its own uniform mesh)
+    df = _cli_table(["--case", "heterogeneous_bar", "--scheme", "redistributed", "--T", "1",
+                     "--dt", "0.002", "--nx", "16", "--nx", "32", "--grading", "1.5"], capsys)
+    assert (df["status"] == "ok").all() and (df["grading"] == 1.5).all()
+    assert df["err_u_linf_l2"].iloc[1] < df["err_u_linf_l2"].iloc[0]
+
+
+# -------------------------------------------------------------------- scene claims
+def test_grazing_really_grazes():
+    case = make_case("grazing")
+    ex = case.exact(case.T)
+    intervals = ex.contact_intervals()
+    assert [a for a, _ in intervals] == pytest.approx([1.0, 3.0], abs=1e-12)
+    assert all(b - a == 0.0 for a, b in intervals)  # a touch, no contact period
+    t = np.linspace(0.0, case.T, 4001)
+    u0 = ex.u(0.0, t)
+    assert u0.min() >= -1e-15
+    np.testing.assert_allclose(u0, 0.1 * (1 + np.cos(np.pi * t)), atol=1e-9)  # free motion
+    assert np.abs(ex.stress(t)).max() < 1e-3  # O(ds) from sampling the cosine
+    # zero velocity at the touch (up to the O(ds) of the sampled data), from both sides
+    for tt in (1.0, 3.0):
+        assert abs(ex.ut(0.0, tt)) < 1e-4 and abs(ex.ut(0.0, tt - 1e-9)) < 1e-4
+    # and a bar started a little lower would really hit (so the touch is a limit case)
+    lower = CharacteristicsSolution(L=1.0, E=1.0, rho=1.0, far_end="free",
+                                    u0=lambda x: 0.099 + 0.1 * np.cos(np.pi * x), v0=0.0,
+                                    T=1.5)
+    (a, b), = lower.contact_intervals()
+    assert b - a > 0.02
+    assert "stress" not in case.provides  # the relative stress error would be 0 / 0
+
+
+def test_fast_impact_mach_range_is_enforced(capsys):
+    for bad in ("0.6", "1e-4", "0", "-0.1", "nan"):
+        with pytest.raises(BenchError, match=r"fast_impact\[mach="):
+            make_case(f"fast_impact[mach={bad}]")
+    assert main(["run", "--case", "fast_impact[mach=0.7]", "--scheme", "redistributed"]) == 2
+    assert "allowed: float in [0.001, 0.5]" in capsys.readouterr().err
+    for mach in (1e-3, 0.5):
+        case = make_case(f"fast_impact[mach={mach}]")
+        ex = case.exact(case.T)
+        (a, b), = ex.contact_intervals()
+        assert a == pytest.approx(0.01 / mach, rel=1e-12)
+        assert b - a == pytest.approx(2.0, rel=1e-12)
+        assert ex.stress(0.5 * (a + b)) == pytest.approx(-mach, rel=1e-12)
+        assert ex.energy(case.T) == pytest.approx(case.exact_energy, rel=1e-12)
+
+
+def test_steel_bar_contact_lasts_two_transits():
+    case = make_case("steel_bar")
+    c = np.sqrt(210e9 / 7800)
+    assert c == pytest.approx(5189, abs=0.5)
+    ex = case.exact(case.T)
+    (a, b), = ex.contact_intervals()
+    assert a == pytest.approx(5e-5 / 0.1, rel=1e-12)
+    assert b - a == pytest.approx(2.0 / c, rel=1e-12)
+    assert ex.stress(0.5 * (a + b)) == pytest.approx(-7800 * c * 0.1, rel=1e-12)
+    assert ex.ut(0.5, case.T) == pytest.approx(0.1, rel=1e-12)  # leaves at +v0
+    assert ex.energy(case.T) == pytest.approx(0.5 * 7800 * 0.1**2, rel=1e-12)
+
+
+def test_long_time_closed_form_energy_at_late_times():
+    case = make_case("long_time")
+    ex = case.exact(case.T)
+    xq = (np.arange(4000) + 0.5) / 4000  # midpoints: exact for piecewise constant fields
+    for t in np.linspace(2990.0, 3000.0, 7) + 0.013:
+        e = 0.5 * np.mean(ex.ut(xq, t) ** 2 + ex.ux(xq, t) ** 2)
+        assert e == pytest.approx(0.125, abs=2e-3)  # cells cut by the fronts: O(1/4000)
+    # the closed form agrees with the characteristics solver at late times (the solver is
+    # exact for these data on a grid of 20 cells per length)
+    ch = CharacteristicsSolution(L=1.0, E=1.0, rho=1.0, u0=([0.0, 1.0], [0.5, 0.0]), v0=0.0,
+                                 T=3000.0, cells_per_length=20)
+    rng = np.random.default_rng(3)
+    x, t = rng.uniform(0, 1, 300), rng.uniform(2950.0, 3000.0, 300)
+    np.testing.assert_allclose(ch.u(x, t), ex.u(x, t), atol=1e-10)
+    assert ch.energy(2999.37) == pytest.approx(0.125, rel=1e-9)
+    assert case.exact_energy == 0.125
+
+
+def test_long_time_default_stride():
+    case = make_case("long_time")
+    assert case.stride > 1 and not case.in_default_run
+    run = run_one("long_time", "redistributed", T=30.0)
+    assert run.row["stride"] == case.stride
+    assert run.trajectory.t.size == 6000 // case.stride + 1
+    short = run_one("long_time", "redistributed", T=0.1)  # 20 steps < default stride
+    assert short.row["stride"] == 20 and short.row["status"] == "ok"
+    with pytest.raises(BenchError, match="stride"):  # an explicit stride is still checked
+        run_one("long_time", "redistributed", T=0.1, stride=50)
+    assert run_one("clamped_bar", "redistributed", T=0.1).row["stride"] == 1
+
+
+def test_heterogeneous_bar_reference_and_callable_E():
+    case = make_case("heterogeneous_bar")
+    ref = case.exact(1.0)
+    assert case.exact(2.0) is ref  # cached: a sweep does not recompute it
+    assert ref.t[-1] >= case.T
+    # the reference interpolates its own trajectory
+    i = ref.t.size // 2
+    np.testing.assert_allclose(ref.u(ref.x, ref.t[i]), ref.U[i])
+    assert ref.ut(0.7, 0.0) == pytest.approx(-0.5)
+    # its contact: hits at t = 0.1, stress about -rho c v = -0.5 at the first instants
+    assert ref.stress(0.05) == 0.0
+    assert ref.stress(0.3) == pytest.approx(-0.5, rel=0.05)
+    # callable E: largest wave speed and contact modulus, also with a jump inside an element
+    for grading in (1.0, 1.7):
+        semi = discretise(case, mesh_nodes(1.0, 15, grading), "seed")
+        assert semi.c_max == pytest.approx(2.0)
+        assert semi.E_contact == 1.0
+    soft = make_case("heterogeneous_bar[contrast=0.25]")
+    assert discretise(soft, mesh_nodes(1.0, 15), "seed").c_max == pytest.approx(1.0)
+
+
+def test_list_shows_what_each_scene_provides(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    for name in NEW_SCENES:
+        i = next(k for k, line in enumerate(lines) if line.split()[:1] == [name])
+        detail = lines[i + 1]
+        assert "provides=" in detail and "reference=" in detail, detail
+    grazing = lines[next(k for k, ln in enumerate(lines) if ln.split()[:1] == ["grazing"]) + 1]
+    assert "provides=energy,u,v (not: stress)" in grazing
+    assert "stride=50" in out and "no gravity" in out and "g=10" in out
+    assert "reference=numerical" in out
