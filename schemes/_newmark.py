@@ -31,10 +31,7 @@ from schemes._common import (
     energy_of,
     factor_pt,
     initial_acceleration,
-    is_sample,
-    pt_solve,
     trajectory,
-    tri_matvec,
 )
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
@@ -54,73 +51,160 @@ def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool) -
     return float(1.0 / (np.sqrt(gamma / 2.0 - beta) * omega_max))
 
 
-@njit(cache=True)
-def newmark_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, beta, gamma, massless,
-                   nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V, A) in place over nsteps; returns (samples, steps, min u0, blow-up step)."""
-    n = U.size
-    Ut = np.empty(n)
-    rhs = np.empty(n)
-    U1 = np.empty(n)
-    A1 = np.empty(n)
-    bdt2 = beta * dt * dt
-    lam = 0.0
-    min_u0 = U[0]
-    E0 = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
-    k = 0
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = 0.0
-    E_out[0] = E0
+# ---------------------------------------------------------------------------- kernels
+#
+# Both kernels make two fused sweeps per step. S (or M_r) is factored "upside down",
+# S = U D U^T with U unit upper bidiagonal (U[i, i+1] = g[i]), so that the first sweep
+# (U z = rhs) runs from the far end down to the contact node and the second sweep
+# (U^T x = D^-1 z) starts at the contact node. The contact force is then known at the
+# first entry of the second sweep, and the contact correction, the Newmark update and
+# the sampling are done in that same sweep: each step reads and writes every vector
+# twice, with no temporaries. `contract` lets LLVM fuse a*b+c into one FMA (deterministic:
+# results are bit-identical from run to run).
+_FM = {"contract"}
+
+
+@njit(cache=True, fastmath=_FM)
+def _implicit_kernel(Md, Me, Kd, Ke, F, bF, g, invD, w, Ut, V, A, z, u0, dt, beta, gamma,
+                     massless, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out,
+                     E_out):
+    """Implicit Newmark; the state is the predictor Ut and (V, A); u0 = U[0]."""
+    n = Ut.size
+    nw = w.size
+    ibdt2 = 1.0 / (beta * dt * dt)
+    c2 = (0.5 - beta) * dt * dt
+    dg = dt * gamma
+    dg1 = dt * (1.0 - gamma)
+    idt = 1.0 / dt
+    min_u0 = u0
+    E0 = E_out[0]
     k = 1
     for step in range(1, nsteps + 1):
-        if beta > 0.0:
-            for i in range(n):
-                Ut[i] = U[i] + dt * V[i] + (0.5 - beta) * dt * dt * A[i]
-            tri_matvec(Md, Me, Ut, rhs)
-            for i in range(n):
-                rhs[i] += bdt2 * F[i]
-            pt_solve(Sd, Se, rhs)
-            mu = 0.0
-            if rhs[0] < 0.0:
-                mu = -rhs[0] / w[0]
-            for i in range(n):
-                U1[i] = rhs[i] + mu * w[i]
-            if mu != 0.0:
-                U1[0] = 0.0
-            lam = mu / bdt2
-            for i in range(n):
-                A1[i] = (U1[i] - Ut[i]) / bdt2
+        sample = step % stride == 0 or step == nsteps
+        # sweep 1, far end -> contact node: z = U^-1 (M Ut + beta dt^2 F)
+        if n == 1:
+            z[0] = Md[0] * Ut[0] + bF[0]
         else:
-            for i in range(1, n):
-                U1[i] = U[i] + dt * V[i] + 0.5 * dt * dt * A[i]
-            u0 = (F[0] - Ke[0] * U1[1]) / Kd[0]
-            U1[0] = u0 if u0 > 0.0 else 0.0
-            lam = Kd[0] * U1[0] + Ke[0] * U1[1] - F[0]
-            # M_r A1 = F - K U1 on nodes 1..n-1
-            tri_matvec(Kd, Ke, U1, rhs)
-            for i in range(n):
-                A1[i] = F[i] - rhs[i]
-            pt_solve(Sd, Se, A1[1:])
-            A1[0] = 0.0
-        for i in range(n):
-            V[i] = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * A1[i])
+            zi = Md[n - 1] * Ut[n - 1] + Me[n - 2] * Ut[n - 2] + bF[n - 1]
+            z[n - 1] = zi
+            for i in range(n - 2, 0, -1):
+                r = Md[i] * Ut[i] + Me[i] * Ut[i + 1] + Me[i - 1] * Ut[i - 1] + bF[i]
+                zi = r - g[i] * zi
+                z[i] = zi
+            z[0] = Md[0] * Ut[0] + Me[0] * Ut[1] + bF[0] - g[0] * zi
+        # sweep 2, contact node -> far end: x = D^-1 U^-T z, U1 = x + mu w, update
+        x = z[0] * invD[0]
+        mu = -x / w[0] if x < 0.0 else 0.0
+        u1 = 0.0 if mu != 0.0 else x
         if massless:
-            V[0] = (U1[0] - U[0]) / dt
-            A1[0] = 0.0
-        for i in range(n):
-            U[i] = U1[i]
-            A[i] = A1[i]
-        if U[0] < min_u0:
-            min_u0 = U[0]
-        if is_sample(step, nsteps, stride):
-            energy = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
+            a1 = 0.0
+            v1 = (u1 - u0) * idt
+        else:
+            a1 = (u1 - Ut[0]) * ibdt2
+            v1 = V[0] + dg1 * A[0] + dg * a1
+        Ut[0] = u1 + dt * v1 + c2 * a1
+        V[0] = v1
+        A[0] = a1
+        if sample:
+            U_out[k, 0] = u1
+            V_out[k, 0] = v1
+        u0 = u1
+        if u1 < min_u0:
+            min_u0 = u1
+        for i in range(1, n):
+            x = z[i] * invD[i] - g[i - 1] * x
+            u1 = x + mu * w[i] if i < nw else x
+            a1 = (u1 - Ut[i]) * ibdt2
+            v1 = V[i] + dg1 * A[i] + dg * a1
+            Ut[i] = u1 + dt * v1 + c2 * a1
+            V[i] = v1
+            A[i] = a1
+            if sample:
+                U_out[k, i] = u1
+                V_out[k, i] = v1
+        if sample:
+            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
             t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            cu_out[k] = U[0]
+            cu_out[k] = u0
+            s_out[k] = -mu * ibdt2
+            E_out[k] = energy
+            k += 1
+            if blown_up(energy, E0):
+                return k, step, min_u0, step
+    return k, nsteps, min_u0, -1
+
+
+@njit(cache=True, fastmath=_FM)
+def _explicit_kernel(Md, Me, Kd, Ke, F, g, invD, U, V, A, z, dt, gamma, nsteps, stride,
+                     offset, t_out, U_out, V_out, cu_out, s_out, E_out):
+    """Central differences (beta = 0) with a massless contact node; g, invD factor M_r."""
+    n = U.size
+    h2 = 0.5 * dt * dt
+    dg = dt * gamma
+    dg1 = dt * (1.0 - gamma)
+    idt = 1.0 / dt
+    min_u0 = U[0]
+    E0 = E_out[0]
+    k = 1
+    for step in range(1, nsteps + 1):
+        sample = step % stride == 0 or step == nsteps
+        # sweep 1, far end -> contact node: predictor U1 (in place, one node ahead),
+        # r = F - K U1 and z = U^-1 r on nodes 1..n-1; the contact node last.
+        u0_old = U[0]
+        up = U[n - 1] + dt * V[n - 1] + h2 * A[n - 1]  # U1[i+1]
+        ui = U[n - 2] + dt * V[n - 2] + h2 * A[n - 2] if n > 2 else 0.0  # U1[i]
+        zi = 0.0
+        if n > 2:
+            r = F[n - 1] - Kd[n - 1] * up - Ke[n - 2] * ui
+            zi = r
+            z[n - 1] = zi
+            U[n - 1] = up
+            for i in range(n - 2, 1, -1):
+                um = U[i - 1] + dt * V[i - 1] + h2 * A[i - 1]
+                r = F[i] - Kd[i] * ui - Ke[i] * up - Ke[i - 1] * um
+                zi = r - g[i] * zi
+                z[i] = zi
+                U[i] = ui
+                up = ui
+                ui = um
+            # now ui = U1[1], up = U1[2]
+        else:  # n == 2: only nodes 0 and 1
+            ui = up
+            up = 0.0
+        c = (F[0] - Ke[0] * ui) / Kd[0]
+        ucon = c if c > 0.0 else 0.0
+        lam = Kd[0] * ucon + Ke[0] * ui - F[0]
+        r = F[1] - Kd[1] * ui - Ke[0] * ucon
+        if n > 2:
+            r -= Ke[1] * up
+            zi = r - g[1] * zi
+        else:
+            zi = r
+        z[1] = zi
+        U[1] = ui
+        U[0] = ucon
+        # sweep 2, contact node -> far end: A1 = D^-1 U^-T z on nodes 1.., update V, A
+        v0 = (ucon - u0_old) * idt
+        V[0] = v0
+        A[0] = 0.0
+        if sample:
+            U_out[k, 0] = ucon
+            V_out[k, 0] = v0
+        if ucon < min_u0:
+            min_u0 = ucon
+        a1 = 0.0
+        for i in range(1, n):
+            a1 = z[i] * invD[i] - g[i - 1] * a1
+            v1 = V[i] + dg1 * A[i] + dg * a1
+            V[i] = v1
+            A[i] = a1
+            if sample:
+                U_out[k, i] = U[i]
+                V_out[k, i] = v1
+        if sample:
+            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
+            t_out[k] = step * dt
+            cu_out[k] = ucon
             s_out[k] = -lam
             E_out[k] = energy
             k += 1
@@ -129,26 +213,53 @@ def newmark_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, beta, gamma, massl
     return k, nsteps, min_u0, -1
 
 
+def factor_reversed(d: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """S = U D U^T, U unit upper bidiagonal: returns g (U[i, i+1], g[n-1] = 0) and 1/D."""
+    df, ef = factor_pt(np.ascontiguousarray(d[::-1]), np.ascontiguousarray(e[::-1]))
+    g = np.zeros(d.size)
+    g[:-1] = ef[::-1]
+    return g, 1.0 / df[::-1]
+
+
+#: the contact response w = S^-1 e0 decays geometrically away from the contact node;
+#: entries below this fraction of w[0] are dropped (a change of < 1e-20 |U1[0]| per step)
+W_CUTOFF = 1e-20
+
+
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
                 beta: float, gamma: float) -> Trajectory:
     """Factor outside the loop, then call the kernel."""
     M, K = semi.M, semi.K
-    if beta > 0.0:
-        Sd, Se = factor_pt(M.diag + beta * dt * dt * K.diag, M.off + beta * dt * dt * K.off)
-        w = np.zeros(semi.nfree)
-        w[0] = 1.0
-        pt_solve(Sd, Se, w)
-    else:
-        if not semi.massless:
-            raise ValueError("explicit Newmark (beta = 0) here needs a massless contact node")
-        Sd, Se = factor_pt(M.diag[1:], M.off[1:])
-        w = np.zeros(1)
+    n = semi.nfree
+    dt, beta, gamma = float(dt), float(beta), float(gamma)
     U, V = semi.U0.copy(), semi.V0.copy()
     A = initial_acceleration(semi)
     out = allocate(semi, nsteps, stride)
-    k, done, min_u0, blow = newmark_kernel(
-        M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, float(dt), float(beta),
-        float(gamma), bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
-        out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-    )
+    out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
+    out["E"][0] = energy_of(M.diag, M.off, K.diag, K.off, semi.F, U, V, semi.energy_offset)
+    z = np.empty(n)
+    if beta > 0.0:
+        bdt2 = beta * dt * dt
+        g, invD = factor_reversed(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off)
+        # w = S^-1 e0 = D0^-1 (1, -g0, g0 g1, ...): U z = e0 gives z = e0
+        w = invD[0] * np.concatenate(([1.0], np.cumprod(-g[:-1])))
+        keep = np.nonzero(np.abs(w) > W_CUTOFF * abs(w[0]))[0]
+        w = np.ascontiguousarray(w[: keep[-1] + 1])
+        Ut = U + dt * V + (0.5 - beta) * dt * dt * A
+        k, done, min_u0, blow = _implicit_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, bdt2 * semi.F, g, invD, w, Ut, V, A, z,
+            float(U[0]), dt, beta, gamma, bool(semi.massless), int(nsteps), int(stride),
+            semi.energy_offset, out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    else:
+        if not semi.massless:
+            raise ValueError("explicit Newmark (beta = 0) here needs a massless contact node")
+        if n < 2:
+            raise ValueError("explicit Newmark needs at least one node besides the contact node")
+        g1, invD1 = factor_reversed(M.diag[1:], M.off[1:])
+        g = np.concatenate(([0.0], g1))  # indexed by node: g[i] couples nodes i and i+1
+        invD = np.concatenate(([0.0], invD1))
+        k, done, min_u0, blow = _explicit_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, g, invD, U, V, A, z, dt, gamma,
+            int(nsteps), int(stride), semi.energy_offset,
+            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     return trajectory(out, k, done, min_u0, blow, dt)

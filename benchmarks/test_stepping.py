@@ -1,0 +1,97 @@
+"""Stepping cost of every registered scheme, in ns per dof-step, and the speedup over scipy.
+
+Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped bar:
+assembly (`bench.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen before
+the timing, the stride is the whole run (two samples), nsteps is chosen for ~0.1 s per
+round. `extra_info` holds `ns_per_dof_step` (median round / (nfree * nsteps)) and the
+run's error `err_u_linf_l2` against the exact solution. New schemes are picked up from
+the registry; a scheme that cannot run the clamped bar is skipped with its reason.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+import pytest
+
+from bench.fem import mesh_nodes
+from bench.metrics import error_metrics
+from bench.plugin import Scheme, Semidiscrete
+from bench.problem import discretise
+from bench.reference import reference_for
+from bench.registry import make_case, make_scheme, schemes
+
+CASE = "clamped_bar"
+MAIN = ["standard", "redistributed", "redistributed[beta=0]"]
+TARGET_S = 0.1  # wall time aimed at per round
+GUESS_NS = 5.0  # ns per dof-step assumed to size nsteps
+
+
+def _specs() -> list[str]:
+    names = list(schemes().plugins)
+    return names + [s for s in MAIN if s not in names]
+
+
+def _setup(spec: str, n: int) -> tuple[Scheme, Semidiscrete, float, int]:
+    case = make_case(CASE)
+    scheme = make_scheme(spec)
+    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+    if reason:
+        pytest.skip(f"{spec} cannot run {CASE}: {reason}")
+    semi = discretise(case, mesh_nodes(case.L, n), scheme.mass_kind())
+    dt = 0.5 * semi.hmin / semi.c_max  # CFL 0.5
+    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    if limit is not None:
+        dt = min(dt, 0.9 * limit)
+    nsteps = max(10, int(TARGET_S / (GUESS_NS * 1e-9 * semi.nfree)))
+    scheme.warm_up(semi)  # compile (or load the numba cache) outside the timing
+    return scheme, semi, dt, nsteps
+
+
+def _run(benchmark, spec: str, n: int) -> None:
+    scheme, semi, dt, nsteps = _setup(spec, n)
+    traj = benchmark.pedantic(scheme.integrate, args=(semi, dt, nsteps, nsteps),
+                              rounds=5, iterations=1, warmup_rounds=1)
+    case = make_case(CASE)
+    err = error_metrics(semi, traj, case.exact(nsteps * dt), case.provides)["err_u_linf_l2"]
+    median = benchmark.stats.stats.median
+    benchmark.extra_info.update(
+        scheme=scheme.spec, nfree=semi.nfree, nsteps=nsteps, dt=dt,
+        ns_per_dof_step=median / (semi.nfree * nsteps) * 1e9, err_u_linf_l2=err,
+        blowup=traj.blowup_time is not None)
+
+
+@pytest.mark.parametrize("n", [1_000, 100_000], ids=["n1e3", "n1e5"])
+@pytest.mark.parametrize("spec", _specs())
+def test_stepping(benchmark, spec: str, n: int) -> None:
+    _run(benchmark, spec, n)
+
+
+@pytest.mark.parametrize("spec", MAIN)
+def test_stepping_1e6(benchmark, spec: str) -> None:
+    _run(benchmark, spec, 1_000_000)
+
+
+@pytest.mark.parametrize("n", [1_000, 100_000], ids=["n1e3", "n1e5"])
+@pytest.mark.parametrize("spec", ["standard", "redistributed", "redistributed[beta=0]"])
+def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
+    """Times the numba kernel (the benchmark) and the scipy reference (median of 3)."""
+    scheme, semi, dt, nsteps = _setup(spec, n)
+    traj = benchmark.pedantic(scheme.integrate, args=(semi, dt, nsteps, nsteps),
+                              rounds=5, iterations=1, warmup_rounds=1)
+    ref_steps = max(5, nsteps // 100)
+    times = []
+    for _ in range(3):
+        start = time.perf_counter()
+        ref = reference_for(scheme, semi, dt, ref_steps, ref_steps)
+        times.append(time.perf_counter() - start)
+    kernel_ns = benchmark.stats.stats.median / (semi.nfree * nsteps) * 1e9
+    ref_ns = statistics.median(times) / (semi.nfree * ref_steps) * 1e9
+    short = scheme.integrate(semi, dt, ref_steps, ref_steps)
+    benchmark.extra_info.update(
+        scheme=scheme.spec, nfree=semi.nfree, nsteps=nsteps, ref_steps=ref_steps,
+        ns_per_dof_step=kernel_ns, scipy_ns_per_dof_step=ref_ns, speedup=ref_ns / kernel_ns,
+        ref_rel_diff=float(np.abs(short.U - ref.U).max() / np.abs(ref.U).max()),
+        blowup=traj.blowup_time is not None)
