@@ -119,13 +119,11 @@ class Assembly:
         return np.diff(self.x)
 
 
-def assemble(x: np.ndarray, rho: Coefficient, E: Coefficient) -> Assembly:
-    """Assemble the consistent mass and stiffness on sorted nodes x with scikit-fem."""
-    x = np.asarray(x, dtype=float)
-    if x.ndim != 1 or x.size < 2 or np.any(np.diff(x) <= 0):
-        raise ValueError("mesh nodes must be a strictly increasing 1D array with at least 2 nodes")
-    mesh = MeshLine(x)
-    basis = Basis(mesh, ElementLineP1(), intorder=4)
+_ASSEMBLY_BLOCK = 10_000  # elements per scikit-fem assembly call (bounds memory)
+
+
+def _assemble_block(x: np.ndarray, rho: Coefficient, E: Coefficient):
+    basis = Basis(MeshLine(x), ElementLineP1(), intorder=4)
     rho_q = _coefficient_at_quadrature(basis, rho)
     E_q = _coefficient_at_quadrature(basis, E)
     if np.any(rho_q <= 0) or not np.all(np.isfinite(rho_q)):
@@ -134,10 +132,34 @@ def assemble(x: np.ndarray, rho: Coefficient, E: Coefficient) -> Assembly:
         raise ValueError(f"E must be finite and > 0, got min {E_q.min()!r}")
     M = Tridiag.from_sparse(_mass_form.assemble(basis, rho=rho_q))
     K = Tridiag.from_sparse(_stiffness_form.assemble(basis, E=E_q))
-    only_first = np.zeros_like(rho_q)
-    only_first[0] = rho_q[0]
-    M1 = _mass_form.assemble(basis, rho=only_first).tocsr()[:2, :2].toarray()
-    return Assembly(x=x, M=M, K=K, first_element_mass=M1)
+    return basis, rho_q, M, K
+
+
+def assemble(x: np.ndarray, rho: Coefficient, E: Coefficient) -> Assembly:
+    """Assemble the consistent mass and stiffness on sorted nodes x with scikit-fem.
+
+    Long meshes are assembled in blocks of elements (each a MeshLine of its own
+    nodes) whose bands are added where blocks share a node: the result equals one
+    global assembly, and memory grows with the block, not with the mesh.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 1 or x.size < 2 or np.any(np.diff(x) <= 0):
+        raise ValueError("mesh nodes must be a strictly increasing 1D array with at least 2 nodes")
+    nel = x.size - 1
+    Md, Mo, Kd, Ko = np.zeros(nel + 1), np.zeros(nel), np.zeros(nel + 1), np.zeros(nel)
+    M1 = None
+    for e0 in range(0, nel, _ASSEMBLY_BLOCK):
+        e1 = min(nel, e0 + _ASSEMBLY_BLOCK)
+        basis, rho_q, M, K = _assemble_block(x[e0 : e1 + 1], rho, E)
+        Md[e0 : e1 + 1] += M.diag
+        Kd[e0 : e1 + 1] += K.diag
+        Mo[e0:e1] = M.off
+        Ko[e0:e1] = K.off
+        if M1 is None:
+            only_first = np.zeros_like(rho_q)
+            only_first[0] = rho_q[0]
+            M1 = _mass_form.assemble(basis, rho=only_first).tocsr()[:2, :2].toarray()
+    return Assembly(x=x, M=Tridiag(Md, Mo), K=Tridiag(Kd, Ko), first_element_mass=M1)
 
 
 def mass_variant(asm: Assembly, kind: str) -> Tridiag:

@@ -24,35 +24,46 @@ NEEDS = {
     "err_v_linf_l2": "v", "err_v_l2_l2": "v", "err_stress_l2": "stress",
 }
 _CHUNK_POINTS = 250_000  # quadrature values per field held at once (2 MB)
+_QUAD_ORDER = 7  # 4 Gauss points per element
+
+
+def _nodal(semi: Semidiscrete, A: np.ndarray, lo: int, hi: int, fixed: float) -> np.ndarray:
+    """Columns lo..hi-1 of the nodal samples A, the clamped node (if any) filled in."""
+    if hi <= semi.nfree:
+        return A[:, lo:hi]
+    out = np.empty((A.shape[0], hi - lo))
+    out[:, : semi.nfree - lo] = A[:, lo:]
+    out[:, semi.nfree - lo :] = fixed
+    return out
 
 
 def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: bool) -> dict:
-    basis = Basis(MeshLine(semi.x), ElementLineP1(), intorder=7)
-    X = basis.global_coordinates().value[0]  # (nel, nq)
-    w = basis.dx  # (nel, nq)
-    dofs = basis.element_dofs  # (2, nel)
-    phi = [basis.basis[j][0].value for j in range(2)]
-    dphi = [basis.basis[j][0].grad[0] for j in range(2)]
-    U = semi.full(traj.U)
-    V = semi.full(traj.V, fill_velocity=True)
+    """Squared space norms per sample, accumulated over blocks of elements x samples.
+
+    Each element block gets its own scikit-fem basis (a MeshLine of those nodes), so
+    memory is bounded by the block size, not by the mesh.
+    """
+    nel = semi.x.size - 1
     K = traj.t.size
-    keys = ("eu", "nu", "eux", "nux", "ev", "nv")
-    out = {k: np.zeros(K) for k in keys}
-    nel, nq = X.shape
-    # blocks of samples x elements with at most _CHUNK_POINTS quadrature values each:
-    # whole meshes (the per-sample sums are then those of one pass) unless a mesh alone
-    # is larger than a block, when the elements are split too (memory stays bounded)
+    out = {k: np.zeros(K) for k in ("eu", "nu", "eux", "nux", "ev", "nv")}
+    u_fixed = semi.u_fixed if semi.u_fixed is not None else 0.0
+    nq = 4
     ec = min(nel, max(1, _CHUNK_POINTS // nq))
     step = max(1, _CHUNK_POINTS // (ec * nq))
-    for a in range(0, K, step):
-        b = min(K, a + step)
-        t = traj.t[a:b, None, None]
-        for e0 in range(0, nel, ec):
-            e1 = min(nel, e0 + ec)
-            d0, d1 = dofs[0, e0:e1], dofs[1, e0:e1]
-            Xe, we = X[e0:e1], w[e0:e1]
-            p0, p1, g0, g1 = phi[0][e0:e1], phi[1][e0:e1], dphi[0][e0:e1], dphi[1][e0:e1]
-            Ua, Ub = U[a:b, d0][:, :, None], U[a:b, d1][:, :, None]
+    for e0 in range(0, nel, ec):
+        e1 = min(nel, e0 + ec)
+        basis = Basis(MeshLine(semi.x[e0 : e1 + 1]), ElementLineP1(), intorder=_QUAD_ORDER)
+        Xe = basis.global_coordinates().value[0]  # (elements, nq)
+        we = basis.dx
+        d0, d1 = basis.element_dofs  # local node numbers of the block
+        p0, p1 = (basis.basis[j][0].value for j in range(2))
+        g0, g1 = (basis.basis[j][0].grad[0] for j in range(2))
+        Ublk = _nodal(semi, traj.U, e0, e1 + 1, u_fixed)
+        Vblk = _nodal(semi, traj.V, e0, e1 + 1, 0.0) if need_v else None
+        for a in range(0, K, step):
+            b = min(K, a + step)
+            t = traj.t[a:b, None, None]
+            Ua, Ub = Ublk[a:b, d0][:, :, None], Ublk[a:b, d1][:, :, None]
             uh = Ua * p0 + Ub * p1
             uxh = Ua * g0 + Ub * g1
             u = exact.u(Xe, t)
@@ -62,7 +73,7 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
             out["eux"][a:b] += np.sum(we * (uxh - ux) ** 2, axis=(1, 2))
             out["nux"][a:b] += np.sum(we * ux**2, axis=(1, 2))
             if need_v:
-                vh = V[a:b, d0][:, :, None] * p0 + V[a:b, d1][:, :, None] * p1
+                vh = Vblk[a:b, d0][:, :, None] * p0 + Vblk[a:b, d1][:, :, None] * p1
                 v = exact.ut(Xe, t)
                 out["ev"][a:b] += np.sum(we * (vh - v) ** 2, axis=(1, 2))
                 out["nv"][a:b] += np.sum(we * v**2, axis=(1, 2))

@@ -148,3 +148,17 @@ def eliminate_contact_node(Kd, Ke, F, U):
     u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
     U[0] = u0 if u0 > 0.0 else 0.0
     return Kd[0] * U[0] + Ke[0] * U[1] - F[0]
+
+
+def central_difference_excess(dt: float, limit: float | None) -> float:
+    """Largest relative excess of 1/2 V.M.V + 1/2 U.K.U over its initial value that a
+    central-difference (Newmark beta = 0, gamma = 1/2) run may show with no contact.
+
+    The scheme conserves E~ = 1/2 V.(M - dt^2/4 K).V + 1/2 U.K.U exactly, and
+    dt^2/8 V.K.V <= r^2 1/2 V.M.V with r = dt / limit (limit = 2 / omega_max), so
+    E(t) <= E(0) / (1 - r^2): the excess is at most r^2 / (1 - r^2).
+    """
+    if limit is None:
+        return 0.0
+    r = dt / limit
+    return float("inf") if r >= 1.0 else r * r / (1.0 - r * r)

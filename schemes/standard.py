@@ -47,7 +47,9 @@ class Standard(Scheme):
         return newmark_limit(self.beta, self.gamma, h, c, lumped=self.mass == "lumped")
 
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
+        if self.mass not in MASSLESS_KINDS:
+            return None
+        return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)

@@ -188,3 +188,15 @@ def test_bad_inputs_are_one_line_errors():
         run_one("clamped_bar", "redistributed[beta=0]", nx=40, dt=0.1)
     with pytest.raises(BenchError, match="stride"):
         run_one("clamped_bar", "standard", dt=0.5, T=1.0, stride=5)
+
+
+def test_blocked_assembly_equals_one_assembly(monkeypatch):
+    import bench.fem as fem
+
+    x = mesh_nodes(2.0, 1234, 1.7)
+    whole = fem.assemble(x, 1.3, lambda s: 1 + s)
+    monkeypatch.setattr(fem, "_ASSEMBLY_BLOCK", 100)
+    blocks = fem.assemble(x, 1.3, lambda s: 1 + s)
+    for a, b in ((whole.M, blocks.M), (whole.K, blocks.K)):
+        np.testing.assert_allclose(b.diag, a.diag, rtol=1e-14, atol=0)
+        np.testing.assert_allclose(b.off, a.off, rtol=1e-14, atol=0)
