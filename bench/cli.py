@@ -9,6 +9,7 @@ import shlex
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
 import pandas as pd
 
@@ -16,6 +17,9 @@ from bench.errors import BenchError
 from bench.harness import Run, run_table
 from bench.io import write_text
 from bench.registry import cases, make_case, schemes
+from bench.sweep_cli import COMMANDS as SWEEP_COMMANDS
+from bench.sweep_cli import add_commands as add_sweep_commands
+from bench.sweep_cli import run_command as run_sweep_command
 
 SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
          "err_stress_l2", "energy_drift_max", "penetration_max", "wall_s", "status"]
@@ -44,10 +48,14 @@ def cmd_list(args: argparse.Namespace) -> int:
         case = cls()
         ref = case.reference or "none"
         out.append(f"  {name:<20} {cls.summary}")
-        out.append(f"  {'':<20} L={case.L:g} rho={case.rho if not callable(case.rho) else 'x-dep'}"
-                   f" E={case.E if not callable(case.E) else 'x-dep'} g={case.g:g}"
-                   f" far end={case.far_end}; defaults T={case.T:g} nx={case.nx} dt={case.dt:g};"
-                   f" reference={ref}; provides={','.join(sorted(cls.provides)) or '-'}")
+        rho, E = ("x-dep" if callable(v) else f"{v:g}" for v in (case.rho, case.E))
+        gravity = f"g={case.g:g}" if case.g > 0 else "no gravity"
+        stride = f" stride={case.stride}" if case.stride != 1 else ""
+        absent = sorted({"u", "v", "stress", "energy"} - set(cls.provides))
+        out.append(f"  {'':<20} L={case.L:g} rho={rho} E={E} {gravity}"
+                   f" far end={case.far_end}; defaults T={case.T:g} nx={case.nx} dt={case.dt:g}"
+                   f"{stride}; reference={ref}; provides={','.join(sorted(cls.provides)) or '-'}"
+                   + (f" (not: {','.join(absent)})" if absent else ""))
         for key, p in cls.params.items():
             out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
     out.append("Schemes:")
@@ -106,7 +114,8 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     scheme_names = args.scheme or schemes().names()
     runs: list[Run] = []
     df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
-                   args.stride, args.grading, args.allow_unstable, keep=runs)
+                   args.stride, args.grading, args.allow_unstable, keep=runs,
+                   explicit_pair=bool(args.case and args.scheme))
     out = args.out or ("results" if default_job else None)
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))
@@ -123,53 +132,93 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     return 0
 
 
+class UsageError(Exception):
+    """argparse's own complaint (unknown option, bad choice, missing value)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (printed by `main`), not usage + exit."""
+
+    def error(self, message: str) -> NoReturn:  # type: ignore[override]
+        message = " ".join(message.split())
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="contact-bench", description=__doc__)
+    p = _Parser(prog="contact-bench", description=__doc__)
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="cases and schemes with their parameters and declarations")
     r = sub.add_parser("run", help="run cases x schemes x nx x dt (no options: the default job)")
     r.add_argument("--case", action="append", help="case spec (repeatable)")
-    r.add_argument("--scheme", action="append", help="scheme spec, e.g. redistributed[variant=getfem]")
+    r.add_argument("--scheme", action="append",
+                   help="scheme spec, e.g. redistributed[variant=getfem]")
     r.add_argument("--nx", action="append", type=str, help="number of elements (repeatable)")
     r.add_argument("--dt", action="append", type=str, help="time step (repeatable)")
     r.add_argument("--T", type=str, help="final time (default: the case's)")
-    r.add_argument("--stride", type=str, default="1", help="keep a sample every K steps")
+    r.add_argument("--stride", type=str, default=None,
+                   help="keep a sample every K steps (default: the case's, 1 for most)")
     r.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x=0 (>= 1)")
     r.add_argument("--allow-unstable", action="store_true",
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")
     r.add_argument("--out", help="folder for CSV, Markdown and figures (default job: results/)")
+    add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
     return p
 
 
+_ALLOWED = {"nx": "an integer >= 1", "dt": "a number > 0", "T": "a number > 0",
+            "stride": "an integer >= 1"}
+
+
 def _numbers(values: list[str] | None, kind: type, name: str) -> list | None:
+    """Parse option values; ranges are checked by the harness (same messages as the API)."""
     if not values:
         return None
     out = []
     for v in values:
         try:
-            x = kind(v) if kind is float else int(v)
-        except ValueError:
-            raise BenchError(f"--{name} must be {'a number' if kind is float else 'an integer'}, "
+            if kind is float:
+                x: float | int = float(v)
+            else:
+                try:
+                    x = int(v)
+                except ValueError:
+                    f = float(v)  # 1e3 is an integer too
+                    if not f.is_integer():
+                        raise
+                    x = int(f)
+        except (ValueError, OverflowError):
+            raise BenchError(f"--{name} must be {_ALLOWED.get(name, kind.__name__)}, "
                              f"got {v!r}") from None
         out.append(x)
     return out
 
 
+INTERRUPTED = "contact-bench: interrupted (no partial result files written)"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Exit codes: 0 done, 2 bad input (one line on stderr), 130 interrupted (Ctrl-C)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
         if args.command == "list":
             return cmd_list(args)
+        if args.command in SWEEP_COMMANDS:
+            return run_sweep_command(args, argv)
         args.nx = _numbers(args.nx, int, "nx")
         args.dt = _numbers(args.dt, float, "dt")
         args.T = _numbers([args.T], float, "T")[0] if args.T else None
-        args.stride = _numbers([args.stride], int, "stride")[0]
+        args.stride = (_numbers([args.stride], int, "stride")[0]
+                       if args.stride is not None else None)
         return cmd_run(args, argv)
-    except BenchError as exc:
-        print(f"contact-bench: error: {exc}", file=sys.stderr)
+    except (BenchError, UsageError) as exc:
+        print(f"contact-bench: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # results are written atomically: an interrupted run leaves no partial file
+        print(INTERRUPTED, file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

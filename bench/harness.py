@@ -63,29 +63,61 @@ def _check_nx(nx: Any) -> int:
     return value
 
 
-def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
-            dt: float | None = None, T: float | None = None, stride: int = 1,
-            grading: float = 1.0, allow_unstable: bool = False) -> Run:
-    """Run one configuration. Bad input raises BenchError; a blow-up is a row."""
-    case = make_case(case) if isinstance(case, str) else case
-    scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
+def _check_grading(grading: Any) -> float:
+    try:
+        value = float(grading)
+    except (TypeError, ValueError):
+        raise BenchError(f"grading must be a number >= 1, got {grading!r}") from None
+    if not (math.isfinite(value) and value >= 1.0):
+        raise BenchError(f"grading must be a finite number >= 1, got {grading!r}")
+    return value
+
+
+#: largest sample buffers a run may allocate (U and V, float64), in bytes
+MAX_SAMPLE_BYTES = 4 * 2**30
+
+
+@dataclass
+class _Plan:
+    """A checked configuration, ready to integrate (or a finished 'not applicable' row)."""
+
+    case: Case
+    scheme: Scheme
+    row: dict[str, Any]
+    notes: list[str]
+    semi: Any = None
+    dt: float = 0.0
+    steps: int = 0
+    stride: int = 1
+    T_run: float = 0.0
+
+
+def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
+             grading: Any, allow_unstable: bool, strict: bool) -> _Plan:
+    """Every check of run_one that needs no time stepping; bad input raises BenchError."""
     nx = _check_nx(case.nx if nx is None else nx)
     T = _check_positive("T", case.T if T is None else T)
     dt_given = dt is not None
     dt = _check_positive("dt", case.dt if dt is None else dt)
-    if isinstance(stride, bool) or int(stride) != stride or stride < 1:
+    stride_given = stride is not None
+    stride = case.stride if stride is None else stride  # the scene's default sampling
+    if (isinstance(stride, bool) or not isinstance(stride, int | np.integer | float)
+            or stride != stride or int(stride) != stride or stride < 1):
         raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
     stride = int(stride)
+    grading = _check_grading(grading)
     row: dict[str, Any] = dict.fromkeys(COLUMNS)
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     notes: list[str] = []
     reason = scheme.cannot_run(case) or case.cannot_run(scheme)
     if reason:
+        if strict:
+            raise BenchError(f"scheme {scheme.spec} cannot run case {case.spec}: {reason}")
         row.update(dt=dt, status="not applicable", notes=reason)
-        return Run(row)
+        return _Plan(case, scheme, row, notes)
 
-    x = mesh_nodes(case.L, nx, grading)
+    x = mesh_nodes(_check_length(case), nx, grading)
     semi = discretise(case, x, scheme.mass_kind())
     limit = scheme.stability_limit(semi.hmin, semi.c_max)
     if limit is not None and dt > limit * (1 + 1e-12):
@@ -94,32 +126,63 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
                 f"dt = {dt:g} is above the stability limit {limit:.6g} of {scheme.spec} "
                 f"at nx = {nx} (pass --allow-unstable to run it anyway)")
         if dt_given:
-            notes.append(f"dt above the stability limit {limit:.4g}")
+            notes.append(f"dt above the stability limit {limit:.4g} (--allow-unstable)")
         else:  # the case's default dt is too large for this explicit scheme
             dt = 0.9 * limit
             notes.append(f"dt lowered to 0.9 x the stability limit {limit:.4g}")
     steps = max(1, math.ceil(T / dt - 1e-9))
+    if stride > steps and not stride_given:
+        stride = steps  # a short run of a long scene: its default stride is too coarse
+        row["stride"] = stride
     if stride > steps:
         raise BenchError(f"stride = {stride} is larger than the number of steps ({steps})")
+    samples = steps // stride + 2
+    if 16.0 * samples * semi.nfree > MAX_SAMPLE_BYTES:
+        need = math.ceil(16.0 * steps * semi.nfree / MAX_SAMPLE_BYTES)
+        need_s = str(need) if need < 10**9 else f"{float(need):.3g}"
+        fix = f"a larger dt or --stride >= {need_s}" if need <= steps / 2 else "a larger dt"
+        raise BenchError(
+            f"dt = {dt:g} with T = {T:g} and nx = {nx} keeps {float(samples):.3g} samples of "
+            f"{semi.nfree} values (over {MAX_SAMPLE_BYTES / 2**30:g} GiB); allowed: {fix}")
     T_run = steps * dt
     row.update(dt=dt, T=T_run, steps=steps)
+    return _Plan(case, scheme, row, notes, semi, dt, steps, stride, T_run)
 
-    key = (type(scheme), scheme.mass_kind())
+
+def _check_length(case: Case) -> float:
+    """The bar's length, checked (material and data are checked in `discretise`)."""
+    try:
+        L = float(case.L)
+    except (TypeError, ValueError):
+        raise BenchError(f"case {case.spec}: L = {case.L!r} must be a number > 0") from None
+    if not (math.isfinite(L) and L > 0):
+        raise BenchError(f"case {case.spec}: L = {case.L!r} must be finite and > 0")
+    return L
+
+
+def _execute(plan: _Plan) -> Run:
+    """Integrate a prepared configuration and fill in its metrics."""
+    row, notes = plan.row, plan.notes
+    if plan.semi is None:  # not applicable
+        return Run(row)
+    case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
+    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
     if key not in _warmed:
         scheme.warm_up(semi)  # JIT compilation stays out of wall_s
         _warmed.add(key)
     start = time.perf_counter()
-    traj = scheme.integrate(semi, dt, steps, stride)
+    traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
     row["wall_s"] = time.perf_counter() - start
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
     if traj.blowup_time is not None:
         row.update(status="unstable", blowup_time=traj.blowup_time)
-        notes.append(f"blew up at t = {traj.blowup_time:.6g}")
+        notes.append(f"blew up at t = {traj.blowup_time:.6g} (stopped after "
+                     f"{traj.steps_done} of {plan.steps} steps)")
     else:
         row["status"] = "ok"
-        exact = case.exact(T_run) if case.reference else None
+        exact = case.exact(plan.T_run) if case.reference else None
         if exact is None:
             notes.append("errors: no reference solution")
         else:
@@ -133,20 +196,77 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     return Run(row, traj, semi)
 
 
+def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
+               grading: Any, exc: BaseException, row: dict[str, Any] | None = None) -> Run:
+    """The row of a run that raised an unexpected exception (a bug, not a bad input)."""
+    out: dict[str, Any] = dict.fromkeys(COLUMNS)
+    out.update(case=case.spec, scheme=scheme.spec, nx=nx, dt=dt, T=T, stride=stride,
+               grading=grading, reference=case.reference or "none")
+    if row is not None:
+        out.update({k: v for k, v in row.items() if v is not None})
+    reason = " ".join(f"{type(exc).__name__}: {exc}".split())
+    if out.get("notes"):
+        reason = f"{reason}; {out['notes']}"
+    out.update(status="error", notes=reason, wall_s=None)
+    return Run(out)
+
+
+def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
+            dt: float | None = None, T: float | None = None, stride: int | None = None,
+            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False) -> Run:
+    """Run one configuration. Bad input raises BenchError; a blow-up is a row.
+
+    stride None: the case's default `Case.stride` (lowered to the number of steps).
+    A pair that cannot run is a 'not applicable' row, or a BenchError when `strict`
+    (the user asked for exactly this combination).
+    """
+    case = make_case(case) if isinstance(case, str) else case
+    scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
+    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict))
+
+
 def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),
-              dts: Iterable[float | None] = (None,), T: float | None = None, stride: int = 1,
+              dts: Iterable[float | None] = (None,), T: float | None = None,
+              stride: int | None = None,
               grading: float = 1.0, allow_unstable: bool = False,
-              keep: list[Run] | None = None) -> pd.DataFrame:
-    """The product cases x schemes x nx x dt as one DataFrame (one row per run)."""
-    case_objs = [make_case(c) for c in cases]
-    scheme_objs = [make_scheme(s) for s in schemes]
-    rows = []
+              keep: list[Run] | None = None, *, explicit_pair: bool = False) -> pd.DataFrame:
+    """The product cases x schemes x nx x dt as one DataFrame (one row per run).
+
+    Every configuration is checked before any is run, so a bad input (BenchError) fails
+    at once and nothing is half done. A run that blows up is an 'unstable' row, a run
+    that raises anything else an 'error' row with the reason; the table goes on.
+    `explicit_pair`: the user named one case and one scheme, so a pair that cannot run
+    is an error rather than a 'not applicable' row.
+    """
+    case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
+    scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
+    nxs, dts = list(nxs), list(dts)
+    strict = explicit_pair and len(case_objs) == 1 and len(scheme_objs) == 1
+    plans: list[_Plan | Run] = []
     for case in case_objs:
         for scheme in scheme_objs:
             for nx in nxs:
                 for dt in dts:
-                    run = run_one(case, scheme, nx, dt, T, stride, grading, allow_unstable)
-                    rows.append(run.row)
-                    if keep is not None:
-                        keep.append(run)
+                    try:
+                        plans.append(_prepare(case, scheme, nx, dt, T, stride, grading,
+                                              allow_unstable, strict))
+                    except BenchError:
+                        raise
+                    except Exception as exc:  # noqa: BLE001 - a broken plugin is a row
+                        plans.append(_error_row(case, scheme, nx, dt, T, stride, grading, exc))
+    rows = []
+    for plan in plans:
+        if isinstance(plan, Run):
+            run = plan
+        else:
+            try:
+                run = _execute(plan)
+            except Exception as exc:  # noqa: BLE001 - one failing run never stops a table
+                before = dict(plan.row, notes="; ".join(plan.notes) or None)
+                run = _error_row(plan.case, plan.scheme, plan.row["nx"], plan.row["dt"],
+                                 plan.row["T"], plan.row["stride"], plan.row["grading"], exc,
+                                 before)
+        rows.append(run.row)
+        if keep is not None:
+            keep.append(run)
     return pd.DataFrame(rows, columns=list(COLUMNS))

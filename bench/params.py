@@ -61,7 +61,8 @@ class Param:
             else:
                 value = str(raw)
         except (TypeError, ValueError):
-            raise BenchError(f"{where}: not a valid {self.kind.__name__}; allowed: {self.allowed()}") from None
+            raise BenchError(f"{where}: not a valid {self.kind.__name__}; "
+                             f"allowed: {self.allowed()}") from None
         if self.choices is not None:
             if value not in self.choices:
                 raise BenchError(f"{where}: not allowed; allowed: {self.allowed()}")

@@ -68,6 +68,9 @@ class Case(Plugin):
     T: float = 1.0
     nx: int = 40
     dt: float = 0.01
+    #: default sampling stride (keep a sample every `stride` steps) when the user gives
+    #: none; long runs set it so that the samples stay few
+    stride: int = 1
     #: "exact" (closed form or characteristics), "numerical" (a fine run) or None
     reference: ClassVar[str | None] = None
     #: quantities the reference provides: subset of {"u", "v", "stress", "energy"}
