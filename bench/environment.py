@@ -1,0 +1,74 @@
+"""Where a run was made: package versions, CPU model, git commit; and a provenance line.
+
+Every sweep row carries these as `env_*` columns (computed once per process), and every
+file `contact-bench report` writes records `provenance(argv)`: the command, the
+versions and the date.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import shlex
+import subprocess
+from collections.abc import Sequence
+from functools import cache
+from importlib import metadata
+from pathlib import Path
+
+#: distribution name -> column suffix
+PACKAGES = {
+    "contact-bench": "contact_bench", "numpy": "numpy", "scipy": "scipy",
+    "scikit-fem": "skfem", "numba": "numba", "pandas": "pandas", "matplotlib": "matplotlib",
+}
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _version(dist: str) -> str:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def cpu_model() -> str:
+    """The CPU's model name (from /proc/cpuinfo on Linux), or platform's best guess."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
+def git_commit() -> str:
+    """`git rev-parse HEAD` of the checkout holding this package ('unknown' outside git)."""
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True,
+                             text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
+
+
+@cache
+def environment() -> dict[str, str | int]:
+    """The `env_*` columns of a sweep row (cached for the life of the process)."""
+    env: dict[str, str | int] = {"env_python": platform.python_version()}
+    env.update({f"env_{col}": _version(dist) for dist, col in PACKAGES.items()})
+    env.update(env_cpu=cpu_model(), env_ncpu=os.cpu_count() or 1,
+               env_platform=platform.platform(terse=True), env_git=git_commit())
+    return env
+
+
+def provenance(argv: Sequence[str] | None = None) -> str:
+    """One line: the command, the date (UTC), the versions and the git commit."""
+    env = environment()
+    cmd = "contact-bench " + " ".join(shlex.quote(a) for a in (argv or []))
+    versions = ", ".join(f"{dist} {env[f'env_{col}']}" for dist, col in PACKAGES.items())
+    return (f"made by `{cmd.strip()}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
+            f"python {env['env_python']}, {versions}; CPU {env['env_cpu']} "
+            f"({env['env_ncpu']} cores); git {env['env_git']}")
