@@ -63,6 +63,19 @@ def _check_nx(nx: Any) -> int:
     return value
 
 
+def check_task_inputs(nx: Any = None, dt: Any = None, T: Any = None, cfl: Any = None,
+                      stride: Any = None, grading: Any = 1.0) -> None:
+    """Check the numeric inputs of a run before anything runs (one-line BenchError)."""
+    if nx is not None:
+        _check_nx(nx)
+    for name, value in (("dt", dt), ("T", T), ("cfl", cfl)):
+        if value is not None:
+            _check_positive(name, value)
+    if stride is not None and (isinstance(stride, bool) or int(stride) != stride or stride < 1):
+        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
+    _check_grading(grading)
+
+
 def _check_grading(grading: Any) -> float:
     try:
         value = float(grading)

@@ -77,6 +77,8 @@ class Case(Plugin):
     provides: ClassVar[frozenset[str]] = frozenset()
     #: part of the default `contact-bench run` (the seed's two scenes)
     in_default_run: ClassVar[bool] = False
+    #: a stiff scene (physical units, short time scale): the study's stability part runs it
+    stiff: ClassVar[bool] = False
 
     def u0(self, x: np.ndarray) -> np.ndarray:
         raise NotImplementedError

@@ -12,7 +12,7 @@ parameters, plus any spec given with --scheme):
 - stability: nx = nx_stab, T = long_t x the scene's T; CFL from 0.1 to 100 (no
   declared limit) or to twice the declared limit (with 0.95 and 1.05 x the limit);
   for a scheme declaring `gamma_p`, gamma_p in 1 ... 1e8, and for one declaring `e`,
-  e in {0, 0.5, 1}, at three CFL; the stiff scene `steel_bar` too when registered;
+  e in {0, 0.5, 1}, at three CFL; every scene declaring `stiff` (steel_bar);
 - energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table).
 
 At most `max_samples` samples are kept per run (the stride grows with the number of
@@ -41,7 +41,6 @@ FULL = {"nx_refine": [20, 40, 80, 160, 320, 640], "nx_fine": 640, "dt_points": 5
 QUICK = {"nx_refine": [10, 20, 40], "nx_fine": 40, "dt_points": 3,
          "nx_stab": 10, "cfl_points": 3, "nx_energy": 20, "max_samples": 300,
          "long_t": 2.0, "gamma_p": [1.0, 1e8], "e": [0.0, 1.0]}
-STIFF_SCENES = ("steel_bar",)
 
 
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
@@ -70,7 +69,7 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     g = QUICK if quick else FULL
     specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
     scenes = list(case_specs or [n for n, c in cases().plugins.items() if c.in_default_run])
-    stiff = [n for n in STIFF_SCENES if n in cases().plugins and n not in scenes]
+    stiff = [n for n, c in cases().plugins.items() if c.stiff and n not in scenes]
     tasks: list[Task] = []
     ms = g["max_samples"]
     for case_spec in scenes:

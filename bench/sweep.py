@@ -42,7 +42,7 @@ from bench.environment import cpu_model, environment
 from bench.errors import BenchError
 from bench.fem import mesh_nodes
 from bench.harness import COLUMNS as HARNESS_COLUMNS
-from bench.harness import run_one
+from bench.harness import check_task_inputs, run_one
 from bench.io import atomic_write, write_text
 from bench.metrics import ERROR_COLUMNS
 from bench.params import expand_spec
@@ -348,6 +348,7 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
         if pair not in made:
             made[pair] = (make_case(task.case), make_scheme(task.scheme))
         case, scheme = made[pair]
+        check_task_inputs(task.nx, task.dt, task.T, task.cfl, task.stride, task.grading)
         canon = replace(task, case=case.spec, scheme=scheme.spec,
                         nx=int(case.nx if task.nx is None else task.nx))
         if canon.dt is not None and canon.cfl is not None:

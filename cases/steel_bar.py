@@ -33,6 +33,7 @@ class SteelBar(Case):
     far_end, u_L = "free", 0.0
     T, nx, dt = 1.2e-3, 100, 1e-6
     reference = "exact"
+    stiff = True
     provides = frozenset({"u", "v", "stress", "energy"})
 
     def u0(self, x: np.ndarray) -> np.ndarray:

@@ -327,3 +327,17 @@ def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
     assert proc.returncode == 130, err
     assert _one_line(err) == INTERRUPTED
     assert _files(out) == []
+
+
+@pytest.mark.parametrize("bad, shown", [("--nx=0", "0"), ("--dt=-1", "-1"), ("--cfl=nan", "nan"),
+                                        ("--T=0", "0")])
+def test_sweep_rejects_bad_numbers_before_running(tmp_path, capsys, bad, shown):
+    from bench.cli import main
+
+    out = tmp_path / "sweep"
+    code = main(["sweep", "--case", "clamped_bar", "--scheme", "standard", bad,
+                 "--out", str(out), "--quiet", "--no-cache"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and shown in err[0] and "Traceback" not in err[0]
+    assert not out.exists()
