@@ -63,9 +63,16 @@ def cmd_list(args: argparse.Namespace) -> int:
         sch = cls()
         tr = sch.traits()
         out.append(f"  {name:<20} {cls.summary}")
+        limit = sch.stability_limit(1.0, 1.0)  # every declared limit scales like h / c
+        stab = "none" if limit is None else f"dt <= {limit:.3g} h/c"
+        order = "-" if tr.order is None else str(tr.order)
         out.append(f"  {'':<20} implicit={tr.implicit} massless_contact_node="
                    f"{tr.massless_contact_node} contact={tr.contact} energy={tr.energy}"
-                   f" mass={sch.mass_kind()}")
+                   f" mass={sch.mass_kind()} stability_limit={stab} order={order}")
+        refused = [c for c, ccls in cases().plugins.items()
+                   if sch.cannot_run(ccls()) or ccls().cannot_run(sch)]
+        if refused:
+            out.append(f"  {'':<20} cannot run (defaults): {', '.join(refused)}")
         for key, p in cls.params.items():
             out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
     for kind, reg in (("case", cases()), ("scheme", schemes())):
