@@ -7,41 +7,76 @@ Problem (notes, section 1)::
     far end: u(L,t) = u_L (clamped)  or  u_x(L,t) = 0 (free)
     u(x,0) = u0(x),  u_t(x,0) = v0(x),    u0 in H1, v0 in L2, u0(0) >= 0
 
-Method (notes, section 2a; the seed's section 2). With c = sqrt(E/rho), tau = c t and
-gam = g/c^2 the solution is u = p(x + tau) + q(x - tau) - gam tau^2/2, where on [0, L]
-p = u0/2 + V/(2c), q = u0/2 - V/(2c), V(x) = int_0^x v0. At the obstacle
-w(tau) = p(tau) + q(-tau) = u(0,t) + gam tau^2/2 must stay above the barrier
-phi(tau) = gam tau^2/2 and is stress free while above it: the one-sided Skorokhod problem
+Method (notes, section 2a; the seed's section 2), written around a STATIC particular
+solution so that every stored quantity stays bounded (O(data)) for all times. With
+c = sqrt(E/rho), tau = c t, gam = g/c^2:
 
-    G(tau) = w(0) + 2 (p(tau) - p(0)),  d = phi - G,
-    w(tau) = G(tau) + max(0, max_{s <= tau} d(s)),   q(-tau) = w(tau) - p(tau).
+    u(x, t) = p(x + tau) + q(x - tau) + u_p(x),    u_p'' = gam,
+    free end:    u_p = gam (x^2/2 - L x)          (u_p'(L) = 0, u_p(0) = 0)
+    clamped end: u_p = u_L + gam (x^2 - L^2)/2    (u_p(L) = u_L, u_p'(0) = 0)
 
-The far end reflects: clamped p(L + s) = u_L + gam s^2/2 - q(L - s) (so that
-u(L,t) = u_L with the gravity term); free p(L + s) = q(L - s) + p(L) - q(L).
+(rho u_tt - E u_xx = -E u_p'' = -rho g for any p, q.) On [0, L], p = f/2 + V/(2c),
+q = f/2 - V/(2c) with f = u0 - u_p and V(x) = int_0^x v0. Let a = u_p'(0) (-gam L free,
+0 clamped) and phi = -u_p(0) (0 free, gam L^2/2 - u_L clamped). At the obstacle
+w(tau) = p(tau) + q(-tau) = u(0,t) - u_p(0), so u(0,t) >= 0 is w >= phi: a FIXED barrier.
+The stress is E u_x(0) = E (p'(tau) + q'(-tau) + a). While w > phi the end is stress
+free, q'(-tau) = -p'(tau) - a, so w' = p' - q'(-tau) = 2 p' + a: the free motion of w is
+G(tau) = w(0) + 2 (p(tau) - p(0)) + a tau (a linear drift; g = 0: no drift), and w is the
+solution of the one-sided Skorokhod problem (the seed's inclusion (2.8))
+
+    w(tau) = G(tau) + eta(tau),  eta(tau) = max(0, max_{s <= tau} (phi - G(s))),
+    q(-tau) = w(tau) - p(tau),   E u_x(0) = E (2 p' + a - w') = -E eta' <= 0.
+
+The far end reflects: free p(L + s) = q(L - s) + p(L) - q(L) (u_x(L) = 0, u_p'(L) = 0);
+clamped p(L + s) = -q(L - s) (u(L) = u_L = u_p(L)). For g = 0, u_p is 0 (free) or the
+constant u_L (clamped), and the method is the seed's.
+
+Bounded magnitudes. G and eta drift (like a tau, and eta compensates it: the mean
+contact force carries the weight), so they are never formed globally: each block of
+length L in tau restarts the Skorokhod problem from the value w_start of w at its
+beginning, G_loc(r) = w_start + 2 (p(tau) - p(tau_0)) + a r, eta_loc = max(0, max(phi -
+G_loc)), which is the same problem (the old eta is a constant shift) on O(data) numbers.
+p and q are bounded for a free far end (a linear drift would be a strain that u_x(L) = 0
+forbids). For a clamped end they can drift linearly (mean strain: p(y) ~ beta y,
+q(z) ~ beta z, e.g. the clamped bar of the notes, 2b); there they are stored per block
+with a gauge offset o_k = p(kL) (P^_k = P_k - o_k, Q^_k = Q_k + o_k), and only the
+bounded increments delta_k = o_{k+1} - o_k are kept: u needs the offsets of two
+neighbouring blocks only. So round-off is that of O(data) numbers (no c T or (c T)^2
+factor). What remains is the accumulation of that round-off from block to block (and
+the contact dynamics can amplify it); measured on the dropped bar of the notes (default
+grid): impact times off by 2e-11 at T = 200 and 2e-10 at T = 1000 (formerly 5e-8 and
+6e-5), periodicity |u(t + m 16L/c) - u(t)| 3e-10 and 3e-9, energy 500 to 1e-12.
 
 Discretisation. One grid R in a local coordinate r in [0, L] carries a block of length L
 of both p and q: block k holds P_k(r) = p(kL + r) and Q_k(r) = q((1 - k)L - r). The far
 end gives P_k from Q_{k-1} and the obstacle gives Q_k from P_{k-1}, both node by node on
 the same local grid, so blocks are marched one after the other, each fully vectorised
-(np.maximum.accumulate for the running max, carried from block to block). Values are
-copied, never accumulated: no error growth with T; memory and cost are linear in T:
-about 70 bytes per node, (L + c T) / ds nodes (plus the inserted ones below), so choose
-ds for long runs (e.g. cells_per_length=20 is exact for the clamped bar).
-The base grid is uniform, ds = L / cells_per_length (default 20000 cells per length L);
-the kinks of tuple (piecewise linear) data are added to it, and so are the instants
-where the running max is overtaken inside a cell (an impact, or a re-impact), found by
-solving phi(s) - G(s) = level in that cell with G linear. Without these inserted nodes
-an impact between two grid nodes would be smeared over one cell (an O(ds) error in u_t,
-u_x and in the energy). Inserted nodes are kept in all later blocks (the kink they mark
-travels on; each adds one node per later block) and a crossing closer than 1e-9 cells to
-a node is snapped to that node. The attribute inserted_nodes counts them.
+(np.maximum.accumulate for the running max). All positions are local (r, never
+k L + r). Memory and cost are linear in T: about 85 bytes per node at peak (48 stored),
+(L + c T) / ds nodes (plus the inserted ones below).
 
-Data: u0 is sampled at the grid nodes; int_0^x v0 uses the midpoint rule per cell (exact
-at the nodes for piecewise linear v0, and for v0 with jumps at nodes: tuple data may
-repeat an abscissa to describe a jump). Evaluation: p and q are interpolated linearly
-between nodes; derivatives are cell slopes, propagated through the reflections as
-slopes (not recomputed from differences of values, which would amplify round-off by
-1/ds), so they are copied exactly like the values.
+Grid. ds = L / cells_per_length. Default: 20000 cells per length L, but at most
+DEFAULT_MAX_NODES (1e7) nodes in all (about 0.9 GB at peak), i.e. cells_per_length =
+min(20000, max(20, 1e7 // (number of blocks))), number of blocks ~ (L + c T)/L + 1.
+(Dropped bar of the notes: 20000 up to T ~ 160, 3329 at T = 1000.) Give ds or
+cells_per_length to choose. The kinks of tuple (piecewise linear) data are added to
+the base grid, and so are the instants where the running max is overtaken inside a
+cell (an impact, or a re-impact): d = phi - G_loc is linear in a cell, so the crossing
+is exact. Without these inserted nodes an impact between two grid nodes would be
+smeared over one cell (an O(ds) error in u_t, u_x and in the energy). Inserted nodes
+are kept in all later blocks (the kink they mark travels on; each adds one node per
+later block); a crossing closer than 1e-9 cells to a node is snapped to that node. To
+keep memory linear in T, a block holds at most twice its base number of nodes: beyond
+that, further crossings are not inserted (O(ds) smearing of those impacts). The
+attribute inserted_nodes counts the inserted nodes.
+
+Data: f = u0 - u_p is sampled at the grid nodes; int_0^x v0 uses the midpoint rule per
+cell (exact at the nodes for piecewise linear v0, and for v0 with jumps at nodes: tuple
+data may repeat an abscissa to describe a jump). Evaluation: p and q are interpolated
+linearly between nodes (in local coordinates); u_p is evaluated exactly; derivatives are
+cell slopes (the chord slopes: u_p' at the cell midpoint is the chord slope of the
+quadratic u_p), propagated through the reflections as slopes (not recomputed from
+differences of values, which would amplify round-off by 1/ds).
 
 Convention on nodes (where the derivative jumps): u_t, u_x and the contact stress are the
 limits from the future, t -> t+ at fixed x (for p' the cell to the right of x + tau, for
@@ -49,24 +84,31 @@ q' the cell to the left of x - tau). So stress(t_impact) is already the contact 
 stress(t_take_off) is 0. At x = 0 the two cells are matched in local block coordinates,
 so that round-off in c t cannot pair cells of different times.
 
-Accuracy. For g = 0 the stored p, q are the exact solution for the data (nodal
-interpolant of u0, cell averages of v0). Hence for piecewise linear u0 and piecewise
-constant v0 whose kinks and jumps lie on the grid (tuple data: always; callables: at
-multiples of ds) u, u_t, u_x, the stress, the contact times and the energy are exact to
-round-off (~1e-15 relative for moderate T; the round-off of tau = c t grows like
-eps * c T). A piecewise linear but non-constant v0 makes p, q quadratic inside cells:
-values exact at nodes, error O(ds^2 |v0'| / c) in u between them, O(ds |v0'|) in u_t,
-and the energy is that of the averaged data (conserved exactly, off by O(ds^2) from the
-energy of the true data). With gravity the solution has quadratic pieces (w = phi in
-contact, the clamped reflection): the error on u is O(gam ds^2), on u_t / c and u_x
-O(gam ds) (stress: E gam ds = rho g ds), impact times O(ds^2) when an impact falls inside
-a cell. Lower ds to tighten. Callable data with kinks or jumps off the grid give O(ds)
-local errors.
+Accuracy. u0 is read as its nodal interpolant (tuple data: exactly), so f = u0 - u_p
+has f'' = -gam in every cell: p and q are stored as piecewise QUADRATIC, node values,
+chord slopes and a curvature sign per cell (second derivative +-gam/2; the far-end
+reflection and contact flip the sign, flight keeps it). Crossings (d quadratic in a
+cell: exact root) and take-off points inside a cell (the vertex of a concave d, when it
+tops the running max) are inserted as nodes. The stored representation plus u_p is then
+an exact solution of the problem for the interpolated data (nodal interpolant of u0,
+cell averages of v0); its energy is conserved to round-off. Hence for piecewise linear
+u0 and piecewise constant v0 whose kinks and jumps lie on the grid (tuple data: always;
+callables: at multiples of ds) u, u_t, u_x, the stress, the contact times and the energy
+are exact to round-off, with or without gravity (dropped bar: energy 500 to 1e-12 on
+any grid). A callable u0 that is not piecewise linear on the grid (e.g. a static
+equilibrium, quadratic) is off by its interpolation error, O(ds^2 |u0''|) in u and
+O(ds |u0''|) in u_x. A piecewise linear but non-constant v0 makes p, q cubic inside
+cells: values exact at nodes, error O(ds^2 |v0'| / c) in u between them, O(ds |v0'|) in
+u_t, and the energy is that of the averaged data (conserved exactly, off by O(ds^2)
+from the energy of the true data). Callable data with kinks or jumps off the grid give
+O(ds) local errors. Lower ds to tighten. Past the node cap (above), crossings are
+smeared over one cell (O(ds) local errors).
 
-contact_intervals() uses the max construction exactly: node j is in contact iff
-d_j >= 0 and d_j >= max_{i<j} d_i (float comparison, no tolerance); inserted crossing
-nodes are in contact; runs of contact nodes give (impact, take-off) times; a run of a
-single node is a grazing touch (zero-length interval).
+contact_intervals() uses the max construction: node j is in contact iff d_j >= 0 and
+d_j >= max_{i<j} d_i up to a round-off tolerance (64 eps times the bounded block scale);
+inserted crossing nodes are in contact; runs of contact nodes give (impact, take-off)
+times; a run of a single node is a grazing touch (zero-length interval). In a contact
+node w is set to phi exactly.
 """
 
 from __future__ import annotations
@@ -78,15 +120,19 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["CharacteristicsSolution"]
+__all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES"]
 
 FloatArray = NDArray[np.float64]
 Fn = Callable[[FloatArray], FloatArray]
 Data = Callable[[FloatArray], ArrayLike] | tuple[ArrayLike, ArrayLike] | float
 
 DEFAULT_CELLS_PER_LENGTH = 20000
-_SNAP = 1e-9  # a crossing closer than this (in cells) to a node is put on the node
+DEFAULT_MAX_NODES = 10_000_000  # default grid: at most this many nodes in all blocks
+_MIN_DEFAULT_CELLS = 20  # floor of the default cells per length (memory ~ T beyond)
+_ROUND = 64 * np.finfo(float).eps  # relative round-off of the marched (bounded) values
+_SNAP = 1e-9  # a crossing closer than this (in cells) after a node is put on the node
 _T_SLACK = 1e-12  # relative slack on t in [0, T] and x in [0, L]
+_GAUSS = np.array([-1.0, 1.0]) / math.sqrt(3.0)  # 2-point Gauss-Legendre on [-1, 1]
 
 
 def _data_function(name: str, data: Any, L: float) -> tuple[Fn, FloatArray, Fn | None]:
@@ -148,6 +194,61 @@ def _merge_nodes(base: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
     return np.sort(np.concatenate((base, extra)))
 
 
+
+def _before(d: FloatArray) -> FloatArray:
+    """max(0, max_{i<j} d_i) for each j."""
+    run = np.maximum(np.maximum.accumulate(d), 0.0)
+    before = np.empty_like(run)
+    before[0] = 0.0
+    before[1:] = run[:-1]
+    return before
+
+
+class _Block:
+    """One block during the march: local nodes R, node values P, Q (and d = phi - G);
+    per cell the shifted chords dP, dQ and the curvature signs sP, sQ (second
+    r-derivative s gam / 2)."""
+
+    def __init__(self, R: FloatArray, P: FloatArray, Q: FloatArray, dP: FloatArray,
+                 dQ: FloatArray, sP: NDArray[np.int8], sQ: NDArray[np.int8],
+                 half: float) -> None:
+        self.R, self.P, self.Q, self.dP, self.dQ, self.sP, self.sQ = R, P, Q, dP, dQ, sP, sQ
+        self.half = half
+        self.h = np.diff(R)
+        self.d = np.empty(0)
+
+    def d_shape(self) -> tuple[FloatArray, FloatArray]:
+        """Per cell: d'' and d'(r_j+) of d = phi - G, G = w_start + 2 (P - P(0)) + a r."""
+        kd = -2.0 * self.half * self.sP
+        # the chord from the node values of d (consistent with them, so that roots are
+        # placed relative to the values: round-off in d only moves a root by O(eps)/d')
+        return kd, np.diff(self.d) / self.h - 0.5 * kd * self.h
+
+    def split(self, j: NDArray[np.intp], xi: FloatArray, dnew: FloatArray) -> None:
+        """Insert a node at R[j] + xi in the cells j (sorted, distinct); d there = dnew.
+        Values follow the quadratic; the chords of the two halves are the chord plus
+        kappa/2 (xi - h) and kappa/2 xi (no differences of values)."""
+        h = self.h[j]
+        th = xi / h
+        pos = j + 1
+        left = j + np.arange(j.size)
+        for name, sname in (("P", "sP"), ("Q", "sQ")):
+            v, sg = getattr(self, name), getattr(self, sname)
+            kap = self.half * sg[j]
+            vn = v[j] + th * (v[j + 1] - v[j]) + 0.5 * kap * xi * (xi - h)
+            setattr(self, name, np.insert(v, pos, vn))
+            dname = "d" + name
+            dv = getattr(self, dname)
+            dj = dv[j]
+            dv = np.insert(dv, pos, dj + 0.5 * kap * xi)
+            dv[left] = dj + 0.5 * kap * (xi - h)
+            setattr(self, dname, dv)
+            setattr(self, sname, np.insert(sg, pos, sg[j]))
+        self.R = np.insert(self.R, pos, self.R[j] + xi)
+        self.d = np.insert(self.d, pos, dnew)
+        self.h = np.diff(self.R)
+
+
 def _check_positive(name: str, value: float) -> float:
     value = float(value)
     if not (value > 0.0 and math.isfinite(value)):
@@ -160,8 +261,9 @@ class CharacteristicsSolution:
 
     u0, v0: vectorised callables of x, numbers (constants), or tuples (x_samples, values)
     read as piecewise linear. ds: grid step (L/ds must be an integer), or
-    cells_per_length: the number of cells per length L (default 20000). The solution is
-    stored for t in [0, T]; evaluating outside raises ValueError.
+    cells_per_length: the number of cells per length L (default 20000, fewer for long
+    runs so that the grid has at most DEFAULT_MAX_NODES nodes). The solution is stored
+    for t in [0, T]; evaluating outside raises ValueError.
     """
 
     def __init__(self, *, L: float, E: float, rho: float, g: float = 0.0,
@@ -183,6 +285,8 @@ class CharacteristicsSolution:
         if not math.isfinite(u_L):
             raise ValueError(f"u_L must be finite, got {u_L!r}")
         self.u_L = u_L
+        self.c = c = math.sqrt(E / rho)
+        self.gam = gam = g / c**2
 
         if ds is not None and cells_per_length is not None:
             raise ValueError("give ds or cells_per_length, not both")
@@ -197,12 +301,30 @@ class CharacteristicsSolution:
                 raise ValueError(f"cells_per_length must be a positive integer, got "
                                  f"{cells_per_length!r}")
         else:
-            n = DEFAULT_CELLS_PER_LENGTH
+            blocks = math.ceil(c * T * (1.0 + 1e-9) / L) + 2
+            n = min(DEFAULT_CELLS_PER_LENGTH,
+                    max(_MIN_DEFAULT_CELLS, DEFAULT_MAX_NODES // blocks - 1))
         self.cells_per_length = n
         self.ds = L / n
 
-        self.c = c = math.sqrt(E / rho)
-        self.gam = gam = g / c**2
+        # ---- the static particular solution u_p (u_p'' = gam) and the barrier
+        clamped = far_end == "clamped"
+        if clamped:
+            def up(x: FloatArray) -> FloatArray:
+                return u_L + 0.5 * gam * (x * x - L * L)
+
+            def dup(x: FloatArray) -> FloatArray:
+                return gam * x
+        else:
+            def up(x: FloatArray) -> FloatArray:
+                return gam * (0.5 * x * x - L * x)
+
+            def dup(x: FloatArray) -> FloatArray:
+                return gam * (x - L)
+        self._up, self._dup = up, dup
+        self._a = a = float(dup(np.float64(0.0)))  # u_p'(0): drift of G
+        self._phi = phi = -float(up(np.float64(0.0)))  # barrier: w >= phi
+
         f_u0, kinks_u0, slope_u0 = _data_function("u0", u0, L)
         f_v0, kinks_v0, _ = _data_function("v0", v0, L)
 
@@ -219,113 +341,186 @@ class CharacteristicsSolution:
             raise ValueError("u0 and v0 must be finite on [0, L]")
         if U[0] < 0.0:
             raise ValueError(f"u0(0) must be >= 0 (obstacle constraint), got {U[0]!r}")
-        if far_end == "clamped":
+        if clamped:
             scale = max(float(np.max(np.abs(U))), abs(u_L))
             if abs(U[-1] - u_L) > 1e-9 * scale:
                 raise ValueError(f"clamped end: u0(L) = {U[-1]!r} must equal u_L = {u_L!r}")
         du0 = np.diff(U) / h if slope_u0 is None else slope_u0(mid)
-        p_data, dp_data = 0.5 * U + V / (2.0 * c), 0.5 * du0 + v_mid / (2.0 * c)
-        q_data, dq_data = 0.5 * U - V / (2.0 * c), 0.5 * du0 - v_mid / (2.0 * c)
+        F = U - up(R)
+        dF = du0 - dup(mid)  # chord slopes: u_p' at the midpoint is the chord of u_p
+        p_data, dp_data = 0.5 * F + V / (2.0 * c), 0.5 * dF + v_mid / (2.0 * c)
+        q_data, dq_data = 0.5 * F - V / (2.0 * c), 0.5 * dF - v_mid / (2.0 * c)
         P0, dP0 = p_data, dp_data
         Q0 = np.interp(L - R, R, q_data)  # Q_0(r) = q(L - r), dQ_0/dr = -q'(L - r)
         Q0[0], Q0[-1] = q_data[-1], q_data[0]
         dQ0 = -dq_data[np.clip(np.searchsorted(R, L - mid) - 1, 0, h.size - 1)]
-        self._w0 = w0 = float(U[0])
-        p00 = float(P0[0])
-        free_const = float(P0[-1] - Q0[0])  # p(L) - q(L)
+        # slopes are stored shifted by a/2: dP = p' + a/2, dQ = -(q' + a/2), so that
+        # u_x = dP - dQ + gam x, u_t = c (dP + dQ), and the stress-free reflection at the
+        # obstacle is an exact negation (stress exactly 0 in flight)
+        dP0, dQ0 = dP0 + 0.5 * a, dQ0 - 0.5 * a
+        if clamped:  # gauge o_0 = p(0): P^_0 = P_0 - o_0, Q^_0 = Q_0 + o_0
+            o0 = float(P0[0])
+            P0, Q0 = P0 - o0, Q0 + o0
+            P0[0] = 0.0
+            free_const = 0.0
+        else:
+            free_const = float(P0[-1] - Q0[0])  # p(L) - q(L)
+        w_start = phi + float(U[0])  # w(0) = u0(0) - u_p(0) >= phi
 
         # ---- march: blocks k = 1..K cover s = kL + r up to (K + 1) L >= L + c T + margin.
-        # Node values and cell slopes are both propagated (slopes are copied, not
-        # differenced, so derivatives carry no round-off amplification by 1/ds).
+        # Per cell: chord slopes (shifted, see above) and the curvature sign s (the
+        # second r-derivative of P_k or Q_k is s gam / 2, s = +-1: u0 is read as its nodal
+        # interpolant, so f'' = -gam, and the reflections only flip signs).
         tau_max = c * T * (1.0 + 1e-9) + 3.0 * self.ds
         K = max(1, math.ceil(tau_max / L))
-        grids, Ps, Qs, dPs, dQs = [R], [P0], [Q0], [dP0], [dQ0]
-        contacts = [np.zeros(R.size, dtype=bool)]
-        carry = 0.0  # running max of d, including the 0 of max(0, ...)
+        node_cap = 2 * R.size  # per block: memory stays linear in T
+        s0 = -np.ones(R.size - 1, dtype=np.int8)
+        grids, Ps, Qs, dPs, dQs, sPs, sQs = [R], [P0], [Q0], [dP0], [dQ0], [s0], [s0.copy()]
+        deltas = [float(P0[-1]) if clamped else 0.0]  # o_{k+1} - o_k
+        runs: list[tuple[float, float]] = []
+        open_start: float | None = None
         inserted = 0
+        half = 0.5 * gam
+        tk = R / c
         for k in range(1, K + 1):
-            R, Pprev, Qprev, dPprev, dQprev = grids[-1], Ps[-1], Qs[-1], dPs[-1], dQs[-1]
-            # obstacle: Q_k(r) = q(-tau), tau = (k-1)L + r, from P_{k-1}
-            tau = (k - 1) * L + R
-            tau[-1] = k * L
-            G = w0 + 2.0 * (Pprev - p00)
-            d = 0.5 * gam * tau**2 - G
-            run = np.maximum(np.maximum.accumulate(d), carry)  # max(0, max_{i<=j} d_i)
-            before = np.empty_like(run)  # max(0, max_{i<j} d_i)
-            before[0] = carry
-            before[1:] = run[:-1]
-            contact = d >= before
-            carry = float(run[-1])
-            # running max overtaken inside cell (j, j+1): insert the crossing node
-            j = np.flatnonzero((d[:-1] < before[1:]) & (d[1:] > before[1:]))
+            B = _Block(grids[-1], Ps[-1], Qs[-1], dPs[-1], dQs[-1], sPs[-1], sQs[-1], half)
+            delta = deltas[-1]
+            # w at the block start from the stored values at that point (same gauge), not
+            # carried: a separately carried w would let round-off at the shared node grow
+            w_start = float(B.P[0] + B.Q[-1])
+            # obstacle: Q_k(r) = q(-tau), tau = (k-1)L + r, from P_{k-1}; local Skorokhod
+            B.d = phi - (w_start + 2.0 * (B.P - B.P[0]) + a * B.R)
+            # round-off of the (bounded) values at hand
+            tol = _ROUND * (abs(phi) + abs(w_start) + 2.0 * float(np.max(np.abs(B.P)))
+                            + abs(a) * L)
+            room = node_cap - B.R.size
+            if gam:
+                # concave cells whose vertex tops the running max: a take-off (or a brief
+                # contact) inside the cell, insert the vertex
+                before = _before(B.d)
+                kd, b0 = B.d_shape()
+                j = np.flatnonzero((kd < 0) & (b0 > 0) & (b0 + kd * B.h < 0))
+                if j.size:
+                    xi = b0[j] / -kd[j]
+                    dv = B.d[j] + 0.5 * b0[j] * xi
+                    th = xi / B.h[j]
+                    keep = (dv > before[j + 1] + tol) & (th > _SNAP) & (th < 1.0 - _SNAP)
+                    j, xi, dv = j[keep][:max(room, 0)], xi[keep][:max(room, 0)], dv[keep][
+                        :max(room, 0)]
+                    if j.size:
+                        B.split(j, xi, dv)
+                        inserted += j.size
+                        room -= j.size
+            before = _before(B.d)
+            run = np.maximum(before, B.d)  # max(0, max_{i<=j} d_i)
+            contact = B.d >= before - tol
+            # running max overtaken inside cell (j, j+1): insert the crossing node (d is
+            # quadratic in the cell: exact root); also a re-impact right after a take-off
+            # at node j inside a convex cell
+            kd, b0 = B.d_shape()
+            ell = before[1:]
+            j = np.flatnonzero((B.d[1:] > ell + tol) & ~(contact[:-1] & (b0 >= 0.0)))
+            refused = j[:0]
             if j.size:
-                level = before[j + 1]
-                width = R[j + 1] - R[j]
-                b = gam * tau[j] - (G[j + 1] - G[j]) / width
-                c0 = d[j] - level  # < 0
-                theta = np.clip(-2.0 * c0 / (b + np.sqrt(b * b - 2.0 * gam * c0)) / width,
-                                0.0, 1.0)
-                contact[j[theta <= _SNAP]] = True  # crossing on the left node
-                inner = (theta > _SNAP) & (theta < 1.0 - _SNAP)
-                j, theta, level = j[inner], theta[inner], level[inner]
-            if j.size:
-                new_r = R[j] + theta * (R[j + 1] - R[j])
-                pos = j + 1
-                Pprev = np.insert(Pprev, pos, Pprev[j] + theta * (Pprev[j + 1] - Pprev[j]))
-                Qprev = np.insert(Qprev, pos, Qprev[j] + theta * (Qprev[j + 1] - Qprev[j]))
-                dPprev = np.insert(dPprev, pos, dPprev[j])  # cell j split in two
-                dQprev = np.insert(dQprev, pos, dQprev[j])
-                tau = np.insert(tau, pos, (k - 1) * L + new_r)
-                G = w0 + 2.0 * (Pprev - p00)
-                d = np.insert(d, pos, level)
-                run = np.insert(run, pos, level)
-                contact = np.insert(contact, pos, True)
-                R = np.insert(R, pos, new_r)
-                inserted += new_r.size
-            Qk = G + run - Pprev
-            # slopes of Q_k: q'(-tau) = p'(tau) - w'(tau), w = G + eta; in a contact cell
-            # w' is the chord slope of phi, elsewhere eta' = 0 (or its tiny increase)
-            full = contact[:-1] & (d[1:] >= run[:-1])
-            chord_phi = 0.5 * gam * (tau[1:] + tau[:-1])
-            deta = np.diff(run) / np.diff(R)
-            dQk = np.where(full, chord_phi - dPprev, dPprev + deta)  # dQ_k/dr = -q'
+                lev = ell[j]
+                c0 = np.minimum(B.d[j] - lev, 0.0)
+                bj, kj = b0[j], kd[j]
+                S = np.sqrt(np.maximum(bj * bj - 2.0 * kj * c0, 0.0))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    xi = np.where(bj >= 0.0, -2.0 * c0 / (bj + S), (S - bj) / kj)
+                th = xi / B.h[j]
+                ok = np.isfinite(th)
+                th = np.where(ok, th, 0.0)
+                left = j[ok & (th <= _SNAP)]
+                contact[left] = True  # crossing on the left node
+                inner = ok & (th > _SNAP) & (th < 1.0 - _SNAP)
+                if np.count_nonzero(inner) > room:
+                    refused = j[inner]
+                    inner[:] = False  # cap reached: not inserted (O(ds) smearing)
+                j, xi, lev = j[inner], xi[inner], lev[inner]
+                if j.size:
+                    pos = j + 1
+                    B.split(j, xi, lev)
+                    run = np.insert(run, pos, lev)
+                    contact = np.insert(contact, pos, True)
+                    inserted += j.size
+            G = phi - B.d
+            w = G + run
+            w[contact] = phi  # in contact w is on the barrier
+            Qk = w - B.P + delta
+            # chords of Q_k: dQ_k/dr = -q'(-tau) = w'(tau) - p'(tau); w' = 0 in a contact
+            # cell, else w' = G' = 2 p' + a (eta' = 0; a crossing snapped to a node is
+            # taken at the node). Shifted by a/2 (see block 0): contact dQ = -dP, else dP.
+            # Curvature: contact Q'' = -P'', flight Q'' = G'' - P'' = P''.
+            kd, b0 = B.d_shape()
+            full = contact[:-1] & contact[1:] & (b0 >= -tol / B.h)
+            dQk = np.where(full, -B.dP, B.dP)
+            # a crossing not inserted (node cap) is left inside its cell: the
+            # cell is neither contact nor flight; take the chord of the values there
+            # (an O(ds) smearing of that impact, consistent with the node values)
+            if refused.size:
+                dQk[refused] = (Qk[refused + 1] - Qk[refused]) / B.h[refused] - 0.5 * a
+            sQk = np.where(full, -B.sP, B.sP).astype(np.int8)
             # far end: P_k(r) = p(L + s), s = (k-1)L + r, from Q_{k-1}
-            if far_end == "clamped":
-                s = (k - 1) * L + R
-                s[-1] = k * L
-                Pk = u_L + 0.5 * gam * s**2 - Qprev
-                dPk = 0.5 * gam * (s[1:] + s[:-1]) - dQprev
+            if clamped:
+                Pk = -B.Q - delta
+                dPk = -B.dQ
+                sPk = -B.sQ
+                Pk[0] = 0.0  # gauge o_k = p(kL)
             else:
-                Pk = Qprev + free_const
-                dPk = dQprev.copy()
-            Pk[0] = Ps[-1][-1]  # same point as the previous block's end
-            grids.append(R)
+                Pk = B.Q + free_const
+                dPk = B.dQ + a  # u_x(L) = dP - dQ + gam L = 0
+                sPk = B.sQ.copy()
+                Pk[0] = Ps[-1][-1]  # same point as the previous block's end
+            grids.append(B.R)
             Ps.append(Pk)
             Qs.append(Qk)
             dPs.append(dPk)
             dQs.append(dQk)
-            contacts.append(contact)
-
-        # ---- global arrays on s = kL + r (block k >= 1 drops its first node)
-        sg = [grids[0].copy()]
-        for k in range(1, K + 1):
-            sk = k * L + grids[k][1:]
-            sk[-1] = (k + 1) * L
-            sg.append(sk)
-        self._s = np.concatenate(sg)
-        self._P = np.concatenate([Ps[0]] + [a[1:] for a in Ps[1:]])
-        self._Q = np.concatenate([Qs[0]] + [a[1:] for a in Qs[1:]])
-        self._dP = np.concatenate(dPs)
-        self._dQ = np.concatenate(dQs)
-        self._contact = np.concatenate([contacts[0]] + [a[1:] for a in contacts[1:]])
-        self._contact[grids[0].size - 1] = contacts[1][0]  # t = 0 (block 0 has no flags)
-        if np.any(np.diff(self._s) <= 0):  # pragma: no cover - guarded by the snapping
-            raise RuntimeError("characteristics grid is not increasing")
-        self._cell_block = np.concatenate([np.full(grids[k].size - 1, k, dtype=np.int32)
-                                           for k in range(K + 1)])
-        self._cell_r0 = np.concatenate([grids[k][:-1] for k in range(K + 1)])
-        self._cell_r1 = np.concatenate([grids[k][1:] for k in range(K + 1)])
+            sPs.append(sPk)
+            sQs.append(sQk)
+            deltas.append(float(Pk[-1]) if clamped else 0.0)
+            # contact runs, times t = ((k-1)L + r)/c (block k's first node repeats the
+            # previous block's last one)
+            tk = ((k - 1) * L + B.R) / c
+            tk[-1] = k * L / c
+            e = np.diff(np.concatenate(([open_start is not None], contact)).astype(np.int8))
+            for i in np.flatnonzero(e):
+                if e[i] > 0:
+                    open_start = float(tk[i])
+                else:
+                    assert open_start is not None
+                    runs.append((open_start, float(tk[max(i - 1, 0)])))
+                    open_start = None
+        if open_start is not None:
+            runs.append((open_start, float(tk[-1])))
+        self._runs = runs
         self.inserted_nodes = inserted
+
+        # ---- global arrays: blocks kept whole (the shared end node appears twice, once
+        # in each block's gauge); cells of block k are nodes node0[k] + (0..m_k - 1)
+        sizes = np.array([r.size for r in grids], dtype=np.int64)
+        self._sizes = sizes
+        self._node0 = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        self._cell0 = self._node0 - np.arange(K + 1)  # first cell of each block
+        self._ncells = int(np.sum(sizes - 1))
+        self._r = np.concatenate(grids)
+        self._s0 = np.concatenate([k * L + grids[k][:-1] for k in range(K + 1)])
+        del grids
+        self._P = np.concatenate(Ps)
+        del Ps
+        self._Q = np.concatenate(Qs)
+        del Qs
+        self._dP = np.concatenate(dPs)
+        del dPs
+        self._dQ = np.concatenate(dQs)
+        del dQs
+        self._sP = np.concatenate(sPs)
+        del sPs
+        self._sQ = np.concatenate(sQs)
+        del sQs
+        self._delta = np.array(deltas)
+        self._K = K
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
@@ -346,23 +541,30 @@ class CharacteristicsSolution:
         x, t = np.broadcast_arrays(x, self._times(t))
         return x, t
 
-    def _cell(self, s: FloatArray, k: FloatArray, r: FloatArray) -> NDArray[np.intp]:
-        """Index of the cell containing the point (cell to the right on a node).
+    def _cell(self, k: FloatArray, r: FloatArray) -> tuple[NDArray[np.intp],
+                                                           NDArray[np.intp]]:
+        """(cell, block) containing the point s = k L + r (cell to the right on a node).
 
-        The point is s = k L + r; the global search on s is corrected by comparing the
-        local coordinate r with the local nodes of block k, so that the choice of cell
-        does not depend on how k L + r rounds.
+        The global search on s = k L + r only gives a first guess; it is corrected by
+        comparing (k, r) with (block, local nodes) lexicographically, so that the choice
+        of cell does not depend on how k L + r rounds.
         """
-        last = self._s.size - 2
-        i = np.clip(np.searchsorted(self._s, s, side="right") - 1, 0, last)
-        b = self._cell_block[i]
-        up = (b < k) | ((b == k) & (r >= self._cell_r1[i]))
-        down = ((b > k) & (r < self.L)) | ((b == k) & (r < self._cell_r0[i]))
-        return np.clip(i + up.astype(np.intp) - down.astype(np.intp), 0, last)
+        last = self._ncells - 1
+        i = np.clip(np.searchsorted(self._s0, k * self.L + r, side="right") - 1, 0, last)
+        for _ in range(64):
+            b = np.searchsorted(self._cell0, i, side="right") - 1
+            r0 = self._r[i + b]
+            r1 = self._r[i + b + 1]
+            up = ((b < k) | ((b == k) & (r >= r1))) & (i < last)
+            down = (((b > k) & (r < self.L)) | ((b == k) & (r < r0))) & (i > 0)
+            if not (np.any(up) or np.any(down)):
+                break
+            i = i + up.astype(np.intp) - down.astype(np.intp)
+        return i, np.searchsorted(self._cell0, i, side="right") - 1
 
-    def _coords(self, x: FloatArray, tau: FloatArray) -> tuple[tuple[FloatArray, ...],
-                                                                   tuple[FloatArray, ...]]:
-        """(s, k, r) of p(x + tau) and of q(x - tau), with s = k L + r the grid coordinate.
+    def _coords(self, x: FloatArray, tau: FloatArray) -> tuple[tuple[FloatArray, FloatArray],
+                                                               tuple[FloatArray, FloatArray]]:
+        """(k, r) of p(x + tau) and of q(x - tau), with s = k L + r the grid coordinate.
 
         The local r is computed without forming k L + r, so that at x = 0 (and x = L) the
         two families get the very same local coordinate and hence matching cells.
@@ -378,17 +580,56 @@ class CharacteristicsSolution:
         pos = e >= 0.0
         kq = np.where(pos, k + 1.0, k)
         rq = np.where(pos, e, (L - x) + rho)
-        return (kp * L + rp, kp, rp), (kq * L + rq, kq, rq)
+        return self._normal(kp, rp), self._normal(kq, rq)
+
+    def _normal(self, k: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(k, r) with 0 <= r < L (values are interpolated in local coordinates)."""
+        L = self.L
+        over, under = r >= L, r < 0.0
+        if np.any(over) or np.any(under):
+            k = np.where(over, k + 1.0, np.where(under, k - 1.0, k))
+            r = np.where(over, r - L, np.where(under, r + L, r))
+        return k, r
+
+    def _interp(self, vals: FloatArray, sg: NDArray[np.int8], k: FloatArray, r: FloatArray
+                ) -> tuple[FloatArray, NDArray[np.intp]]:
+        """Per-block node values (in the block's gauge) at (k, r): linear interpolation
+        plus the cell's quadratic term (curvature sg gam / 2)."""
+        i, b = self._cell(k, r)
+        n0 = i + b
+        r0, r1 = self._r[n0], self._r[n0 + 1]
+        v0 = vals[n0]
+        val = v0 + (r - r0) / (r1 - r0) * (vals[n0 + 1] - v0)
+        if self.gam:
+            val = val + (0.25 * self.gam) * sg[i] * (r - r0) * (r - r1)
+        return val, b
 
     def _u(self, x: FloatArray, tau: FloatArray) -> FloatArray:
-        (sp, _, _), (sq, _, _) = self._coords(x, tau)
-        return (np.interp(sp, self._s, self._P) + np.interp(sq, self._s, self._Q)
-                - 0.5 * self.gam * tau**2)
+        (kp, rp), (kq, rq) = self._coords(x, tau)
+        pv, bp = self._interp(self._P, self._sP, kp, rp)
+        qv, bq = self._interp(self._Q, self._sQ, kq, rq)
+        # gauge offsets: o_bp - o_bq, neighbouring blocks only
+        if np.any(np.abs(bp - bq) > 1):  # pragma: no cover - |x + tau - (x - tau')| <= L
+            raise RuntimeError("characteristics: p and q cells more than a block apart")
+        dl = self._delta
+        off = np.where(bp == bq + 1, dl[np.clip(bq, 0, dl.size - 1)],
+                       np.where(bq == bp + 1, -dl[np.clip(bp, 0, dl.size - 1)], 0.0))
+        return pv + qv + off + self._up(x)
 
     def _slopes(self, x: FloatArray, tau: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """p'(x + tau) and q'(x - tau), limits from the future."""
+        """p'(x + tau) + a/2 and -(q'(x - tau) + a/2), limits from the future."""
         cp, cq = self._coords(x, tau)
-        return self._dP[self._cell(*cp)], -self._dQ[self._cell(*cq)]
+        return self._slope(self._dP, self._sP, *cp), self._slope(self._dQ, self._sQ, *cq)
+
+    def _slope(self, chords: FloatArray, sg: NDArray[np.int8], k: FloatArray,
+               r: FloatArray) -> FloatArray:
+        """Stored chord of the cell at (k, r) plus the curvature term gam/2 sg (r - mid)."""
+        i, b = self._cell(k, r)
+        out = chords[i]
+        if self.gam:
+            mid = 0.5 * (self._r[i + b] + self._r[i + b + 1])
+            out = out + (0.5 * self.gam) * sg[i] * (r - mid)
+        return out
 
     # ------------------------------------------------------------------ public API
     def u(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
@@ -397,16 +638,16 @@ class CharacteristicsSolution:
         return self._u(x, self.c * t)
 
     def ut(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
-        """Velocity u_t = c (p'(x + tau) - q'(x - tau)) - g t (limit t -> t+ on kinks)."""
+        """Velocity u_t = c (p'(x + tau) - q'(x - tau)) (limit t -> t+ on kinks)."""
         x, t = self._points(x, t)
         dp, dq = self._slopes(x, self.c * t)
-        return self.c * (dp - dq) - self.g * t
+        return self.c * (dp + dq)
 
     def ux(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
-        """Strain u_x = p'(x + tau) + q'(x - tau) (limit t -> t+ on kinks)."""
+        """Strain u_x = p'(x + tau) + q'(x - tau) + u_p'(x) (limit t -> t+ on kinks)."""
         x, t = self._points(x, t)
         dp, dq = self._slopes(x, self.c * t)
-        return dp + dq
+        return dp - dq + self.gam * x
 
     def stress(self, t: ArrayLike) -> FloatArray:
         """Contact stress E u_x(0, t) <= 0 (limit t -> t+)."""
@@ -418,14 +659,8 @@ class CharacteristicsSolution:
 
     def contact_intervals(self) -> list[tuple[float, float]]:
         """(impact, take-off) times of the contact periods in [0, T]; see module doc."""
-        on = self._contact.astype(np.int8)
-        edges = np.diff(np.concatenate(([0], on, [0])))
-        starts = np.flatnonzero(edges == 1)
-        ends = np.flatnonzero(edges == -1) - 1
         out: list[tuple[float, float]] = []
-        for a, b in zip(starts, ends, strict=True):
-            ta = (self._s[a] - self.L) / self.c
-            tb = (self._s[b] - self.L) / self.c
+        for ta, tb in self._runs:
             if ta > self.T:
                 break
             out.append((float(max(ta, 0.0)), float(min(tb, self.T))))
@@ -434,9 +669,10 @@ class CharacteristicsSolution:
     def energy(self, t: ArrayLike, nquad: int | None = None) -> FloatArray:
         """1/2 int (rho u_t^2 + E u_x^2) dx + int rho g u dx at the times t.
 
-        nquad=None: exact quadrature of the piecewise linear representation (midpoints
-        of the cells cut by all the characteristic-grid nodes that the two families
-        x + tau and x - tau bring into [0, L]). nquad=n: midpoint rule on n uniform cells.
+        nquad=None: exact quadrature of the representation (2-point Gauss on the cells
+        cut by all the characteristic-grid nodes that the two families x + tau and
+        x - tau bring into [0, L]; u_p is quadratic). nquad=n: midpoint rule on n
+        uniform cells.
         """
         t = self._times(t)
         if nquad is not None and (int(nquad) != nquad or nquad < 1):
@@ -449,20 +685,28 @@ class CharacteristicsSolution:
     def _energy_at(self, t: float, nquad: int | None) -> float:
         L, tau = self.L, self.c * t
         if nquad is None:
-            i0 = np.searchsorted(self._s, tau, side="right")
-            i1 = np.searchsorted(self._s, tau + L, side="left")
-            nodes = self._s[i0:i1]
-            xb = np.unique(np.clip(np.concatenate(([0.0, L], nodes - tau, (L + tau) - nodes)),
-                                   0.0, L))
+            k = int(math.floor(tau / L))
+            rho = tau - k * L
+            xs = [np.array([0.0, L])]
+            for b in range(max(k, 0), min(k + 1, self._K) + 1):
+                r = self._r[self._node0[b]:self._node0[b] + self._sizes[b]]
+                xp = (b - k) * L + (r - rho)  # p family: x = s - tau
+                xs.append(xp)
+                xs.append(L - xp)  # q family: x = L + tau - s
+            xb = np.unique(np.clip(np.concatenate(xs), 0.0, L))
+            w = np.diff(xb)
+            xm = 0.5 * (xb[1:] + xb[:-1])
+            xq = np.concatenate([xm + 0.5 * w * z for z in _GAUSS])
+            wq = np.concatenate([0.5 * w, 0.5 * w])
         else:
             xb = np.linspace(0.0, L, int(nquad) + 1)
-        w = np.diff(xb)
-        xm = 0.5 * (xb[1:] + xb[:-1])
-        taus = np.full_like(xm, tau)
-        dp, dq = self._slopes(xm, taus)
-        ut = self.c * (dp - dq) - self.g * t
-        ux = dp + dq
-        e = 0.5 * np.dot(w, self.rho * ut**2 + self.E * ux**2)
+            wq = np.diff(xb)
+            xq = 0.5 * (xb[1:] + xb[:-1])
+        taus = np.full_like(xq, tau)
+        dp, dq = self._slopes(xq, taus)
+        ut = self.c * (dp + dq)
+        ux = dp - dq + self.gam * xq
+        e = 0.5 * np.dot(wq, self.rho * ut**2 + self.E * ux**2)
         if self.g:
-            e += self.rho * self.g * np.dot(w, self._u(xm, taus))
+            e += self.rho * self.g * np.dot(wq, self._u(xq, taus))
         return float(e)
