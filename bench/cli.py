@@ -123,7 +123,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
                    args.stride, args.grading, args.allow_unstable, keep=runs,
                    explicit_pair=bool(args.case and args.scheme))
-    out = args.out or ("results" if default_job else None)
+    out = args.out or ("results/default" if default_job else None)
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))
     elif args.format == "json":
@@ -168,7 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--allow-unstable", action="store_true",
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")
-    r.add_argument("--out", help="folder for CSV, Markdown and figures (default job: results/)")
+    r.add_argument("--out",
+                   help="folder for CSV, Markdown and figures (default job: results/default/)")
     add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
     return p
 
