@@ -36,6 +36,7 @@ from schemes._common import (
     factor_pt,
     is_sample,
     pt_solve,
+    record_sample,
     trajectory,
     tri_matvec,
 )
@@ -116,12 +117,8 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
         if is_sample(step, nsteps, stride):
             neg = min(p0 * U[0] + p1 * U[1], 0.0)
             energy = energy_of(Md, Me, Kd, Ke, F, U, V, offset) + 0.5 * ew * c * neg * neg
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            cu_out[k] = U[0]
-            s_out[k] = sc * neg
-            E_out[k] = energy
+            record_sample(k, step * dt, U, V, sc * neg, energy,
+                          t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

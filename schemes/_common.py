@@ -62,6 +62,17 @@ def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
 
 
 @njit(cache=True)
+def record_sample(k, t, U, V, stress, energy, t_out, U_out, V_out, cu_out, s_out, E_out):
+    """Write sample k: time, nodal U and V, u(0, t), contact stress, energy."""
+    t_out[k] = t
+    U_out[k, :] = U
+    V_out[k, :] = V
+    cu_out[k] = U[0]
+    s_out[k] = stress
+    E_out[k] = energy
+
+
+@njit(cache=True)
 def is_sample(step, nsteps, stride):
     return step % stride == 0 or step == nsteps
 

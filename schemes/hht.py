@@ -33,6 +33,7 @@ from schemes._common import (
     initial_acceleration,
     is_sample,
     pt_solve,
+    record_sample,
     trajectory,
     tri_matvec,
 )
@@ -89,12 +90,8 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            cu_out[k] = U[0]
-            s_out[k] = -lam
-            E_out[k] = energy
+            record_sample(k, step * dt, U, V, -lam, energy,
+                          t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

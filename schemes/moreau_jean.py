@@ -46,6 +46,7 @@ from schemes._common import (
     factor_pt,
     is_sample,
     pt_solve,
+    record_sample,
     trajectory,
     tri_matvec,
     velocity_scale,
@@ -97,12 +98,8 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            cu_out[k] = U[0]
-            s_out[k] = -P / dt
-            E_out[k] = energy
+            record_sample(k, step * dt, U, V, -P / dt, energy,
+                          t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

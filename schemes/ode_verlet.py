@@ -42,6 +42,7 @@ from schemes._common import (
     factor_pt,
     is_sample,
     pt_solve,
+    record_sample,
     trajectory,
     tri_matvec,
 )
@@ -95,12 +96,8 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            cu_out[k] = U[0]
-            s_out[k] = -lam
-            E_out[k] = energy
+            record_sample(k, step * dt, U, V, -lam, energy,
+                          t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

@@ -101,6 +101,7 @@ from schemes._common import (
     initial_acceleration,
     is_sample,
     pt_solve,
+    record_sample,
     trajectory,
     tri_matvec,
     velocity_scale,
@@ -156,12 +157,8 @@ def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stri
             for i in range(n):
                 tmp[i] = (rhs[i] - Um[i]) / (2.0 * dt)
             energy = energy_of(Md, Me, Kd, Ke, F, U, tmp, offset)
-            t_out[k] = lvl * dt
-            U_out[k, :] = U
-            V_out[k, :] = tmp
-            cu_out[k] = U[0]
-            s_out[k] = -r
-            E_out[k] = energy
+            record_sample(k, lvl * dt, U, tmp, -r, energy,
+                          t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, lvl, min_u0, lvl
