@@ -7,12 +7,15 @@ scipy (`dpttrf`: A = L D L^T) outside the hot loop; the loop only applies them.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 from numba import njit
 from scipy.linalg import lapack
 
 from bench.errors import BenchError
-from bench.plugin import Semidiscrete, Trajectory
+from bench.fem import MASSLESS_KINDS
+from bench.plugin import Scheme, Semidiscrete, Trajectory
 
 BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
 
@@ -173,3 +176,24 @@ def central_difference_excess(dt: float, limit: float | None) -> float:
         return 0.0
     r = dt / limit
     return float("inf") if r >= 1.0 else r * r / (1.0 - r * r)
+
+
+class MassiveContactNodeScheme(Scheme):
+    """A scheme whose impact law needs inertia at the contact node.
+
+    Its `mass` parameter refuses the massless kinds at construction (one-line
+    BenchError with `massless_reason`), and `integrate` refuses a massless problem.
+    """
+
+    massless_reason: ClassVar[str] = ""
+
+    def validate(self) -> None:
+        if self.mass in MASSLESS_KINDS:
+            raise BenchError(f"{self.spec}: {self.massless_reason}")
+
+    def mass_kind(self) -> str:
+        return self.mass
+
+    def check_massive(self, semi: Semidiscrete) -> None:
+        if semi.massless:
+            raise BenchError(self.massless_reason)

@@ -35,11 +35,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.errors import BenchError
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
+from bench.fem import MASS_KINDS
 from bench.params import Param
-from bench.plugin import Case, Scheme, Semidiscrete, Traits, Trajectory
+from bench.plugin import Semidiscrete, Traits, Trajectory
 from schemes._common import (
+    MassiveContactNodeScheme,
     allocate,
     blown_up,
     energy_of,
@@ -106,8 +106,9 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
     return k, nsteps, min_u0, -1
 
 
-class MoreauJean(Scheme):
+class MoreauJean(MassiveContactNodeScheme):
     name = "moreau_jean"
+    massless_reason = MASSLESS_REASON
     summary = "Moreau-Jean theta-method, Newton impact law on velocities (Siconos)"
     params = {
         "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
@@ -116,22 +117,12 @@ class MoreauJean(Scheme):
                       choices=MASS_KINDS),
     }
 
-    def validate(self) -> None:
-        if self.mass in MASSLESS_KINDS:
-            raise BenchError(f"{self.spec}: {MASSLESS_REASON}")
-
-    def mass_kind(self) -> str:
-        return self.mass
-
     def traits(self) -> Traits:
         conserved = self.e == 1 and self.theta == 0.5
         return Traits(implicit=True, massless_contact_node=False,
                       contact="velocity-level O(dt v)",
                       energy="conserved" if conserved else "dissipated",
                       order=2 if self.theta == 0.5 else 1)
-
-    def cannot_run(self, case: Case) -> str | None:
-        return MASSLESS_REASON if self.mass in MASSLESS_KINDS else None
 
     def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
         return 4.0 * dt * velocity_scale(semi)
@@ -140,8 +131,7 @@ class MoreauJean(Scheme):
         return 1e-8 if self.e == 1 and self.theta == 0.5 else None
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        if semi.massless:
-            raise BenchError(MASSLESS_REASON)
+        self.check_massive(semi)
         M, K = semi.M, semi.K
         t2 = (self.theta * dt) ** 2
         Sd, Se = factor_pt(M.diag + t2 * K.diag, M.off + t2 * K.off)

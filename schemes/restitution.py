@@ -90,10 +90,11 @@ import numpy as np
 from numba import njit
 
 from bench.errors import BenchError
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
+from bench.fem import MASS_KINDS
 from bench.params import Param
-from bench.plugin import Case, Scheme, Semidiscrete, Traits, Trajectory
+from bench.plugin import Semidiscrete, Traits, Trajectory
 from schemes._common import (
+    MassiveContactNodeScheme,
     allocate,
     blown_up,
     energy_of,
@@ -197,8 +198,9 @@ def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     return trajectory(out, k, done, min_u0, blow, dt)
 
 
-class Restitution(Scheme):
+class Restitution(MassiveContactNodeScheme):
     name = "restitution"
+    massless_reason = MASSLESS_REASON
     summary = "Paoli-Schatzman two-step scheme, constraint on (U^{n+1} + e U^{n-1})/(1+e)"
     params = {
         "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0),
@@ -208,13 +210,6 @@ class Restitution(Scheme):
                       low=0.0, high=0.5),
     }
 
-    def validate(self) -> None:
-        if self.mass in MASSLESS_KINDS:
-            raise BenchError(f"{self.spec}: {MASSLESS_REASON}")
-
-    def mass_kind(self) -> str:
-        return self.mass
-
     def traits(self) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=False,
                       contact="exact" if self.e == 0 else "restitution O(e dt v)",
@@ -223,13 +218,9 @@ class Restitution(Scheme):
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(self.beta, 0.5, h, c, lumped=self.mass == "lumped")
 
-    def cannot_run(self, case: Case) -> str | None:
-        return MASSLESS_REASON if self.mass in MASSLESS_KINDS else None
-
     def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
         return 4.0 * self.e * dt * velocity_scale(semi)
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        if semi.massless:
-            raise BenchError(MASSLESS_REASON)
+        self.check_massive(semi)
         return run_paoli_schatzman(semi, dt, nsteps, stride, self.e, self.beta)

@@ -36,11 +36,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.errors import BenchError
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
+from bench.fem import MASS_KINDS
 from bench.params import Param
-from bench.plugin import Case, Scheme, Semidiscrete, Traits, Trajectory
+from bench.plugin import Semidiscrete, Traits, Trajectory
 from schemes._common import (
+    MassiveContactNodeScheme,
     allocate,
     blown_up,
     central_difference_excess,
@@ -104,20 +104,14 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
     return k, nsteps, min_u0, -1
 
 
-class TaylorFlanagan(Scheme):
+class TaylorFlanagan(MassiveContactNodeScheme):
     name = "taylor_flanagan"
+    massless_reason = MASSLESS_REASON
     summary = "explicit central difference; contact force that stops the contact node"
     params = {
         "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
                       choices=MASS_KINDS),
     }
-
-    def validate(self) -> None:
-        if self.mass in MASSLESS_KINDS:
-            raise BenchError(f"{self.spec}: {MASSLESS_REASON}")
-
-    def mass_kind(self) -> str:
-        return self.mass
 
     def traits(self) -> Traits:
         return Traits(implicit=False, massless_contact_node=False,
@@ -126,16 +120,12 @@ class TaylorFlanagan(Scheme):
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(0.0, 0.5, h, c, lumped=self.mass == "lumped")
 
-    def cannot_run(self, case: Case) -> str | None:
-        return MASSLESS_REASON if self.mass in MASSLESS_KINDS else None
-
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         # contact only removes energy; the central difference may show its own excess
         return central_difference_excess(dt, self.stability_limit(semi.hmin, semi.c_max))
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        if semi.massless:
-            raise BenchError(MASSLESS_REASON)
+        self.check_massive(semi)
         M, K = semi.M, semi.K
         Sd, Se = factor_pt(M.diag, M.off)
         w = np.zeros(semi.nfree)
