@@ -71,9 +71,16 @@ def check_task_inputs(nx: Any = None, dt: Any = None, T: Any = None, cfl: Any = 
     for name, value in (("dt", dt), ("T", T), ("cfl", cfl)):
         if value is not None:
             _check_positive(name, value)
-    if stride is not None and (isinstance(stride, bool) or int(stride) != stride or stride < 1):
-        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
+    if stride is not None:
+        _check_stride(stride)
     _check_grading(grading)
+
+
+def _check_stride(stride: Any) -> int:
+    if (isinstance(stride, bool) or not isinstance(stride, int | np.integer | float)
+            or stride != stride or int(stride) != stride or stride < 1):
+        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
+    return int(stride)
 
 
 def _check_grading(grading: Any) -> float:
@@ -113,11 +120,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     dt_given = dt is not None
     dt = _check_positive("dt", case.dt if dt is None else dt)
     stride_given = stride is not None
-    stride = case.stride if stride is None else stride  # the scene's default sampling
-    if (isinstance(stride, bool) or not isinstance(stride, int | np.integer | float)
-            or stride != stride or int(stride) != stride or stride < 1):
-        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
-    stride = int(stride)
+    stride = _check_stride(case.stride if stride is None else stride)  # scene's default
     grading = _check_grading(grading)
     row: dict[str, Any] = dict.fromkeys(COLUMNS)
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
