@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
-import platform
-import shlex
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -13,6 +10,7 @@ from typing import NoReturn
 
 import pandas as pd
 
+from bench.environment import provenance
 from bench.errors import BenchError
 from bench.harness import Run, run_table
 from bench.io import write_text
@@ -82,23 +80,10 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _provenance(argv: Sequence[str]) -> str:
-    import numba
-    import numpy
-    import scipy
-    import skfem
-
-    cmd = "contact-bench " + " ".join(shlex.quote(a) for a in argv)
-    return (f"made by: `{cmd}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
-            f"python {platform.python_version()}, numpy {numpy.__version__}, "
-            f"scipy {scipy.__version__}, scikit-fem {skfem.__version__}, "
-            f"numba {numba.__version__}, pandas {pd.__version__}")
-
-
 def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]) -> list[Path]:
     from bench.figures import contact_figure
 
-    prov = _provenance(argv)
+    prov = provenance(argv)
     written = [
         write_text(out / "runs.csv", df.to_csv(index=False)),
         write_text(out / "runs.md", f"<!-- {prov} -->\n\n" + _markdown(df) + "\n"),
