@@ -13,7 +13,8 @@ two-step form of Crank-Nicolson used by Doyen-Ern-Piperno):
 e is Newton's restitution coefficient of the contact node: e = 0 a fully inelastic
 impact (u0^{n+1} >= 0 exactly), e = 1 an elastic one. With S = M + beta dt^2 K the
 contact force only adds dt^2 r S^{-1} e0, so one step is one solve with S (a diagonal
-one for the lumped mass and beta = 0: fully explicit) plus a scalar complementarity.
+one for the lumped mass and beta = 0: fully explicit, one fused stencil pass per step in
+`schemes._lumped.ps_lumped_kernel`) plus a scalar complementarity.
 The literature uses a lumped mass (finite differences): `mass=lumped` is the default;
 `consistent` is allowed (then each step solves with M).
 
@@ -107,6 +108,7 @@ from schemes._common import (
     tri_matvec,
     velocity_scale,
 )
+from schemes._lumped import ps_lumped_kernel
 from schemes._newmark import newmark_limit
 
 MASSLESS_REASON = (
@@ -174,8 +176,12 @@ def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stri
 
 
 def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
-                        e: float, beta: float) -> Trajectory:
-    """The scheme on any mass (no massless guard: used to show what a massless node does)."""
+                        e: float, beta: float, fast: bool = True) -> Trajectory:
+    """The scheme on any mass (no massless guard: used to show what a massless node does).
+
+    A diagonal S (lumped mass, beta = 0) takes the fused kernel of `schemes._lumped`
+    unless `fast` is False (then the generic `ps_kernel`, its reference in the tests).
+    """
     M, K = semi.M, semi.K
     bdt2 = beta * dt * dt
     try:
@@ -190,11 +196,16 @@ def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     A0 = initial_acceleration(semi)
     Um = U - dt * semi.V0 + 0.5 * dt * dt * A0
     out = allocate(semi, nsteps, stride)
-    k, done, min_u0, blow = ps_kernel(
-        M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, Um, U, semi.V0.copy(), float(dt),
-        float(beta), float(e), int(nsteps), int(stride), semi.energy_offset,
-        out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-    )
+    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    if fast and beta == 0.0 and not np.any(M.off):
+        # S = M diagonal: one fused stencil pass per step, no solve (schemes._lumped)
+        k, done, min_u0, blow = ps_lumped_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), Um, U, semi.V0.copy(),
+            float(dt), float(e), int(nsteps), int(stride), semi.energy_offset, *bufs)
+    else:
+        k, done, min_u0, blow = ps_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, Um, U, semi.V0.copy(), float(dt),
+            float(beta), float(e), int(nsteps), int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)
 
 

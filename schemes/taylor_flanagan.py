@@ -15,9 +15,10 @@ The contact stress reported is -lam. Since U1[0] = U[0] + dt V_half[0], the corr
 dt^2 lam w0 = -dt V_half[0] puts the node back at U[0] >= 0: no penetration ever
 (u0 never below 0, by induction), the node is stopped where it was.
 
-Declared: explicit (lumped mass: no solve; consistent: one solve with M per step,
-factored once); stability limit of the central difference, h/c (lumped) and
-h/(c sqrt 3) (consistent); contact exact (penetration bound 0, see above); energy
+Declared: explicit (lumped mass: no solve, one fused pass per step in
+`schemes._lumped.tf_lumped_kernel`; consistent: one solve with M per step, factored
+once); stability limit of the central difference, h/c (lumped) and h/(c sqrt 3)
+(consistent); contact exact (penetration bound 0, see above); energy
 "dissipated": stopping the node is a perfectly inelastic impact of its mass. On top
 of that the sampled energy of the central difference oscillates by O((omega_max dt)^2):
 declared growth bound r^2 / (1 - r^2), r = dt / limit (the central difference conserves
@@ -53,6 +54,7 @@ from schemes._common import (
     trajectory,
     tri_matvec,
 )
+from schemes._lumped import tf_lumped_kernel
 from schemes._newmark import newmark_limit
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
@@ -126,17 +128,31 @@ class TaylorFlanagan(MassiveContactNodeScheme):
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         self.check_massive(semi)
-        M, K = semi.M, semi.K
-        Sd, Se = factor_pt(M.diag, M.off)
-        w = np.zeros(semi.nfree)
-        w[0] = 1.0
-        pt_solve(Sd, Se, w)
-        U, V = semi.U0.copy(), semi.V0.copy()
-        A = initial_acceleration(semi)
-        out = allocate(semi, nsteps, stride)
+        return run_taylor_flanagan(semi, dt, nsteps, stride)
+
+
+def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
+                        fast: bool = True) -> Trajectory:
+    """The scheme on a massive contact node.
+
+    A diagonal M (lumped) takes the fused kernel of `schemes._lumped` unless `fast` is
+    False (then the generic `taylor_flanagan_kernel`, its reference in the tests).
+    """
+    M, K = semi.M, semi.K
+    Sd, Se = factor_pt(M.diag, M.off)
+    w = np.zeros(semi.nfree)
+    w[0] = 1.0
+    pt_solve(Sd, Se, w)
+    U, V = semi.U0.copy(), semi.V0.copy()
+    A = initial_acceleration(semi)
+    out = allocate(semi, nsteps, stride)
+    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    if fast and not np.any(M.off):
+        k, done, min_u0, blow = tf_lumped_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), U, V, A, float(dt),
+            int(nsteps), int(stride), semi.energy_offset, *bufs)
+    else:
         k, done, min_u0, blow = taylor_flanagan_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, float(dt), int(nsteps),
-            int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        )
-        return trajectory(out, k, done, min_u0, blow, dt)
+            int(stride), semi.energy_offset, *bufs)
+    return trajectory(out, k, done, min_u0, blow, dt)
