@@ -65,16 +65,16 @@ class Spike:
     Hval: np.ndarray
     w0: float  # (S^-1)[0, 0]: response of x[0] to a unit force on node 0
     hw: np.ndarray  # (2 lanes) (A, B) of the solution of S w = e0
+    pos: np.ndarray  # position of each node 0 .. n-1 in the interleaved layout
 
     def factors(self) -> tuple:
         """What the numba kernels take: (lo, invd, a, b, Hptr, Hpos, Hval, ja, jb, m, pos)."""
         return (self.lo, self.invd, self.a, self.b, self.Hptr, self.Hpos, self.Hval,
-                self.ja, self.jb, self.m, self.position())
+                self.ja, self.jb, self.m, self.pos)
 
     def position(self) -> np.ndarray:
         """Position in the interleaved layout of each node 0 .. n-1."""
-        i = np.arange(self.n)
-        return (i % self.m) * self.lanes + i // self.m
+        return self.pos
 
     def to_lanes(self, x: np.ndarray, pad: float = 0.0) -> np.ndarray:
         """A natural-order vector (length n) in the interleaved layout (padding = pad)."""
@@ -116,13 +116,18 @@ def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
     a_nat, b_nat = first, last
     pt_solve(df, ef, a_nat)
     pt_solve(df, ef, b_nat)
-    # interleave: node c m + j -> row j, lane c
+    # interleave: node c m + j -> row j, lane c (views; only the kept rows are copied)
     def rows(x: np.ndarray) -> np.ndarray:
-        return np.ascontiguousarray(x.reshape(lanes, m).T)
+        return x.reshape(lanes, m).T
 
-    lo = rows(np.concatenate(([0.0], ef)))
+    lo = np.empty(N)
+    lo[0] = 0.0
+    lo[1:] = ef
+    lo = np.ascontiguousarray(rows(lo))
     lo[0, :] = 0.0
-    invd = rows(1.0 / df)
+    np.divide(1.0, df, out=df)
+    invd = np.ascontiguousarray(rows(df))
+    del df, ef
     a, b = rows(a_nat), rows(b_nat)
     # reduced system for s_c = x[0, c], t_c = x[m-1, c]:
     #   x = y - A_c a - B_c b,  A_c = e_{c-1} t_{c-1},  B_c = e_c s_{c+1}
@@ -157,15 +162,16 @@ def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
     hw = hw_all[: 2 * P].copy()
     w0 = float(hw_all[2 * P])
     # truncate the spikes: a lives at the top of each block, b at the bottom
-    amax = np.abs(a).max(axis=0)
-    bmax = np.abs(b).max(axis=0)
-    big_a = np.nonzero((np.abs(a) > SPIKE_CUTOFF * amax).any(axis=1))[0]
-    big_b = np.nonzero((np.abs(b) > SPIKE_CUTOFF * bmax).any(axis=1))[0]
+    big_a = np.nonzero((np.abs(a) > SPIKE_CUTOFF * np.abs(a).max(axis=0)).any(axis=1))[0]
+    big_b = np.nonzero((np.abs(b) > SPIKE_CUTOFF * np.abs(b).max(axis=0)).any(axis=1))[0]
     ja = int(big_a[-1]) + 1
     jb = m - int(big_b[0])
+    i = np.arange(n)
+    pos = (i % m) * P + i // m
     return Spike(n=n, lanes=P, m=m, lo=lo.ravel(), invd=invd.ravel(),
                  a=np.ascontiguousarray(a[:ja]).ravel(), b=np.ascontiguousarray(b[m - jb:]).ravel(),
-                 ja=ja, jb=jb, Hptr=Hptr, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw)
+                 ja=ja, jb=jb, Hptr=Hptr, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw,
+                 pos=pos)
 
 
 # ------------------------------------------------------------------- numba building blocks
