@@ -137,6 +137,16 @@ def _implicit_kernel(Md, Me, Kd, Ke, F, Mdl, Mlo, bF, fac, hw, w0, Ut, V, A, z, 
     return k, nsteps, min_u0, -1
 
 
+# fastmath=False explicitly: a callee with no fastmath setting inherits its caller's, and a
+# contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
+@njit(cache=True, fastmath=False)
+def _static_contact_node(K00, K01, F0, u1):
+    """u0 = max(0, (F0 - K01 u1) / K00) and the obstacle's force lambda >= 0."""
+    c = (F0 - K01 * u1) / K00
+    u0 = c if c > 0.0 else 0.0
+    return u0, K00 * u0 + K01 * u1 - F0
+
+
 @njit(cache=True, fastmath=_FM)
 def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, gamma,
                      nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
@@ -163,9 +173,7 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
                 pu = uint64(p)
                 U[pu] = U[pu] + dt * V[pu] + h2 * A[pu]
         u1 = U[p1]
-        c = (F[0] - Ke[0] * u1) / Kd[0]
-        ucon = c if c > 0.0 else 0.0
-        lam = Kd[0] * ucon + Ke[0] * u1 - F[0]
+        ucon, lam = _static_contact_node(Kd[0], Ke[0], F[0], u1)
         U[0] = ucon
         # M_r A1 = F - K U1 on nodes 1..: node 0 is decoupled in the factors (an identity
         # row, lo = 0 at node 1), so its right-hand side is simply replaced by 0 and
