@@ -8,10 +8,13 @@ Petrov, Pousin, Renard 2014, section 4) in the other nodes U_bar:
 a Lipschitz right-hand side, so any ODE integrator applies (Hairer, Lubich, Wanner,
 Geometric Numerical Integration, for Stormer-Verlet). Here: velocity Verlet with a
 fixed step, V += dt/2 A(U); U += dt V; V += dt/2 A(U), one solve with M_bar per step
-(factored once). The contact node is not a state: u0 = u0(u1) at every step, and its
-velocity is the exact derivative of that function, v0 = -(K01 / K00) v1 while u0 > 0,
-else 0. The initial state is the ODE's: u0 is set to u0(u1) at t = 0 (the interpolant's
-first element is relaxed: on clamped_bar E(0) = 1/8 - h/8, see `redistributed`).
+(factored once, lane-parallel: `verlet_spike_kernel` on the SPIKE factors of
+`schemes._spike`, with node 0 decoupled as an identity row; `verlet_kernel` is the
+natural-order reference it is tested against in tests/test_spike_ports.py). The
+contact node is not a state: u0 = u0(u1) at every step, and its velocity is the exact
+derivative of that function, v0 = -(K01 / K00) v1 while u0 > 0, else 0. The initial
+state is the ODE's: u0 is set to u0(u1) at t = 0 (the interpolant's first element is
+relaxed: on clamped_bar E(0) = 1/8 - h/8, see `redistributed`).
 
 This is algebraically the same update as `redistributed[beta=0]` (explicit Newmark is
 velocity Verlet), written from the ODE; tests/test_schemes_extra.py checks that both
@@ -30,7 +33,7 @@ against DOP853 in tests/test_schemes_extra.py).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, uint64
 
 from bench.params import Param
 from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
@@ -47,6 +50,15 @@ from schemes._common import (
     tri_matvec,
 )
 from schemes._newmark import newmark_limit
+from schemes._spike import (
+    L,
+    backward_rows,
+    correct,
+    reduced,
+    scatter_sample,
+    spike_factor,
+    stencil_forward,
+)
 
 
 @njit(cache=True)
@@ -104,6 +116,94 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
     return k, nsteps, min_u0, -1
 
 
+# fastmath=False explicitly: a callee inherits an unset fastmath from its caller (numba), and
+# a contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
+@njit(cache=True, fastmath=False)
+def _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
+    """`ode_acceleration` in the interleaved layout: U[0] <- u0(u1), z = A; returns lambda.
+
+    fac = `Spike.factors()` of M_bar with node 0 decoupled (an identity row): the
+    right-hand side of node 0 is replaced by 0, so z[0] = A[0] = 0 through the solve.
+    """
+    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    u1 = U[p1]
+    c = (F[0] - Ke[0] * u1) / Kd[0]
+    u0 = c if c > 0.0 else 0.0
+    U[0] = u0
+    stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
+    z[0] = 0.0
+    backward_rows(z, lo, invd, L * m)
+    reduced(z, Hptr, Hpos, Hval, coef)
+    correct(z, sa, sb, coef, m, ja, jb)
+    return Kd[0] * u0 + Ke[0] * u1 - F[0]
+
+
+@njit(cache=True, fastmath={"contract"})
+def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
+                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
+    """`verlet_kernel` in the lane-interleaved layout of `schemes._spike` (U, V, A, z:
+    interleaved, A and z scratch). Same update, samples, stress, min u0 and blow-up step.
+
+    Between samples V holds the half-step velocity: the closing half kick of a step, the
+    next step's half kick and drift are one pass (the same operations, in the same
+    order, as the reference kernel's two loops).
+    """
+    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    N = L * m
+    h = 0.5 * dt
+    p1 = L if m > 1 else 1  # node 1: row 1 of lane 0, or row 0 of lane 1
+    r = -(Ke[0] / Kd[0])  # v0 = r v1 while the node is off the obstacle
+    lam = _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
+    V[0] = r * V[p1] if U[0] > 0.0 else 0.0
+    min_u0 = U[0]
+    scatter_sample(0, pos, U, V, U_out, V_out)
+    E0 = energy_of(Md, Me, Kd, Ke, F, U_out[0], V_out[0], offset)
+    t_out[0] = 0.0
+    cu_out[0] = U[0]
+    s_out[0] = -lam
+    E_out[0] = E0
+    k = 1
+    kicked = False  # V, U already hold this step's half kick and drift
+    for step in range(1, nsteps + 1):
+        if not kicked:
+            for p in range(N):
+                pu = uint64(p)
+                v = V[pu] + h * A[pu]
+                V[pu] = v
+                U[pu] = U[pu] + dt * v
+        # U[0] was drifted with V[0] above; it is replaced by u0(u1) here
+        lam = _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
+        A, z = z, A  # A^{n+1}; the old A is the next solve's scratch
+        u0 = U[0]
+        if u0 < min_u0:
+            min_u0 = u0
+        sample = step % stride == 0 or step == nsteps
+        if sample:
+            for p in range(N):
+                pu = uint64(p)
+                V[pu] = V[pu] + h * A[pu]
+        else:  # closing half kick, next half kick and drift
+            for p in range(N):
+                pu = uint64(p)
+                v = V[pu] + h * A[pu]
+                v = v + h * A[pu]
+                V[pu] = v
+                U[pu] = U[pu] + dt * v
+        kicked = not sample
+        if sample:
+            V[0] = r * V[p1] if u0 > 0.0 else 0.0
+            scatter_sample(k, pos, U, V, U_out, V_out)
+            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
+            t_out[k] = step * dt
+            cu_out[k] = u0
+            s_out[k] = -lam
+            E_out[k] = energy
+            k += 1
+            if blown_up(energy, E0):
+                return k, step, min_u0, step
+    return k, nsteps, min_u0, -1
+
+
 class OdeVerlet(Scheme):
     name = "ode_verlet"
     summary = "the seed's Lipschitz ODE (P_U^mod) by Stormer-Verlet, fixed step"
@@ -126,13 +226,34 @@ class OdeVerlet(Scheme):
         return 2.0 * (semi.c_max * dt / semi.hmin) ** 2
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        M, K = semi.M, semi.K
+        return run_ode_verlet(semi, dt, nsteps, stride)
+
+
+def run_ode_verlet(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
+                   fast: bool = True) -> Trajectory:
+    """Velocity Verlet on (P_U^mod): `verlet_spike_kernel` on the SPIKE factors of M_bar
+    (node 0 decoupled), or with `fast` False the natural-order `verlet_kernel` (its
+    reference in tests/test_spike_ports.py)."""
+    M, K = semi.M, semi.K
+    n = semi.nfree
+    if n < 2:
+        raise ValueError("ode_verlet needs at least one node besides the contact node")
+    U, V = semi.U0.copy(), semi.V0.copy()
+    out = allocate(semi, nsteps, stride)
+    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    if fast:
+        d, e = M.diag.copy(), M.off.copy()
+        d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_bar on nodes 1.. plus an identity row
+        sp = spike_factor(d, e)
+        N = sp.lanes * sp.m
+        k, done, min_u0, blow = verlet_spike_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
+            sp.to_lanes(semi.F), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), np.zeros(N),
+            np.zeros(N), np.zeros(2 * sp.lanes + 1), float(dt), int(nsteps), int(stride),
+            semi.energy_offset, *bufs)
+    else:
         Sd, Se = factor_pt(M.diag[1:], M.off[1:])
-        U, V = semi.U0.copy(), semi.V0.copy()
-        out = allocate(semi, nsteps, stride)
         k, done, min_u0, blow = verlet_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, U, V, float(dt), int(nsteps),
-            int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        )
-        return trajectory(out, k, done, min_u0, blow, dt)
+            int(stride), semi.energy_offset, *bufs)
+    return trajectory(out, k, done, min_u0, blow, dt)

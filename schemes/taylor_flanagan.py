@@ -17,7 +17,9 @@ dt^2 lam w0 = -dt V_half[0] puts the node back at U[0] >= 0: no penetration ever
 
 Declared: explicit (lumped mass: no solve, one fused pass per step in
 `schemes._lumped.tf_lumped_kernel`; consistent: one solve with M per step, factored
-once); stability limit of the central difference, h/c (lumped) and h/(c sqrt 3)
+once, lane-parallel in `tf_spike_kernel` on the SPIKE factors of `schemes._spike`;
+`taylor_flanagan_kernel` is the natural-order reference of both fast paths);
+stability limit of the central difference, h/c (lumped) and h/(c sqrt 3)
 (consistent); contact exact (penetration bound 0, see above); energy
 "dissipated": stopping the node is a perfectly inelastic impact of its mass. On top
 of that the sampled energy of the central difference oscillates by O((omega_max dt)^2):
@@ -35,7 +37,7 @@ elimination u0 = max(0, -K01 u1) / K00, which is `redistributed[beta=0]`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, uint64
 
 from bench.fem import MASS_KINDS
 from bench.params import Param
@@ -56,6 +58,17 @@ from schemes._common import (
 )
 from schemes._lumped import tf_lumped_kernel
 from schemes._newmark import newmark_limit
+from schemes._spike import (
+    SPIKE_CUTOFF,
+    L,
+    backward_rows,
+    correct,
+    reduced,
+    scatter_sample,
+    spike_factor,
+    spike_solve,
+    stencil_forward,
+)
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
@@ -106,6 +119,84 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
     return k, nsteps, min_u0, -1
 
 
+@njit(cache=True, fastmath={"contract"})
+def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, A, z, coef,
+                    dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
+    """`taylor_flanagan_kernel` in the lane-interleaved layout of `schemes._spike` (U, V,
+    A, z interleaved; fac = `Spike.factors()` of M). Same update, samples, stress, min
+    u0 and blow-up step.
+
+    w = M^-1 e0 enters as its entries above `SPIKE_CUTOFF` x w0 (positions wpos, values
+    wval: w decays by 2 - sqrt 3 per node, a few dozen entries). Between samples the
+    closing half kick of a step and the next step's drift and half kick are one pass
+    (the same operations, in the same order, as the reference kernel's loops).
+    """
+    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    N = L * m
+    h = 0.5 * dt
+    h2 = 0.5 * dt * dt
+    dt2 = dt * dt
+    min_u0 = U[0]
+    scatter_sample(0, pos, U, V, U_out, V_out)
+    E0 = energy_of(Md, Me, Kd, Ke, F, U_out[0], V_out[0], offset)
+    t_out[0] = 0.0
+    cu_out[0] = U[0]
+    s_out[0] = 0.0
+    E_out[0] = E0
+    k = 1
+    drifted = False  # U, V already hold this step's drift and half kick
+    for step in range(1, nsteps + 1):
+        if not drifted:
+            for p in range(N):
+                pu = uint64(p)
+                U[pu] = U[pu] + (dt * V[pu] + h2 * A[pu])
+                V[pu] = V[pu] + h * A[pu]
+        lam = 0.0
+        if U[0] < 0.0:
+            lam = -V[0] / (dt * w0)
+            if lam < 0.0:
+                lam = 0.0
+            cu = dt2 * lam
+            cv = dt * lam
+            for q in range(wpos.size):
+                p = wpos[q]
+                U[p] += cu * wval[q]
+                V[p] += cv * wval[q]
+        # A^{n+1} = M^-1 (F - K U^{n+1})
+        stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
+        backward_rows(z, lo, invd, N)
+        reduced(z, Hptr, Hpos, Hval, coef)
+        correct(z, sa, sb, coef, m, ja, jb)
+        A, z = z, A  # the old A is the next solve's scratch
+        u0 = U[0]
+        if u0 < min_u0:
+            min_u0 = u0
+        sample = step % stride == 0 or step == nsteps
+        if sample:
+            for p in range(N):
+                pu = uint64(p)
+                V[pu] = V[pu] + h * A[pu]
+        else:  # closing half kick, next drift and half kick
+            for p in range(N):
+                pu = uint64(p)
+                a = A[pu]
+                v = V[pu] + h * a
+                U[pu] = U[pu] + (dt * v + h2 * a)
+                V[pu] = v + h * a
+        drifted = not sample
+        if sample:
+            scatter_sample(k, pos, U, V, U_out, V_out)
+            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
+            t_out[k] = step * dt
+            cu_out[k] = u0
+            s_out[k] = -lam
+            E_out[k] = energy
+            k += 1
+            if blown_up(energy, E0):
+                return k, step, min_u0, step
+    return k, nsteps, min_u0, -1
+
+
 class TaylorFlanagan(MassiveContactNodeScheme):
     name = "taylor_flanagan"
     massless_reason = MASSLESS_REASON
@@ -135,19 +226,35 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
                         fast: bool = True) -> Trajectory:
     """The scheme on a massive contact node.
 
-    A diagonal M (lumped) takes the fused kernel of `schemes._lumped` unless `fast` is
-    False (then the generic `taylor_flanagan_kernel`, its reference in the tests).
+    With `fast` (the default) a diagonal M (lumped) takes the fused kernel of
+    `schemes._lumped`, any other M `tf_spike_kernel` on the SPIKE factors of M; with
+    `fast` False the natural-order `taylor_flanagan_kernel`, their reference in the tests.
     """
     M, K = semi.M, semi.K
-    Sd, Se = factor_pt(M.diag, M.off)
-    w = np.zeros(semi.nfree)
-    w[0] = 1.0
-    pt_solve(Sd, Se, w)
     U, V = semi.U0.copy(), semi.V0.copy()
     A = initial_acceleration(semi)
     out = allocate(semi, nsteps, stride)
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
-    if fast and not np.any(M.off):
+    if fast and np.any(M.off):
+        sp = spike_factor(M.diag, M.off)
+        N = sp.lanes * sp.m
+        fac = sp.factors()
+        lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+        w = np.zeros(N)  # w = M^-1 e0, interleaved; node 0 is at position 0
+        w[0] = 1.0
+        spike_solve(lo, invd, sa, sb, Hptr, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
+        wpos = np.flatnonzero(np.abs(w) > SPIKE_CUTOFF * abs(w[0]))
+        k, done, min_u0, blow = tf_spike_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
+            sp.to_lanes(semi.F), fac, wpos, w[wpos], float(w[0]), sp.to_lanes(U),
+            sp.to_lanes(V), sp.to_lanes(A), np.zeros(N), np.zeros(2 * sp.lanes + 1), float(dt),
+            int(nsteps), int(stride), semi.energy_offset, *bufs)
+        return trajectory(out, k, done, min_u0, blow, dt)
+    Sd, Se = factor_pt(M.diag, M.off)
+    w = np.zeros(semi.nfree)
+    w[0] = 1.0
+    pt_solve(Sd, Se, w)
+    if fast:
         k, done, min_u0, blow = tf_lumped_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), U, V, A, float(dt),
             int(nsteps), int(stride), semi.energy_offset, *bufs)
