@@ -521,6 +521,7 @@ class CharacteristicsSolution:
         del sQs
         self._delta = np.array(deltas)
         self._K = K
+        self._lut: NDArray[np.integer] | None = None  # see _first_guess
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
@@ -545,12 +546,12 @@ class CharacteristicsSolution:
                                                            NDArray[np.intp]]:
         """(cell, block) containing the point s = k L + r (cell to the right on a node).
 
-        The global search on s = k L + r only gives a first guess; it is corrected by
-        comparing (k, r) with (block, local nodes) lexicographically, so that the choice
-        of cell does not depend on how k L + r rounds.
+        A table on s = k L + r only gives a first guess (`_first_guess`); it is corrected
+        by comparing (k, r) with (block, local nodes) lexicographically, one cell per
+        pass, so that the choice of cell does not depend on how k L + r rounds.
         """
         last = self._ncells - 1
-        i = np.clip(np.searchsorted(self._s0, k * self.L + r, side="right") - 1, 0, last)
+        i = self._first_guess(k * self.L + r)
         for _ in range(64):
             b = np.searchsorted(self._cell0, i, side="right") - 1
             r0 = self._r[i + b]
@@ -558,9 +559,19 @@ class CharacteristicsSolution:
             up = ((b < k) | ((b == k) & (r >= r1))) & (i < last)
             down = (((b > k) & (r < self.L)) | ((b == k) & (r < r0))) & (i > 0)
             if not (np.any(up) or np.any(down)):
-                break
+                return i, b  # b is the block of the final i
             i = i + up.astype(np.intp) - down.astype(np.intp)
         return i, np.searchsorted(self._cell0, i, side="right") - 1
+
+    def _first_guess(self, s: FloatArray) -> NDArray[np.intp]:
+        """A cell near s (the last cell starting at or before the base grid step below s),
+        from a table over uniform bins of width ds: no binary search per point."""
+        if self._lut is None:
+            nb = int(math.ceil(float(self._s0[-1]) / self.ds)) + 2
+            lut = np.searchsorted(self._s0, np.arange(nb) * self.ds, side="right") - 1
+            self._lut = np.maximum(lut, 0).astype(np.int32 if lut[-1] < 2**31 else np.int64)
+        j = np.clip(np.floor(s / self.ds), 0, self._lut.size - 1).astype(np.intp)
+        return self._lut[j].astype(np.intp)
 
     def _coords(self, x: FloatArray, tau: FloatArray) -> tuple[tuple[FloatArray, FloatArray],
                                                                tuple[FloatArray, FloatArray]]:
@@ -591,47 +602,75 @@ class CharacteristicsSolution:
             r = np.where(over, r - L, np.where(under, r + L, r))
         return k, r
 
-    def _interp(self, vals: FloatArray, sg: NDArray[np.int8], k: FloatArray, r: FloatArray
-                ) -> tuple[FloatArray, NDArray[np.intp]]:
-        """Per-block node values (in the block's gauge) at (k, r): linear interpolation
-        plus the cell's quadratic term (curvature sg gam / 2)."""
+    def _located(self, k: FloatArray, r: FloatArray) -> tuple[
+            FloatArray, NDArray[np.intp], NDArray[np.intp], FloatArray, FloatArray]:
+        """(r, cell, block, r0, r1): a point of one family and its cell's local nodes.
+
+        Found once per point and family, shared by values and slopes (`_fields`)."""
         i, b = self._cell(k, r)
         n0 = i + b
-        r0, r1 = self._r[n0], self._r[n0 + 1]
+        return r, i, b, self._r[n0], self._r[n0 + 1]
+
+    def _interp(self, vals: FloatArray, sg: NDArray[np.int8], loc: tuple) -> FloatArray:
+        """Per-block node values (in the block's gauge) at a located point: linear
+        interpolation plus the cell's quadratic term (curvature sg gam / 2)."""
+        r, i, b, r0, r1 = loc
+        n0 = i + b
         v0 = vals[n0]
         val = v0 + (r - r0) / (r1 - r0) * (vals[n0 + 1] - v0)
         if self.gam:
             val = val + (0.25 * self.gam) * sg[i] * (r - r0) * (r - r1)
-        return val, b
+        return val
 
-    def _u(self, x: FloatArray, tau: FloatArray) -> FloatArray:
-        (kp, rp), (kq, rq) = self._coords(x, tau)
-        pv, bp = self._interp(self._P, self._sP, kp, rp)
-        qv, bq = self._interp(self._Q, self._sQ, kq, rq)
-        # gauge offsets: o_bp - o_bq, neighbouring blocks only
-        if np.any(np.abs(bp - bq) > 1):  # pragma: no cover - |x + tau - (x - tau')| <= L
-            raise RuntimeError("characteristics: p and q cells more than a block apart")
-        dl = self._delta
-        off = np.where(bp == bq + 1, dl[np.clip(bq, 0, dl.size - 1)],
-                       np.where(bq == bp + 1, -dl[np.clip(bp, 0, dl.size - 1)], 0.0))
-        return pv + qv + off + self._up(x)
-
-    def _slopes(self, x: FloatArray, tau: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """p'(x + tau) + a/2 and -(q'(x - tau) + a/2), limits from the future."""
-        cp, cq = self._coords(x, tau)
-        return self._slope(self._dP, self._sP, *cp), self._slope(self._dQ, self._sQ, *cq)
-
-    def _slope(self, chords: FloatArray, sg: NDArray[np.int8], k: FloatArray,
-               r: FloatArray) -> FloatArray:
-        """Stored chord of the cell at (k, r) plus the curvature term gam/2 sg (r - mid)."""
-        i, b = self._cell(k, r)
+    def _slope(self, chords: FloatArray, sg: NDArray[np.int8], loc: tuple) -> FloatArray:
+        """Stored chord of the cell at a located point plus the curvature term
+        gam/2 sg (r - mid)."""
+        r, i, _, r0, r1 = loc
         out = chords[i]
         if self.gam:
-            mid = 0.5 * (self._r[i + b] + self._r[i + b + 1])
+            mid = 0.5 * (r0 + r1)
             out = out + (0.5 * self.gam) * sg[i] * (r - mid)
         return out
 
+    def _fields(self, x: FloatArray, tau: FloatArray, value: bool, slopes: bool
+                ) -> tuple[FloatArray | None, FloatArray | None, FloatArray | None]:
+        """u, and p'(x + tau) + a/2, -(q'(x - tau) + a/2) (limits from the future), from
+        one search of the cells of each family."""
+        cp, cq = self._coords(x, tau)
+        lp, lq = self._located(*cp), self._located(*cq)
+        u = dp = dq = None
+        if value:
+            pv = self._interp(self._P, self._sP, lp)
+            qv = self._interp(self._Q, self._sQ, lq)
+            bp, bq = lp[2], lq[2]
+            # gauge offsets: o_bp - o_bq, neighbouring blocks only
+            if np.any(np.abs(bp - bq) > 1):  # pragma: no cover - |x + tau - (x - tau')| <= L
+                raise RuntimeError("characteristics: p and q cells more than a block apart")
+            dl = self._delta
+            off = np.where(bp == bq + 1, dl[np.clip(bq, 0, dl.size - 1)],
+                           np.where(bq == bp + 1, -dl[np.clip(bp, 0, dl.size - 1)], 0.0))
+            u = pv + qv + off + self._up(x)
+        if slopes:
+            dp = self._slope(self._dP, self._sP, lp)
+            dq = self._slope(self._dQ, self._sQ, lq)
+        return u, dp, dq
+
+    def _u(self, x: FloatArray, tau: FloatArray) -> FloatArray:
+        return self._fields(x, tau, True, False)[0]
+
+    def _slopes(self, x: FloatArray, tau: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """p'(x + tau) + a/2 and -(q'(x - tau) + a/2), limits from the future."""
+        _, dp, dq = self._fields(x, tau, False, True)
+        return dp, dq
+
     # ------------------------------------------------------------------ public API
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the stored representation, in bytes."""
+        arrays = (self._r, self._s0, self._P, self._Q, self._dP, self._dQ, self._sP,
+                  self._sQ, self._sizes, self._node0, self._cell0, self._delta)
+        return sum(a.nbytes for a in arrays) + (0 if self._lut is None else self._lut.nbytes)
+
     def u(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
         """Displacement u(x, t)."""
         x, t = self._points(x, t)
@@ -648,6 +687,16 @@ class CharacteristicsSolution:
         x, t = self._points(x, t)
         dp, dq = self._slopes(x, self.c * t)
         return dp - dq + self.gam * x
+
+    def fields(self, x: ArrayLike, t: ArrayLike, velocity: bool = True
+               ) -> tuple[FloatArray, FloatArray, FloatArray | None]:
+        """(u, u_x, u_t) at once, equal to `u`, `ux` and `ut` (u_t None unless
+        `velocity`); the cells are searched once for the three (what the error norms
+        use)."""
+        x, t = self._points(x, t)
+        u, dp, dq = self._fields(x, self.c * t, True, True)
+        ux = dp - dq + self.gam * x
+        return u, ux, (self.c * (dp + dq) if velocity else None)
 
     def stress(self, t: ArrayLike) -> FloatArray:
         """Contact stress E u_x(0, t) <= 0 (limit t -> t+)."""

@@ -6,24 +6,27 @@ import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
-
-import pandas as pd
+from typing import TYPE_CHECKING, NoReturn
 
 from bench.environment import provenance
 from bench.errors import BenchError
-from bench.harness import Run, run_table
+from bench.harness import Run, reference, run_table
 from bench.io import write_text
 from bench.registry import cases, make_case, schemes
 from bench.sweep_cli import COMMANDS as SWEEP_COMMANDS
 from bench.sweep_cli import add_commands as add_sweep_commands
 from bench.sweep_cli import run_command as run_sweep_command
 
+if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
+    import pandas as pd
+
 SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
          "err_stress_l2", "energy_drift_max", "penetration_max", "wall_s", "status"]
 
 
 def _fmt_table(df: pd.DataFrame) -> str:
+    import pandas as pd
+
     view = df[SHOWN].copy()
     for col in view.columns:
         if col in {"nx", "steps"}:
@@ -92,7 +95,7 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
         case = make_case(case_spec)
         these = [r for r in runs if r.row["case"] == case_spec]
         T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
-        exact = case.exact(T) if case.reference == "exact" else None
+        exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
         written.append(contact_figure(these, exact, case.spec, out / f"{fname}.png"))
     listing = "\n".join(f"- `{p.name}`" for p in written)
@@ -107,7 +110,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     runs: list[Run] = []
     df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
                    args.stride, args.grading, args.allow_unstable, keep=runs,
-                   explicit_pair=bool(args.case and args.scheme))
+                   explicit_pair=bool(args.case and args.scheme), keep_samples=False)
     out = args.out or ("results/default" if default_job else None)
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))

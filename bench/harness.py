@@ -7,21 +7,26 @@ not provide is left empty (NaN) and the row's `notes` say why.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import threading
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
+from bench import metrics
 from bench.errors import BenchError
 from bench.fem import mesh_nodes
 from bench.metrics import ERROR_COLUMNS, NEEDS, energy_metrics, error_metrics, penetration
-from bench.plugin import Case, Scheme, Trajectory
+from bench.plugin import Case, Exact, Scheme, Trajectory
 from bench.problem import discretise
 from bench.registry import make_case, make_scheme
+
+if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
+    import pandas as pd
 
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
@@ -30,15 +35,68 @@ COLUMNS = (
 )
 
 _warmed: set[tuple[type, str]] = set()
+_warmed_metrics: list[bool] = []
+#: a plan's semi-discrete problem dropped after the checks, rebuilt when it runs
+_REBUILD: Any = object()
+#: semi-discrete problems a table keeps from its checks to its runs, in bytes (the
+#: first plan's is always kept); the others are assembled again when they run
+KEEP_SEMI_BYTES = 64 * 2**20
 
 
 @dataclass
 class Run:
-    """One finished run: its metrics row and, unless it did not start, its trajectory."""
+    """One finished run: its metrics row and, unless it did not start, its trajectory.
+
+    `norm_s`: the time spent on the error norms (`bench.metrics.error_metrics`, JIT
+    compilation excluded), None when there were none; compare with row["wall_s"].
+    """
 
     row: dict[str, Any]
     trajectory: Trajectory | None = None
     semi: Any = None
+    norm_s: float | None = None
+
+    def without_samples(self) -> Run:
+        """The same run without what grows with the mesh: the semi-discrete problem and
+        the sampled fields U, V (left with no columns); t, contact_u, stress and energy
+        stay (what the figures use)."""
+        tr = self.trajectory
+        if tr is not None:
+            tr = dataclasses.replace(tr, U=np.empty((tr.t.size, 0)), V=np.empty((tr.t.size, 0)))
+        return Run(self.row, tr, None, self.norm_s)
+
+
+_reference_lock = threading.Lock()
+_references: list[tuple[tuple, Exact | None]] = []  # most recent first
+#: references kept for the next runs: at most this many, and at most this many bytes
+#: (counting those that tell their size, `nbytes`; a larger one is not kept)
+KEEP_REFERENCES = 4
+KEEP_REFERENCE_BYTES = 128 * 2**20
+
+
+def reference(case: Case, T: float) -> Exact | None:
+    """`case.exact(T)`, kept for the next runs: the schemes of a table share it.
+
+    Keyed on the case's class, spec and attributes and on T, so a changed case or time
+    builds a new one (an explicit scheme's lowered dt gives another T). A few are kept
+    (`KEEP_REFERENCES`, `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
+    """
+    key = (type(case), case.spec, repr(sorted(vars(case).items())), float(T))
+    with _reference_lock:
+        for i, (k, exact) in enumerate(_references):
+            if k == key:
+                _references.insert(0, _references.pop(i))
+                return exact
+    exact = case.exact(T)
+    with _reference_lock:
+        _references.insert(0, (key, exact))
+        total = 0
+        for i, (_, kept) in enumerate(_references):
+            total += int(getattr(kept, "nbytes", 0) or 0)
+            if i >= KEEP_REFERENCES or total > KEEP_REFERENCE_BYTES:
+                del _references[i:]
+                break
+    return exact
 
 
 def _check_positive(name: str, value: float) -> float:
@@ -182,6 +240,10 @@ def _execute(plan: _Plan) -> Run:
     if plan.semi is None:  # not applicable
         return Run(row)
     case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
+    norm_s = None
+    if semi is _REBUILD:  # dropped after the checks to bound a table's memory
+        semi = discretise(case, mesh_nodes(_check_length(case), row["nx"], row["grading"]),
+                          scheme.mass_kind())
     key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
     if key not in _warmed:
         scheme.warm_up(semi)  # JIT compilation stays out of wall_s
@@ -198,18 +260,23 @@ def _execute(plan: _Plan) -> Run:
                      f"{traj.steps_done} of {plan.steps} steps)")
     else:
         row["status"] = "ok"
-        exact = case.exact(plan.T_run) if case.reference else None
+        exact = reference(case, plan.T_run) if case.reference else None
         if exact is None:
             notes.append("errors: no reference solution")
         else:
+            if not _warmed_metrics:
+                metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
+                _warmed_metrics.append(True)
+            start = time.perf_counter()
             row.update(error_metrics(semi, traj, exact, case.provides))
+            norm_s = time.perf_counter() - start
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
             if missing:
                 notes.append(f"reference has no {', '.join(missing)}")
             if case.reference == "numerical":
                 notes.append("errors against a numerical reference")
     row["notes"] = "; ".join(notes)
-    return Run(row, traj, semi)
+    return Run(row, traj, semi, norm_s)
 
 
 def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
@@ -245,20 +312,23 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
               dts: Iterable[float | None] = (None,), T: float | None = None,
               stride: int | None = None,
               grading: float = 1.0, allow_unstable: bool = False,
-              keep: list[Run] | None = None, *, explicit_pair: bool = False) -> pd.DataFrame:
+              keep: list[Run] | None = None, *, explicit_pair: bool = False,
+              keep_samples: bool = True) -> pd.DataFrame:
     """The product cases x schemes x nx x dt as one DataFrame (one row per run).
 
     Every configuration is checked before any is run, so a bad input (BenchError) fails
     at once and nothing is half done. A run that blows up is an 'unstable' row, a run
     that raises anything else an 'error' row with the reason; the table goes on.
     `explicit_pair`: the user named one case and one scheme, so a pair that cannot run
-    is an error rather than a 'not applicable' row.
+    is an error rather than a 'not applicable' row. `keep` collects the runs; with
+    `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
+    grow with the number of runs (one run's samples at a time).
     """
     case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
     scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
     nxs, dts = list(nxs), list(dts)
     strict = explicit_pair and len(case_objs) == 1 and len(scheme_objs) == 1
-    plans: list[_Plan | Run] = []
+    plans: list[_Plan | Run | None] = []
     for case in case_objs:
         for scheme in scheme_objs:
             for nx in nxs:
@@ -270,11 +340,21 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                         raise
                     except Exception as exc:  # noqa: BLE001 - a broken plugin is a row
                         plans.append(_error_row(case, scheme, nx, dt, T, stride, grading, exc))
-    rows = []
+    kept = 0  # large semi-discrete problems are not all held from the checks on
     for plan in plans:
+        if isinstance(plan, _Plan) and plan.semi is not None:
+            size = _semi_bytes(plan.semi)
+            if kept and kept + size > KEEP_SEMI_BYTES:
+                plan.semi = _REBUILD
+            else:
+                kept += size
+    rows = []
+    for i, plan in enumerate(plans):
+        plans[i] = None  # each run's memory goes with it
         if isinstance(plan, Run):
             run = plan
         else:
+            assert plan is not None
             try:
                 run = _execute(plan)
             except Exception as exc:  # noqa: BLE001 - one failing run never stops a table
@@ -284,5 +364,13 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                                  before)
         rows.append(run.row)
         if keep is not None:
-            keep.append(run)
+            keep.append(run if keep_samples else run.without_samples())
+        del plan, run
+    import pandas as pd  # here: not loaded while the runs step (its memory adds to theirs)
+
     return pd.DataFrame(rows, columns=list(COLUMNS))
+
+
+def _semi_bytes(semi: Any) -> int:
+    return sum(a.nbytes for a in (semi.x, semi.M.diag, semi.M.off, semi.K.diag, semi.K.off,
+                                   semi.F, semi.U0, semi.V0))

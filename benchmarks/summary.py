@@ -23,10 +23,24 @@ def table(path: Path) -> str:
         def f(key: str, fmt: str, x=x) -> str:
             return format(x[key], fmt) if x.get(key) is not None else ""
 
+        if "ratio_standard" in x:  # benchmarks/test_norms.py: in the table below
+            continue
         lines.append(f"| {b['name']} | {x.get('nfree', '')} | {x.get('nsteps', '')} "
                      f"| {b['stats']['median']:.4f} | {f('ns_per_dof_step', '.2f')} "
                      f"| {f('scipy_ns_per_dof_step', '.0f')} | {f('speedup', '.0f')} "
                      f"| {f('err_u_linf_l2', '.2e')} |")
+    norms = [b for b in data["benchmarks"] if "ratio_standard" in b["extra_info"]]
+    if norms:
+        lines += ["", "| norms | samples | mode | norm ms | standard ms | ratio | fastest "
+                  "| fastest ms | ratio |", "|---|---:|---|---:|---:|---:|---|---:|---:|"]
+        for b in norms:
+            x = b["extra_info"]
+            st = x["stepping_s"]
+            lines.append(f"| {x['case']} nx={x['nx']} dt={x['dt']:g} | {x['samples']} "
+                         f"| {x['mode']} | {x['norm_s'] * 1e3:.2f} "
+                         f"| {st['standard'] * 1e3:.2f} | {x['ratio_standard']:.2f} "
+                         f"| {x['fastest']} | {st[x['fastest']] * 1e3:.2f} "
+                         f"| {x['ratio_fastest']:.2f} |")
     return "\n".join(lines)
 
 

@@ -1,0 +1,299 @@
+"""Issue #6 (performance): memory of a run and cost of the error norms.
+
+- The error norms keep to blocks of elements x samples: their memory does not grow like
+  the mesh times the samples (tracemalloc peak against a bound the former whole-mesh
+  blocks exceeded six-fold); a run's peak does not grow with the number of steps.
+- They equal a direct scikit-fem quadrature of the same errors (written here the
+  obvious way), with and without a clamped node, on a graded mesh, for a reference with
+  and without `fields`; `CharacteristicsSolution.fields` is `u`, `ux`, `ut` exactly.
+- The reference values kept for the next scheme on the same grid give the same numbers
+  and are not evaluated again; a table builds each reference once.
+- A table keeps one run's samples at a time when asked, rebuilds semi-discrete problems
+  it did not keep with the same results, and pandas is not loaded while runs step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import subprocess
+import sys
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import pytest
+from skfem import Basis, ElementLineP1, MeshLine
+
+from bench import harness, metrics
+from bench.characteristics import CharacteristicsSolution
+from bench.fem import mesh_nodes
+from bench.harness import run_one, run_table
+from bench.metrics import ERROR_COLUMNS, error_metrics
+from bench.plugin import Trajectory
+from bench.problem import discretise
+from bench.registry import make_case
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_caches(monkeypatch):
+    """Each test starts without kept reference values or references."""
+    metrics.clear_cache()
+    monkeypatch.setattr(harness, "_references", [])
+    yield
+    metrics.clear_cache()
+
+
+def _trajectory(semi, t: np.ndarray, seed: int = 0) -> Trajectory:
+    """Samples near the initial data (so that the errors are neither 0 nor huge)."""
+    rng = np.random.default_rng(seed)
+    K = t.size
+    U = semi.U0 + 0.01 * rng.standard_normal((K, semi.nfree))
+    V = semi.V0 + 0.01 * rng.standard_normal((K, semi.nfree))
+    return Trajectory(t=t, U=U, V=V, contact_u=U[:, 0], stress=-0.1 * rng.random(K),
+                      energy=np.ones(K), min_contact_u=0.0, steps_done=K - 1)
+
+
+# ------------------------------------------------------------------------------ memory
+def test_norm_memory_is_bounded_by_blocks_not_by_the_mesh(monkeypatch):
+    """n = 20000 elements, 3 samples, nothing kept: the peak of a metrics pass stays
+    under 40 arrays of n doubles (measured 27; the former single whole-mesh block of
+    samples x elements x 4 points took 170)."""
+    monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 0)
+    case = make_case("clamped_bar")
+    n = 20_000
+    semi = discretise(case, mesh_nodes(case.L, n))
+    traj = _trajectory(semi, np.array([0.0, 0.5, 1.3]))
+    exact = case.exact(2.0)
+    metrics.warm_up()
+    tracemalloc.start()
+    try:
+        error_metrics(semi, traj, exact, case.provides)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= 40 * 8 * n, f"norm pass peak {peak / 2**20:.1f} MB"
+    assert metrics._cache == []
+
+
+def test_kept_values_respect_their_budget(monkeypatch):
+    monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 2 * 2**20)
+    case = make_case("clamped_bar")
+    semi = discretise(case, mesh_nodes(case.L, 4000))
+    exact = case.exact(2.0)
+    error_metrics(semi, _trajectory(semi, np.linspace(0, 2, 11)), exact, case.provides)
+    assert metrics._cache == []  # 11 x 4000 x 4 x 3 doubles: over 2 MB, not kept
+    error_metrics(semi, _trajectory(semi, np.linspace(0, 2, 3)), exact, case.provides)
+    assert len(metrics._cache) == 1 and metrics._cache[0].nbytes <= 2 * 2**20
+
+
+def test_run_peak_does_not_grow_with_the_number_of_steps():
+    """Same samples (11), 4x the steps: the traced peak of a run stays the same."""
+    peaks = []
+    for dt, stride in ((1e-3, 20), (2.5e-4, 80)):
+        run_one("clamped_bar", "standard", nx=2000, dt=dt, T=0.2, stride=stride)  # warm
+        tracemalloc.start()
+        try:
+            run = run_one("clamped_bar", "standard", nx=2000, dt=dt, T=0.2, stride=stride)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+        assert run.trajectory.t.size == 11 and run.row["status"] == "ok"
+    assert peaks[1] <= 1.1 * peaks[0], peaks
+
+
+def test_table_keeps_one_runs_samples_when_asked():
+    full, light = [], []
+    a = run_table(["clamped_bar"], ["standard", "redistributed"], [20], T=0.5, keep=full)
+    b = run_table(["clamped_bar"], ["standard", "redistributed"], [20], T=0.5, keep=light,
+                  keep_samples=False)
+    cols = [c for c in a.columns if c != "wall_s"]
+    assert a[cols].equals(b[cols])
+    for f, g in zip(full, light, strict=True):
+        assert g.semi is None and g.trajectory.U.shape == (f.trajectory.t.size, 0)
+        assert g.trajectory.V.shape == (f.trajectory.t.size, 0)
+        for name in ("t", "contact_u", "stress", "energy"):
+            assert np.array_equal(getattr(f.trajectory, name), getattr(g.trajectory, name))
+        assert f.trajectory.U.shape[1] == f.semi.nfree
+
+
+def test_semi_not_kept_from_the_checks_is_rebuilt_identically(monkeypatch):
+    calls = []
+    real = harness.discretise
+
+    def counting(*args, **kw):
+        calls.append(1)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(harness, "discretise", counting)
+    kept = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
+    assert len(calls) == 2
+    monkeypatch.setattr(harness, "KEEP_SEMI_BYTES", 0)  # only the first plan's is kept
+    rebuilt = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
+    assert len(calls) == 2 + 3
+    cols = [c for c in kept.columns if c != "wall_s"]
+    assert kept[cols].equals(rebuilt[cols])
+
+
+def test_runs_step_without_pandas_loaded():
+    """pandas (60 MB) is imported for the table, after the runs: not in a run's peak."""
+    code = ("import sys; from bench.harness import run_one; "
+            "run_one('clamped_bar', 'standard', nx=10, T=0.1); "
+            "print('pandas' in sys.modules)")
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "False"
+
+
+# ------------------------------------------------------------------------------- norms
+def _direct(semi, traj, exact) -> dict:
+    """The error columns by one scikit-fem basis on the whole mesh, sample by sample."""
+    basis = Basis(MeshLine(semi.x), ElementLineP1(), intorder=7)
+    X = basis.global_coordinates().value[0]
+    w = basis.dx
+    d0, d1 = basis.element_dofs
+    p0, p1 = (basis.basis[j][0].value for j in range(2))
+    g0, g1 = (basis.basis[j][0].grad[0] for j in range(2))
+    U = semi.full(traj.U)
+    V = semi.full(traj.V, fill_velocity=True)
+    n = {k: [] for k in ("eu", "nu", "eux", "nux", "ev", "nv")}
+    for k, t in enumerate(traj.t):
+        uh = U[k, d0][:, None] * p0 + U[k, d1][:, None] * p1
+        uxh = U[k, d0][:, None] * g0 + U[k, d1][:, None] * g1
+        vh = V[k, d0][:, None] * p0 + V[k, d1][:, None] * p1
+        u, ux, v = exact.u(X, t), exact.ux(X, t), exact.ut(X, t)
+        for key, a in (("eu", uh - u), ("nu", u), ("eux", uxh - ux), ("nux", ux),
+                       ("ev", vh - v), ("nv", v)):
+            n[key].append(np.sum(w * a**2))
+    n = {k: np.array(v) for k, v in n.items()}
+    t = traj.t
+
+    def linf(e, m):
+        return np.sqrt(e.max() / m.max())
+
+    def l2(e, m):
+        return np.sqrt(np.trapezoid(e, t) / np.trapezoid(m, t))
+
+    s = exact.stress(t)
+    return {"err_u_linf_l2": linf(n["eu"], n["nu"]),
+           "err_u_linf_h1": linf(n["eu"] + n["eux"], n["nu"] + n["nux"]),
+           "err_v_linf_l2": linf(n["ev"], n["nv"]),
+           "err_u_l2_l2": l2(n["eu"], n["nu"]),
+           "err_u_l2_h1": l2(n["eu"] + n["eux"], n["nu"] + n["nux"]),
+           "err_v_l2_l2": l2(n["ev"], n["nv"]),
+           "err_stress_l2": l2((traj.stress - s) ** 2, s**2)}
+
+
+class _Smooth:
+    """A smooth field (not a solution of anything): u = cos(x + t) + x t / 2 (no
+    `fields`), for the generic path."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def u(self, x, t):
+        self.calls += 1
+        return np.cos(x + t) + 0.5 * x * t
+
+    def ux(self, x, t):
+        return -np.sin(x + t) + 0.5 * t
+
+    def ut(self, x, t):
+        return -np.sin(x + t) + 0.5 * x
+
+    def stress(self, t):
+        return -np.abs(np.sin(np.asarray(t, float))) - 0.1
+
+
+PROVIDES = frozenset({"u", "v", "stress"})
+
+
+@pytest.mark.parametrize("case_name", ["clamped_bar", "dropped_bar"])  # clamped / free end
+def test_norms_equal_direct_quadrature_on_a_graded_mesh(case_name):
+    case = make_case(case_name)
+    semi = discretise(case, mesh_nodes(case.L, 37, grading=1.6))
+    if semi.u_fixed is not None:  # a clamped node off zero
+        semi = dataclasses.replace(semi, u_fixed=0.3)
+    traj = _trajectory(semi, np.linspace(0.0, 0.9, 23))
+    got = error_metrics(semi, traj, _Smooth(), PROVIDES)
+    want = _direct(semi, traj, _Smooth())
+    for col in ERROR_COLUMNS:
+        assert got[col] == pytest.approx(want[col], rel=1e-13, abs=0), col
+
+
+def test_norms_with_a_characteristics_reference_equal_direct_quadrature():
+    case = make_case("dropped_bar")
+    run = run_one(case, "redistributed", nx=25, T=1.5)
+    exact = case.exact(run.row["T"])
+    assert isinstance(exact, CharacteristicsSolution)
+    want = _direct(run.semi, run.trajectory, exact)
+    for col in ERROR_COLUMNS:
+        assert run.row[col] == pytest.approx(want[col], rel=1e-13, abs=0), col
+    assert run.norm_s is not None and run.norm_s >= 0.0
+
+
+@pytest.mark.parametrize("far_end,g,u_L", [("free", 10.0, 0.0), ("clamped", 3.0, 0.2)])
+def test_fields_are_u_ux_ut_exactly(far_end, g, u_L):
+    sol = CharacteristicsSolution(L=2.0, E=9.0, rho=1.0, g=g, far_end=far_end, u_L=u_L,
+                                  u0=lambda x: u_L + 0.25 * (2.0 - x), v0=-0.3, T=4.0,
+                                  cells_per_length=400)
+    rng = np.random.default_rng(1)
+    x = np.concatenate(([0.0, 2.0, 1.0], rng.uniform(0, 2, 300)))
+    t = np.concatenate(([0.0, 4.0], rng.uniform(0, 4, 200), np.arange(1, 13) / 3.0))
+    X, T = x[None, :], t[:, None]
+    u, ux, ut = sol.fields(X, T)
+    assert np.array_equal(u, sol.u(X, T))
+    assert np.array_equal(ux, sol.ux(X, T))
+    assert np.array_equal(ut, sol.ut(X, T))
+    assert sol.fields(X, T, velocity=False)[2] is None
+
+
+def test_kept_reference_values_give_the_same_errors_without_new_evaluations():
+    case = make_case("clamped_bar")
+    semi = discretise(case, mesh_nodes(case.L, 30))
+    t = np.linspace(0.0, 1.0, 17)
+    exact = _Smooth()
+    first = error_metrics(semi, _trajectory(semi, t, seed=1), exact, PROVIDES)
+    evaluated = exact.calls
+    assert evaluated > 0
+    second = error_metrics(semi, _trajectory(semi, t, seed=2), exact, PROVIDES)
+    assert exact.calls == evaluated  # the second scheme on the grid reuses the values
+    metrics.clear_cache()
+    fresh = error_metrics(semi, _trajectory(semi, t, seed=2), exact, PROVIDES)
+    assert second == fresh and second != first
+    calls = exact.calls
+    error_metrics(semi, _trajectory(semi, t), exact, PROVIDES)
+    assert exact.calls == calls
+    error_metrics(semi, _trajectory(semi, t + 0.01), exact, PROVIDES)  # other times
+    assert exact.calls > calls
+    calls = exact.calls
+    error_metrics(semi, _trajectory(semi, t), exact, PROVIDES)  # both grids kept
+    assert exact.calls == calls
+    other = _Smooth()
+    error_metrics(semi, _trajectory(semi, t), other, PROVIDES)  # another reference
+    assert other.calls > 0 and exact.calls == calls
+
+
+def test_table_builds_each_reference_once(monkeypatch):
+    case_cls = type(make_case("dropped_bar"))
+    built = []
+    real = case_cls.exact
+
+    def counting(self, T):
+        built.append(T)
+        return real(self, T)
+
+    monkeypatch.setattr(case_cls, "exact", counting)
+    runs = []
+    run_table(["dropped_bar"], ["standard", "redistributed", "hht"], [12], T=1.0, keep=runs)
+    assert len(built) == 1
+    assert all(r.norm_s is not None and r.norm_s >= 0 for r in runs)
+    monkeypatch.setattr(harness, "_references", [])
+    monkeypatch.setattr(harness, "KEEP_REFERENCE_BYTES", 0)  # over budget: not kept
+    again = run_table(["dropped_bar"], ["standard", "redistributed", "hht"], [12], T=1.0)
+    assert len(built) == 1 + 3 and harness._references == []
+    assert again["err_u_l2_l2"].tolist() == [r.row["err_u_l2_l2"] for r in runs]
