@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
-from bench.environment import provenance
+from bench.environment import provenance, return_freed_memory
 from bench.errors import BenchError
 from bench.harness import Run, reference, run_table
 from bench.io import write_text
@@ -196,6 +196,7 @@ INTERRUPTED = "contact-bench: interrupted (no partial result files written)"
 def main(argv: Sequence[str] | None = None) -> int:
     """Exit codes: 0 done, 2 bad input (one line on stderr), 130 interrupted (Ctrl-C)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    return_freed_memory()  # peak memory: freed n-sized arrays are not kept by the heap
     try:
         args = build_parser().parse_args(argv)
         if args.command == "list":

@@ -7,6 +7,7 @@ versions and the date.
 
 from __future__ import annotations
 
+import ctypes
 import datetime as _dt
 import os
 import platform
@@ -72,3 +73,23 @@ def provenance(argv: Sequence[str] | None = None) -> str:
     return (f"made by `{cmd.strip()}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
             f"python {env['env_python']}, {versions}; CPU {env['env_cpu']} "
             f"({env['env_ncpu']} cores); git {env['env_git']}")
+
+
+#: arrays above this size are mapped and unmapped one by one (glibc's M_MMAP_THRESHOLD)
+MMAP_THRESHOLD = 1 << 20
+
+
+def return_freed_memory() -> bool:
+    """Make glibc give large freed arrays back to the system at once.
+
+    glibc raises its mmap threshold each time a mapped block is freed (up to 32 MB), so
+    after assembly frees its n-sized temporaries the next n-sized arrays come from the
+    heap, and the heap keeps what the temporaries freed: about 80 MB more resident
+    memory at n = 1e6. A fixed threshold keeps every array above 1 MB mapped on its own.
+    Returns False where there is no glibc (nothing changes then).
+    """
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        return bool(libc.mallopt(-3, MMAP_THRESHOLD))  # -3: M_MMAP_THRESHOLD
+    except (OSError, AttributeError):
+        return False

@@ -35,6 +35,7 @@ from schemes._common import (
 )
 from schemes._spike import (
     L,
+    Spike,
     backward_rows,
     correct,
     reduced,
@@ -213,28 +214,39 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
     return k, nsteps, min_u0, -1
 
 
+def _load_to_lanes(sp: Spike, F: np.ndarray, scale: float) -> np.ndarray:
+    """scale * F in the interleaved layout; a zero load is np.zeros, whose pages the
+    kernel only reads, so it costs no resident memory at large n."""
+    return sp.to_lanes(scale * F) if np.any(F) else np.zeros(sp.lanes * sp.m)
+
+
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
                 beta: float, gamma: float) -> Trajectory:
-    """Factor outside the loop (interleaved SPIKE factors), then call the kernel."""
+    """Factor outside the loop (interleaved SPIKE factors), then call the kernel.
+
+    The kernel's state lives only in the interleaved layout; nothing in node order is
+    kept alive while it steps beyond the problem itself and the sample buffers.
+    """
     M, K = semi.M, semi.K
     n = semi.nfree
     dt, beta, gamma = float(dt), float(beta), float(gamma)
-    U, V = semi.U0.copy(), semi.V0.copy()
-    A = initial_acceleration(semi)
+    U, V = semi.U0, semi.V0
     out = allocate(semi, nsteps, stride)
     out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
     out["E"][0] = energy_of(M.diag, M.off, K.diag, K.off, semi.F, U, V, semi.energy_offset)
+    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     if beta > 0.0:
         bdt2 = beta * dt * dt
         sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off)
-        z, coef = np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1)
+        A = initial_acceleration(semi)
         Ut = sp.to_lanes(U + dt * V + (0.5 - beta) * dt * dt * A)
-        Vl, Al = sp.to_lanes(V), sp.to_lanes(A)
+        Al = sp.to_lanes(A)
+        del A
         k, done, min_u0, blow = _implicit_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(M.diag), sp.lower_to_lanes(M.off),
-            sp.to_lanes(bdt2 * semi.F), sp.factors(), sp.hw, sp.w0, Ut, Vl, Al, z, coef,
-            float(U[0]), dt, beta, gamma, bool(semi.massless), int(nsteps), int(stride),
-            semi.energy_offset, out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+            _load_to_lanes(sp, semi.F, bdt2), sp.factors(), sp.hw, sp.w0, Ut, sp.to_lanes(V),
+            Al, np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1), float(U[0]), dt, beta,
+            gamma, bool(semi.massless), int(nsteps), int(stride), semi.energy_offset, *bufs)
     else:
         if not semi.massless:
             raise ValueError("explicit Newmark (beta = 0) here needs a massless contact node")
@@ -243,11 +255,11 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         d, e = M.diag.copy(), M.off.copy()
         d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_r on nodes 1.. plus an identity row
         sp = spike_factor(d, e)
-        z, coef = np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1)
-        Ul, Vl, Al = sp.to_lanes(U), sp.to_lanes(V), sp.to_lanes(A)
+        del d, e
+        Al = sp.to_lanes(initial_acceleration(semi))
         k, done, min_u0, blow = _explicit_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
-            sp.to_lanes(semi.F), sp.factors(), Ul, Vl, Al, z, coef, dt, gamma, int(nsteps),
-            int(stride),
-            semi.energy_offset, out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+            _load_to_lanes(sp, semi.F, 1.0), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), Al,
+            np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1), dt, gamma, int(nsteps),
+            int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)

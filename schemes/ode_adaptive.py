@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from scipy.integrate import solve_ivp
 
 from bench.params import Param
 from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
@@ -93,6 +92,8 @@ class OdeAdaptive(Scheme):
         y0 = np.concatenate([semi.U0[1:], semi.V0[1:]])
         atol = self.rtol * (float(np.max(np.abs(semi.U0))) + velocity_scale(semi) + 1e-300)
         args = (K.diag, K.off, F, Sd, Se)
+        from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
+
         sol = solve_ivp(lambda t, y: ode_rhs(y, *args), (0.0, float(t_eval[-1])), y0,
                         method="DOP853", t_eval=t_eval, rtol=self.rtol, atol=atol)
         k = sol.t.size
