@@ -4,9 +4,10 @@ Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped
 assembly (`bench.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen before
 the timing, the stride is the whole run (two samples), nsteps is chosen for ~0.1 s per
 round (0.5 s at n = 1e6) from the marginal cost of a step in two short probe runs, so
-the per-run set-up (factors, layout: ~0.1 s at 1e6) stays a small part of the median. `extra_info` holds `ns_per_dof_step` (median round / (nfree * nsteps)) and the
-run's error `err_u_linf_l2` against the exact solution. New schemes are picked up from
-the registry; a scheme that cannot run the clamped bar is skipped with its reason.
+the per-run set-up (factors, layout: ~0.1 s at 1e6) stays a small part of the median.
+`extra_info` holds `ns_per_dof_step` (median round / (nfree * nsteps)) and the run's
+error `err_u_linf_l2` against the exact solution. New schemes are picked up from the
+registry; a scheme that cannot run the clamped bar is skipped with its reason.
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ def _implicit_kernel(Md, Me, Kd, Ke, F, Mdl, Mlo, bF, fac, hw, w0, Ut, V, A, z, 
 
     fac = `Spike.factors()` of S; (hw, w0) its response to a unit force on node 0.
     """
-    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
     N = L * m
     ibdt2 = 1.0 / (beta * dt * dt)
     c2 = (0.5 - beta) * dt * dt
@@ -98,7 +98,7 @@ def _implicit_kernel(Md, Me, Kd, Ke, F, Mdl, Mlo, bF, fac, hw, w0, Ut, V, A, z, 
         # (1), (2): z = S^-1 (M Ut + beta dt^2 F), contact-free
         stencil_forward(Mdl, Mlo, Ut, bF, 1.0, lo, m, z)
         backward_rows(z, lo, invd, L * m)
-        x0 = reduced(z, Hptr, Hpos, Hval, coef)
+        x0 = reduced(z, Hrow, Hpos, Hval, coef)
         # contact: U1 = U_f + mu w, w = S^-1 e0, through the spike coefficients
         mu = -x0 / w0 if x0 < 0.0 else 0.0
         if mu != 0.0:
@@ -156,7 +156,7 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
     fac = `Spike.factors()` of M_r with node 0 decoupled (an identity row), so the
     solve gives A1[0] = 0 when the right-hand side of node 0 is set to 0.
     """
-    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
     N = L * m
     h2 = 0.5 * dt * dt
     dg = dt * gamma
@@ -182,7 +182,7 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
         stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
         z[0] = 0.0
         backward_rows(z, lo, invd, L * m)
-        reduced(z, Hptr, Hpos, Hval, coef)
+        reduced(z, Hrow, Hpos, Hval, coef)
         correct(z, sa, sb, coef, m, ja, jb)
         sample = step % stride == 0 or step == nsteps
         if sample:  # V^{n+1} only: U^{n+1} is sampled below

@@ -60,16 +60,16 @@ class Spike:
     b: np.ndarray  # last `jb` rows of the spike b
     ja: int
     jb: int
-    Hptr: np.ndarray  # H: (2 lanes + 1) x (2 lanes), y interface -> (A, B, x[0]), as CSR
-    Hpos: np.ndarray  # with the column index replaced by the position of that value in z
-    Hval: np.ndarray
+    Hrow: np.ndarray  # H: (2 lanes + 1) x (2 lanes), y interface -> (A, B, x[0]), as
+    Hpos: np.ndarray  # (row, position in z of the column's interface value, value)
+    Hval: np.ndarray  # triplets of its entries, column by column
     w0: float  # (S^-1)[0, 0]: response of x[0] to a unit force on node 0
     hw: np.ndarray  # (2 lanes) (A, B) of the solution of S w = e0
     pos: np.ndarray  # position of each node 0 .. n-1 in the interleaved layout
 
     def factors(self) -> tuple:
-        """What the numba kernels take: (lo, invd, a, b, Hptr, Hpos, Hval, ja, jb, m, pos)."""
-        return (self.lo, self.invd, self.a, self.b, self.Hptr, self.Hpos, self.Hval,
+        """What the numba kernels take: (lo, invd, a, b, Hrow, Hpos, Hval, ja, jb, m, pos)."""
+        return (self.lo, self.invd, self.a, self.b, self.Hrow, self.Hpos, self.Hval,
                 self.ja, self.jb, self.m, self.pos)
 
     def position(self) -> np.ndarray:
@@ -151,8 +151,8 @@ def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
     # entries below H_CUTOFF of their row's largest cannot change the result beyond
     # round-off; far-apart blocks only see each other through them
     keep = np.abs(H) > H_CUTOFF * np.abs(H).max(axis=1, keepdims=True)
-    rows_, cols = np.nonzero(keep)
-    Hptr = np.concatenate(([0], np.cumsum(keep.sum(axis=1)))).astype(np.int64)
+    cols, rows_ = np.nonzero(keep.T)  # column by column
+    Hrow = rows_.astype(np.int64)
     Hpos = np.where(cols < P, cols, (m - 1) * P + cols - P).astype(np.int64)
     Hval = H[rows_, cols]
     # the contact response w = S^-1 e0: y_w = a in lane 0 (block 0's first spike)
@@ -170,7 +170,7 @@ def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
     pos = (i % m) * P + i // m
     return Spike(n=n, lanes=P, m=m, lo=lo.ravel(), invd=invd.ravel(),
                  a=np.ascontiguousarray(a[:ja]).ravel(), b=np.ascontiguousarray(b[m - jb:]).ravel(),
-                 ja=ja, jb=jb, Hptr=Hptr, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw,
+                 ja=ja, jb=jb, Hrow=Hrow, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw,
                  pos=pos)
 
 
@@ -204,18 +204,19 @@ def backward_rows(z, lo, invd, N):
 
 
 @njit(cache=True, fastmath=_FM)
-def reduced(z, Hptr, Hpos, Hval, coef):
+def reduced(z, Hrow, Hpos, Hval, coef):
     """coef = H y_interface: (A, B) in coef[:2 LANES] and the free x[0] in coef[2 LANES].
 
-    H is stored by rows with the positions of its interface values in z (CSR): far
-    apart blocks do not see each other once the spikes have decayed, so H is banded
-    in practice and a step costs a few multiply-adds per lane, not (2 LANES)^2.
+    H is stored as (row, position in z of the interface value, value) triplets, column
+    by column: far-apart blocks do not see each other once the spikes have decayed, so
+    H is banded in practice (a few multiply-adds per lane, not (2 LANES)^2); and where
+    it is dense (few rows per block), consecutive updates go to different rows, so
+    they do not wait on each other.
     """
     for r in range(coef.size):
-        s = 0.0
-        for k in range(Hptr[r], Hptr[r + 1]):
-            s += Hval[k] * z[Hpos[k]]
-        coef[r] = s
+        coef[r] = 0.0
+    for k in range(Hval.size):
+        coef[Hrow[k]] += Hval[k] * z[Hpos[k]]
     return coef[coef.size - 1]
 
 
@@ -293,10 +294,10 @@ def scatter_sample(k, pos, X, V, U_out, V_out):
 
 
 @njit(cache=True)
-def spike_solve(lo, invd, a, b, Hptr, Hpos, Hval, m, ja, jb, z, coef):
+def spike_solve(lo, invd, a, b, Hrow, Hpos, Hval, m, ja, jb, z, coef):
     """Solve S x = z in place (interleaved layout); coef is scratch of length 2 LANES + 1."""
     N = L * m
     forward_rows(z, lo, L, N)
     backward_rows(z, lo, invd, N)
-    reduced(z, Hptr, Hpos, Hval, coef)
+    reduced(z, Hrow, Hpos, Hval, coef)
     correct(z, a, b, coef, m, ja, jb)

@@ -125,7 +125,7 @@ def _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
     fac = `Spike.factors()` of M_bar with node 0 decoupled (an identity row): the
     right-hand side of node 0 is replaced by 0, so z[0] = A[0] = 0 through the solve.
     """
-    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
     u1 = U[p1]
     c = (F[0] - Ke[0] * u1) / Kd[0]
     u0 = c if c > 0.0 else 0.0
@@ -133,7 +133,7 @@ def _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
     stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
     z[0] = 0.0
     backward_rows(z, lo, invd, L * m)
-    reduced(z, Hptr, Hpos, Hval, coef)
+    reduced(z, Hrow, Hpos, Hval, coef)
     correct(z, sa, sb, coef, m, ja, jb)
     return Kd[0] * u0 + Ke[0] * u1 - F[0]
 
@@ -148,7 +148,7 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
     next step's half kick and drift are one pass (the same operations, in the same
     order, as the reference kernel's two loops).
     """
-    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
     N = L * m
     h = 0.5 * dt
     p1 = L if m > 1 else 1  # node 1: row 1 of lane 0, or row 0 of lane 1

@@ -131,7 +131,7 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
     closing half kick of a step and the next step's drift and half kick are one pass
     (the same operations, in the same order, as the reference kernel's loops).
     """
-    lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
     N = L * m
     h = 0.5 * dt
     h2 = 0.5 * dt * dt
@@ -165,7 +165,7 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
         # A^{n+1} = M^-1 (F - K U^{n+1})
         stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
         backward_rows(z, lo, invd, N)
-        reduced(z, Hptr, Hpos, Hval, coef)
+        reduced(z, Hrow, Hpos, Hval, coef)
         correct(z, sa, sb, coef, m, ja, jb)
         A, z = z, A  # the old A is the next solve's scratch
         u0 = U[0]
@@ -239,10 +239,10 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         sp = spike_factor(M.diag, M.off)
         N = sp.lanes * sp.m
         fac = sp.factors()
-        lo, invd, sa, sb, Hptr, Hpos, Hval, ja, jb, m, pos = fac
+        lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
         w = np.zeros(N)  # w = M^-1 e0, interleaved; node 0 is at position 0
         w[0] = 1.0
-        spike_solve(lo, invd, sa, sb, Hptr, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
+        spike_solve(lo, invd, sa, sb, Hrow, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
         wpos = np.flatnonzero(np.abs(w) > SPIKE_CUTOFF * abs(w[0]))
         k, done, min_u0, blow = tf_spike_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
