@@ -152,16 +152,20 @@ def velocity_scale(semi: Semidiscrete) -> float:
     return v
 
 
-@njit(cache=True)
-def eliminate_contact_node(Kd, Ke, F, U):
+# fastmath=False explicitly: a numba callee with no fastmath setting takes its caller's, and
+# a contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
+@njit(cache=True, fastmath=False)
+def eliminate_contact_node(Kd, Ke, F, U, p1=1):
     """Set U[0] = max(0, (F0 - K01 u1) / K00), the massless node of (P_U^mod); return lambda.
 
-    lambda = K00 u0 + K01 u1 - F0 >= 0 is the obstacle's force (the contact stress is
-    -lambda); it is 0 when the node is free.
+    u1 = U[p1] (node 1's position: 1 in node order, another in the interleaved layout
+    of `schemes._spike`). lambda = K00 u0 + K01 u1 - F0 >= 0 is the obstacle's force
+    (the contact stress is -lambda); it is 0 when the node is free.
     """
-    u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
+    u1 = U[p1]
+    u0 = (F[0] - Ke[0] * u1) / Kd[0]
     U[0] = u0 if u0 > 0.0 else 0.0
-    return Kd[0] * U[0] + Ke[0] * U[1] - F[0]
+    return Kd[0] * U[0] + Ke[0] * u1 - F[0]
 
 
 def central_difference_excess(dt: float, limit: float | None) -> float:

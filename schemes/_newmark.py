@@ -29,6 +29,7 @@ from bench.plugin import Semidiscrete, Trajectory
 from schemes._common import (
     allocate,
     blown_up,
+    eliminate_contact_node,
     energy_of,
     initial_acceleration,
     trajectory,
@@ -38,10 +39,11 @@ from schemes._spike import (
     Spike,
     backward_rows,
     correct,
+    record_lane_sample,
     reduced,
-    scatter_sample,
     spike_factor,
     stencil_forward,
+    stencil_solve,
 )
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
@@ -126,26 +128,26 @@ def _implicit_kernel(Md, Me, Kd, Ke, F, Mdl, Mlo, bF, fac, hw, w0, Ut, V, A, z, 
         if u1 < min_u0:
             min_u0 = u1
         if step % stride == 0 or step == nsteps:
-            scatter_sample(k, pos, z, V, U_out, V_out)
-            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
-            t_out[k] = step * dt
-            cu_out[k] = u1
-            s_out[k] = -mu * ibdt2
-            E_out[k] = energy
+            energy = record_lane_sample(k, step * dt, pos, z, V, -mu * ibdt2, Md, Me, Kd, Ke,
+                                        F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
 
 
-# fastmath=False explicitly: a callee with no fastmath setting inherits its caller's, and a
-# contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
-@njit(cache=True, fastmath=False)
-def _static_contact_node(K00, K01, F0, u1):
-    """u0 = max(0, (F0 - K01 u1) / K00) and the obstacle's force lambda >= 0."""
-    c = (F0 - K01 * u1) / K00
-    u0 = c if c > 0.0 else 0.0
-    return u0, K00 * u0 + K01 * u1 - F0
+@njit(cache=True, fastmath=_FM)
+def massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
+    """The seed's (P_U^mod) in the interleaved layout: U[0] <- u0(u1) (node 1 at position
+    p1), z <- A = M_r^-1 (F - K U) on nodes 1.. and A[0] = 0; returns lambda.
+
+    fac = `Spike.factors()` of M_r with node 0 decoupled (an identity row, lo = 0 at
+    node 1), so the right-hand side of node 0 only reaches z[0], which is set to 0.
+    """
+    lam = eliminate_contact_node(Kd, Ke, F, U, p1)
+    stencil_solve(Kdl, Klo, U, Fl, -1.0, fac, z, coef)
+    z[0] = 0.0
+    return lam
 
 
 @njit(cache=True, fastmath=_FM)
@@ -153,16 +155,15 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
                      nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
     """Central differences (beta = 0) with a massless contact node (interleaved layout).
 
-    fac = `Spike.factors()` of M_r with node 0 decoupled (an identity row), so the
-    solve gives A1[0] = 0 when the right-hand side of node 0 is set to 0.
+    fac = `Spike.factors()` of M_r with node 0 decoupled (`massless_acceleration`).
     """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    m, pos = fac[9], fac[10]
     N = L * m
     h2 = 0.5 * dt * dt
     dg = dt * gamma
     dg1 = dt * (1.0 - gamma)
     idt = 1.0 / dt
-    p1 = L if m > 1 else 1  # node 1: row 1 of lane 0, or row 0 of lane 1
+    p1 = pos[1]  # node 1's position
     u0 = U[0]
     min_u0 = u0
     E0 = E_out[0]
@@ -173,17 +174,8 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
             for p in range(N):
                 pu = uint64(p)
                 U[pu] = U[pu] + dt * V[pu] + h2 * A[pu]
-        u1 = U[p1]
-        ucon, lam = _static_contact_node(Kd[0], Ke[0], F[0], u1)
-        U[0] = ucon
-        # M_r A1 = F - K U1 on nodes 1..: node 0 is decoupled in the factors (an identity
-        # row, lo = 0 at node 1), so its right-hand side is simply replaced by 0 and
-        # A1[0] = z[0] stays 0 through the solve
-        stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
-        z[0] = 0.0
-        backward_rows(z, lo, invd, L * m)
-        reduced(z, Hrow, Hpos, Hval, coef)
-        correct(z, sa, sb, coef, m, ja, jb)
+        lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
+        ucon = U[0]
         sample = step % stride == 0 or step == nsteps
         if sample:  # V^{n+1} only: U^{n+1} is sampled below
             for p in range(N):
@@ -202,12 +194,8 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
         if ucon < min_u0:
             min_u0 = ucon
         if sample:
-            scatter_sample(k, pos, U, V, U_out, V_out)
-            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
-            t_out[k] = step * dt
-            cu_out[k] = ucon
-            s_out[k] = -lam
-            E_out[k] = energy
+            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
+                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

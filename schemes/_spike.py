@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, uint64
 
-from schemes._common import factor_pt, pt_solve
+from schemes._common import energy_of, factor_pt, pt_solve
 
 #: vector lanes (blocks); 16 doubles are two AVX-512 registers: latency of the
 #: recurrence hidden, reduced system (2 x 16 unknowns) still negligible at n >= 1e3
@@ -285,12 +285,34 @@ def stencil_forward(Sd, Slo, X, G, sign, lo, m, z):
         forward_rows(z, lo, N - L, N)
 
 
-@njit(cache=True)
-def scatter_sample(k, pos, X, V, U_out, V_out):
-    """U_out[k], V_out[k] = X, V in node order (pos = `Spike.position()`)."""
+@njit(cache=True, fastmath=_FM)
+def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
+    """z = S^-1 (G + sign * T X), S factored in fac (`Spike.factors()`), T = (Sd, Slo) a
+    tridiagonal in the interleaved layout; returns x[0]. The right-hand side, the
+    forward sweep, the backward sweep, the reduced system and the spike correction."""
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    stencil_forward(Sd, Slo, X, G, sign, lo, m, z)
+    backward_rows(z, lo, invd, L * m)
+    x0 = reduced(z, Hrow, Hpos, Hval, coef)
+    correct(z, sa, sb, coef, m, ja, jb)
+    return x0
+
+
+@njit(cache=True, fastmath=_FM)
+def record_lane_sample(k, t, pos, X, V, stress, Md, Me, Kd, Ke, F, offset,
+                       t_out, U_out, V_out, cu_out, s_out, E_out):
+    """Sample k from the interleaved X, V (pos = `Spike.position()`): U, V in node order,
+    u(0, t) = X[0], the stress and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset,
+    which is returned."""
     for i in range(pos.size):
         U_out[k, i] = X[pos[i]]
         V_out[k, i] = V[pos[i]]
+    energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
+    t_out[k] = t
+    cu_out[k] = X[0]
+    s_out[k] = stress
+    E_out[k] = energy
+    return energy
 
 
 @njit(cache=True)

@@ -49,16 +49,8 @@ from schemes._common import (
     trajectory,
     tri_matvec,
 )
-from schemes._newmark import newmark_limit
-from schemes._spike import (
-    L,
-    backward_rows,
-    correct,
-    reduced,
-    scatter_sample,
-    spike_factor,
-    stencil_forward,
-)
+from schemes._newmark import massless_acceleration, newmark_limit
+from schemes._spike import L, record_lane_sample, spike_factor
 
 
 @njit(cache=True)
@@ -116,28 +108,6 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
     return k, nsteps, min_u0, -1
 
 
-# fastmath=False explicitly: a callee inherits an unset fastmath from its caller (numba), and
-# a contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
-@njit(cache=True, fastmath=False)
-def _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
-    """`ode_acceleration` in the interleaved layout: U[0] <- u0(u1), z = A; returns lambda.
-
-    fac = `Spike.factors()` of M_bar with node 0 decoupled (an identity row): the
-    right-hand side of node 0 is replaced by 0, so z[0] = A[0] = 0 through the solve.
-    """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
-    u1 = U[p1]
-    c = (F[0] - Ke[0] * u1) / Kd[0]
-    u0 = c if c > 0.0 else 0.0
-    U[0] = u0
-    stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
-    z[0] = 0.0
-    backward_rows(z, lo, invd, L * m)
-    reduced(z, Hrow, Hpos, Hval, coef)
-    correct(z, sa, sb, coef, m, ja, jb)
-    return Kd[0] * u0 + Ke[0] * u1 - F[0]
-
-
 @njit(cache=True, fastmath={"contract"})
 def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
                         stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
@@ -148,20 +118,16 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
     next step's half kick and drift are one pass (the same operations, in the same
     order, as the reference kernel's two loops).
     """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    m, pos = fac[9], fac[10]
     N = L * m
     h = 0.5 * dt
-    p1 = L if m > 1 else 1  # node 1: row 1 of lane 0, or row 0 of lane 1
+    p1 = pos[1]  # node 1's position
     r = -(Ke[0] / Kd[0])  # v0 = r v1 while the node is off the obstacle
-    lam = _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
+    lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
     V[0] = r * V[p1] if U[0] > 0.0 else 0.0
     min_u0 = U[0]
-    scatter_sample(0, pos, U, V, U_out, V_out)
-    E0 = energy_of(Md, Me, Kd, Ke, F, U_out[0], V_out[0], offset)
-    t_out[0] = 0.0
-    cu_out[0] = U[0]
-    s_out[0] = -lam
-    E_out[0] = E0
+    E0 = record_lane_sample(0, 0.0, pos, U, V, -lam, Md, Me, Kd, Ke, F, offset,
+                            t_out, U_out, V_out, cu_out, s_out, E_out)
     k = 1
     kicked = False  # V, U already hold this step's half kick and drift
     for step in range(1, nsteps + 1):
@@ -172,7 +138,7 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
                 V[pu] = v
                 U[pu] = U[pu] + dt * v
         # U[0] was drifted with V[0] above; it is replaced by u0(u1) here
-        lam = _spike_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
+        lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
         A, z = z, A  # A^{n+1}; the old A is the next solve's scratch
         u0 = U[0]
         if u0 < min_u0:
@@ -192,12 +158,8 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
         kicked = not sample
         if sample:
             V[0] = r * V[p1] if u0 > 0.0 else 0.0
-            scatter_sample(k, pos, U, V, U_out, V_out)
-            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
-            t_out[k] = step * dt
-            cu_out[k] = u0
-            s_out[k] = -lam
-            E_out[k] = energy
+            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
+                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

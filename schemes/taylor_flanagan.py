@@ -61,13 +61,10 @@ from schemes._newmark import newmark_limit
 from schemes._spike import (
     SPIKE_CUTOFF,
     L,
-    backward_rows,
-    correct,
-    reduced,
-    scatter_sample,
+    record_lane_sample,
     spike_factor,
     spike_solve,
-    stencil_forward,
+    stencil_solve,
 )
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
@@ -131,18 +128,14 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
     closing half kick of a step and the next step's drift and half kick are one pass
     (the same operations, in the same order, as the reference kernel's loops).
     """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    m, pos = fac[9], fac[10]
     N = L * m
     h = 0.5 * dt
     h2 = 0.5 * dt * dt
     dt2 = dt * dt
     min_u0 = U[0]
-    scatter_sample(0, pos, U, V, U_out, V_out)
-    E0 = energy_of(Md, Me, Kd, Ke, F, U_out[0], V_out[0], offset)
-    t_out[0] = 0.0
-    cu_out[0] = U[0]
-    s_out[0] = 0.0
-    E_out[0] = E0
+    E0 = record_lane_sample(0, 0.0, pos, U, V, 0.0, Md, Me, Kd, Ke, F, offset,
+                            t_out, U_out, V_out, cu_out, s_out, E_out)
     k = 1
     drifted = False  # U, V already hold this step's drift and half kick
     for step in range(1, nsteps + 1):
@@ -163,10 +156,7 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
                 U[p] += cu * wval[q]
                 V[p] += cv * wval[q]
         # A^{n+1} = M^-1 (F - K U^{n+1})
-        stencil_forward(Kdl, Klo, U, Fl, -1.0, lo, m, z)
-        backward_rows(z, lo, invd, N)
-        reduced(z, Hrow, Hpos, Hval, coef)
-        correct(z, sa, sb, coef, m, ja, jb)
+        stencil_solve(Kdl, Klo, U, Fl, -1.0, fac, z, coef)
         A, z = z, A  # the old A is the next solve's scratch
         u0 = U[0]
         if u0 < min_u0:
@@ -185,12 +175,8 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
                 V[pu] = v + h * a
         drifted = not sample
         if sample:
-            scatter_sample(k, pos, U, V, U_out, V_out)
-            energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
-            t_out[k] = step * dt
-            cu_out[k] = u0
-            s_out[k] = -lam
-            E_out[k] = energy
+            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
+                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
