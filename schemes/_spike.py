@@ -72,14 +72,10 @@ class Spike:
         return (self.lo, self.invd, self.a, self.b, self.Hrow, self.Hpos, self.Hval,
                 self.ja, self.jb, self.m, self.pos)
 
-    def position(self) -> np.ndarray:
-        """Position in the interleaved layout of each node 0 .. n-1."""
-        return self.pos
-
     def to_lanes(self, x: np.ndarray, pad: float = 0.0) -> np.ndarray:
         """A natural-order vector (length n) in the interleaved layout (padding = pad)."""
         out = np.full(self.lanes * self.m, float(pad))
-        out[self.position()] = x
+        out[self.pos] = x
         return out
 
     def lower_to_lanes(self, off: np.ndarray) -> np.ndarray:
@@ -90,7 +86,7 @@ class Spike:
         return self.to_lanes(lower)
 
     def to_natural(self, y: np.ndarray) -> np.ndarray:
-        return y[self.position()]
+        return y[self.pos]
 
 
 def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
@@ -301,7 +297,7 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
 @njit(cache=True, fastmath=_FM)
 def record_lane_sample(k, t, pos, X, V, stress, Md, Me, Kd, Ke, F, offset,
                        t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Sample k from the interleaved X, V (pos = `Spike.position()`): U, V in node order,
+    """Sample k from the interleaved X, V (pos = `Spike.pos`): U, V in node order,
     u(0, t) = X[0], the stress and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset,
     which is returned."""
     for i in range(pos.size):
