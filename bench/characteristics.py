@@ -118,7 +118,10 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
+
+from bench.plugin import flat_points
 
 __all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES"]
 
@@ -521,7 +524,7 @@ class CharacteristicsSolution:
         del sQs
         self._delta = np.array(deltas)
         self._K = K
-        self._lut: NDArray[np.integer] | None = None  # see _first_guess
+        self._lut: NDArray[np.integer] | None = None  # see _lookup_table
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
@@ -533,127 +536,37 @@ class CharacteristicsSolution:
         return np.clip(t, 0.0, self.T)
 
     def _points(self, x: ArrayLike, t: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """x and t checked (in the bar, in [0, T]) and clipped, not yet broadcast."""
         x = np.asarray(x, dtype=float)
         slack = _T_SLACK * self.L
         if np.any(~np.isfinite(x)) or np.any(x < -slack) or np.any(x > self.L + slack):
             bad = x[~((x >= -slack) & (x <= self.L + slack))].ravel()[0]
             raise ValueError(f"x = {bad!r} outside the bar [0, L={self.L!r}]")
-        x = np.clip(x, 0.0, self.L)
-        x, t = np.broadcast_arrays(x, self._times(t))
-        return x, t
+        return np.clip(x, 0.0, self.L), self._times(t)
 
-    def _cell(self, k: FloatArray, r: FloatArray) -> tuple[NDArray[np.intp],
-                                                           NDArray[np.intp]]:
-        """(cell, block) containing the point s = k L + r (cell to the right on a node).
-
-        A table on s = k L + r only gives a first guess (`_first_guess`); it is corrected
-        by comparing (k, r) with (block, local nodes) lexicographically, one cell per
-        pass, so that the choice of cell does not depend on how k L + r rounds.
-        """
-        last = self._ncells - 1
-        i = self._first_guess(k * self.L + r)
-        for _ in range(64):
-            b = np.searchsorted(self._cell0, i, side="right") - 1
-            r0 = self._r[i + b]
-            r1 = self._r[i + b + 1]
-            up = ((b < k) | ((b == k) & (r >= r1))) & (i < last)
-            down = (((b > k) & (r < self.L)) | ((b == k) & (r < r0))) & (i > 0)
-            if not (np.any(up) or np.any(down)):
-                return i, b  # b is the block of the final i
-            i = i + up.astype(np.intp) - down.astype(np.intp)
-        return i, np.searchsorted(self._cell0, i, side="right") - 1
-
-    def _first_guess(self, s: FloatArray) -> NDArray[np.intp]:
-        """A cell near s (the last cell starting at or before the base grid step below s),
-        from a table over uniform bins of width ds: no binary search per point."""
+    def _lookup_table(self) -> NDArray[np.integer]:
+        """Per uniform bin of width ds, the last cell starting at or before the bin's
+        left end (`_cell_of`'s first guess: no binary search per point)."""
         if self._lut is None:
             nb = int(math.ceil(float(self._s0[-1]) / self.ds)) + 2
             lut = np.searchsorted(self._s0, np.arange(nb) * self.ds, side="right") - 1
             self._lut = np.maximum(lut, 0).astype(np.int32 if lut[-1] < 2**31 else np.int64)
-        j = np.clip(np.floor(s / self.ds), 0, self._lut.size - 1).astype(np.intp)
-        return self._lut[j].astype(np.intp)
-
-    def _coords(self, x: FloatArray, tau: FloatArray) -> tuple[tuple[FloatArray, FloatArray],
-                                                               tuple[FloatArray, FloatArray]]:
-        """(k, r) of p(x + tau) and of q(x - tau), with s = k L + r the grid coordinate.
-
-        The local r is computed without forming k L + r, so that at x = 0 (and x = L) the
-        two families get the very same local coordinate and hence matching cells.
-        """
-        L = self.L
-        k = np.floor(tau / L)
-        rho = tau - k * L
-        a = x + rho
-        low = a < L
-        kp = np.where(low, k, k + 1.0)
-        rp = np.where(low, a, (x - L) + rho)
-        e = rho - x
-        pos = e >= 0.0
-        kq = np.where(pos, k + 1.0, k)
-        rq = np.where(pos, e, (L - x) + rho)
-        return self._normal(kp, rp), self._normal(kq, rq)
-
-    def _normal(self, k: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(k, r) with 0 <= r < L (values are interpolated in local coordinates)."""
-        L = self.L
-        over, under = r >= L, r < 0.0
-        if np.any(over) or np.any(under):
-            k = np.where(over, k + 1.0, np.where(under, k - 1.0, k))
-            r = np.where(over, r - L, np.where(under, r + L, r))
-        return k, r
-
-    def _located(self, k: FloatArray, r: FloatArray) -> tuple[
-            FloatArray, NDArray[np.intp], NDArray[np.intp], FloatArray, FloatArray]:
-        """(r, cell, block, r0, r1): a point of one family and its cell's local nodes.
-
-        Found once per point and family, shared by values and slopes (`_fields`)."""
-        i, b = self._cell(k, r)
-        n0 = i + b
-        return r, i, b, self._r[n0], self._r[n0 + 1]
-
-    def _interp(self, vals: FloatArray, sg: NDArray[np.int8], loc: tuple) -> FloatArray:
-        """Per-block node values (in the block's gauge) at a located point: linear
-        interpolation plus the cell's quadratic term (curvature sg gam / 2)."""
-        r, i, b, r0, r1 = loc
-        n0 = i + b
-        v0 = vals[n0]
-        val = v0 + (r - r0) / (r1 - r0) * (vals[n0 + 1] - v0)
-        if self.gam:
-            val = val + (0.25 * self.gam) * sg[i] * (r - r0) * (r - r1)
-        return val
-
-    def _slope(self, chords: FloatArray, sg: NDArray[np.int8], loc: tuple) -> FloatArray:
-        """Stored chord of the cell at a located point plus the curvature term
-        gam/2 sg (r - mid)."""
-        r, i, _, r0, r1 = loc
-        out = chords[i]
-        if self.gam:
-            mid = 0.5 * (r0 + r1)
-            out = out + (0.5 * self.gam) * sg[i] * (r - mid)
-        return out
+        return self._lut
 
     def _fields(self, x: FloatArray, tau: FloatArray, value: bool, slopes: bool
                 ) -> tuple[FloatArray | None, FloatArray | None, FloatArray | None]:
         """u, and p'(x + tau) + a/2, -(q'(x - tau) + a/2) (limits from the future), from
-        one search of the cells of each family."""
-        cp, cq = self._coords(x, tau)
-        lp, lq = self._located(*cp), self._located(*cq)
-        u = dp = dq = None
-        if value:
-            pv = self._interp(self._P, self._sP, lp)
-            qv = self._interp(self._Q, self._sQ, lq)
-            bp, bq = lp[2], lq[2]
-            # gauge offsets: o_bp - o_bq, neighbouring blocks only
-            if np.any(np.abs(bp - bq) > 1):  # pragma: no cover - |x + tau - (x - tau')| <= L
-                raise RuntimeError("characteristics: p and q cells more than a block apart")
-            dl = self._delta
-            off = np.where(bp == bq + 1, dl[np.clip(bq, 0, dl.size - 1)],
-                           np.where(bq == bp + 1, -dl[np.clip(bp, 0, dl.size - 1)], 0.0))
-            u = pv + qv + off + self._up(x)
-        if slopes:
-            dp = self._slope(self._dP, self._sP, lp)
-            dq = self._slope(self._dQ, self._sQ, lq)
-        return u, dp, dq
+        one search of the cells of each family (`_fields_kernel`)."""
+        xf, tf, shape = flat_points(x, tau)
+        u = np.empty(xf.size) if value else np.empty(0)
+        dp = np.empty(xf.size) if slopes else np.empty(0)
+        dq = np.empty(xf.size) if slopes else np.empty(0)
+        _fields_kernel(xf, tf, self.L, self.gam, self.far_end == "clamped", self.u_L,
+                       self.ds, self._lookup_table(), self._cell0, self._r, self._P,
+                       self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
+                       self._ncells, u, dp, dq)
+        return ((u.reshape(shape) if value else None), (dp.reshape(shape) if slopes else None),
+                (dq.reshape(shape) if slopes else None))
 
     def _u(self, x: FloatArray, tau: FloatArray) -> FloatArray:
         return self._fields(x, tau, True, False)[0]
@@ -759,3 +672,151 @@ class CharacteristicsSolution:
         if self.g:
             e += self.rho * self.g * np.dot(wq, self._u(xq, taus))
         return float(e)
+
+
+# ------------------------------------------------------------------ compiled evaluation
+#
+# One point at a time: the local coordinates of both families, the cell search and the
+# interpolation, in the order of operations of the formulas in the docstrings (no
+# fastmath: the values are the IEEE results of those expressions).
+
+
+@njit(cache=True)
+def _normal(k: float, r: float, L: float) -> tuple[float, float]:
+    """(k, r) with 0 <= r < L (values are interpolated in local coordinates)."""
+    if r >= L:
+        return k + 1.0, r - L
+    if r < 0.0:
+        return k - 1.0, r + L
+    return k, r
+
+
+@njit(cache=True)
+def _cell_of(k: float, r: float, L: float, ds: float, lut: np.ndarray, cell0: np.ndarray,
+             rn: np.ndarray, last: int) -> tuple[int, int]:
+    """(cell, block) containing the point s = k L + r (cell to the right on a node).
+
+    The table on s = k L + r only gives a first guess; it is corrected by comparing
+    (k, r) with (block, local nodes) lexicographically, one cell per pass, so that the
+    choice of cell does not depend on how k L + r rounds. The block of cell i is the
+    last b with cell0[b] <= i (cell0[b] = b's first cell; the guess starts at the block
+    of k and moves with i).
+    """
+    j = math.floor((k * L + r) / ds)
+    i = int(lut[min(max(j, 0), lut.size - 1)])
+    nb = cell0.size
+    b = min(max(int(k), 0), nb - 1)
+    while b > 0 and cell0[b] > i:
+        b -= 1
+    while b + 1 < nb and cell0[b + 1] <= i:
+        b += 1
+    if b == k and rn[i + b] <= r < rn[i + b + 1]:  # the guess is right: the usual case
+        return i, b
+    for _ in range(64):
+        r0 = rn[i + b]
+        r1 = rn[i + b + 1]
+        up = ((b < k) or (b == k and r >= r1)) and i < last
+        down = ((b > k and r < L) or (b == k and r < r0)) and i > 0
+        if not (up or down):
+            return i, b
+        i += 1 if up else -1
+        if b > 0 and cell0[b] > i:
+            b -= 1
+        elif b + 1 < nb and cell0[b + 1] <= i:
+            b += 1
+    return i, b
+
+
+@njit(cache=True)
+def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - compiled
+    """(cell, block) of the points (k[n], r[n]) into ii, bb: the table's first guess,
+    checked in a loop of its own (it is right but for inserted nodes and round-off),
+    and `_cell_of` where it is not."""
+    nl = lut.size - 1
+    nb1 = cell0.size - 1
+    ids = 1.0 / ds  # a guess: no division needed
+    for n in range(k.size):
+        ii[n] = lut[min(max(math.floor((k[n] * L + r[n]) * ids), 0), nl)]
+        bb[n] = min(max(int(k[n]), 0), nb1)
+    for n in range(k.size):
+        i, b, kn, rr = ii[n], bb[n], k[n], r[n]
+        if not (b == kn and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
+                and rn[i + b] <= rr and rr < rn[i + b + 1]):
+            ii[n], bb[n] = _cell_of(kn, rr, L, ds, lut, cell0, rn, last)
+
+
+_CHUNK = 1024  # points per pass of `_fields_kernel` (its scratch stays in L1)
+
+
+@njit(cache=True)
+def _fields_kernel(x, tau, L, gam, clamped, u_L, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
+                   delta, ncells, u, dp, dq):  # pragma: no cover - compiled
+    """u (if u.size) and the shifted slopes dp, dq (if dp.size) at the points (x, tau).
+
+    p(x + tau) and q(x - tau) as (block k, local r): block k of p holds p(k L + r), block
+    k of q holds q((1 - k) L - r); at x = 0 and x = L both families get the very same
+    local coordinate, hence matching cells. By chunks of points, in stages (coordinates,
+    cells, values), each a loop without data-dependent branches in the usual case.
+    """
+    CH = _CHUNK
+    kp, rp, kq, rq = np.empty(CH), np.empty(CH), np.empty(CH), np.empty(CH)
+    ip, bp = np.empty(CH, np.int64), np.empty(CH, np.int64)
+    iq, bq = np.empty(CH, np.int64), np.empty(CH, np.int64)
+    last = ncells - 1
+    qa = 0.25 * gam
+    ha = 0.5 * gam
+    nd = delta.size - 1
+    want_u = u.size > 0
+    want_s = dp.size > 0
+    for c0 in range(0, x.size, CH):
+        nc = min(CH, x.size - c0)
+        for m in range(nc):
+            xn = x[c0 + m]
+            tn = tau[c0 + m]
+            k = math.floor(tn / L)
+            rho = tn - k * L
+            a = xn + rho
+            low = a < L
+            kp[m], rp[m] = _normal(k if low else k + 1.0, a if low else (xn - L) + rho, L)
+            e = rho - xn
+            pos = e >= 0.0
+            kq[m], rq[m] = _normal(k + 1.0 if pos else k, e if pos else (L - xn) + rho, L)
+        _locate(kp[:nc], rp[:nc], L, ds, lut, cell0, rn, last, ip, bp)
+        _locate(kq[:nc], rq[:nc], L, ds, lut, cell0, rn, last, iq, bq)
+        for m in range(nc):
+            i1, b1, r1 = ip[m], bp[m], rp[m]
+            i2, b2, r2 = iq[m], bq[m], rq[m]
+            p0, p1 = rn[i1 + b1], rn[i1 + b1 + 1]
+            q0, q1 = rn[i2 + b2], rn[i2 + b2 + 1]
+            n = c0 + m
+            if want_u:
+                v0 = P[i1 + b1]
+                pv = v0 + (r1 - p0) / (p1 - p0) * (P[i1 + b1 + 1] - v0)
+                v0 = Q[i2 + b2]
+                qv = v0 + (r2 - q0) / (q1 - q0) * (Q[i2 + b2 + 1] - v0)
+                if gam:
+                    pv = pv + qa * sP[i1] * (r1 - p0) * (r1 - p1)
+                    qv = qv + qa * sQ[i2] * (r2 - q0) * (r2 - q1)
+                # gauge offsets: o_bp - o_bq, neighbouring blocks only
+                if b1 == b2 + 1:
+                    off = delta[min(max(b2, 0), nd)]
+                elif b2 == b1 + 1:
+                    off = -delta[min(max(b1, 0), nd)]
+                elif b1 == b2:
+                    off = 0.0
+                else:  # |x + tau - (x - tau')| <= L
+                    raise RuntimeError("characteristics: p and q cells more than a block apart")
+                xn = x[n]
+                if clamped:
+                    up = u_L + 0.5 * gam * (xn * xn - L * L)
+                else:
+                    up = gam * (0.5 * xn * xn - L * xn)
+                u[n] = pv + qv + off + up
+            if want_s:
+                sp = dP[i1]
+                sq = dQ[i2]
+                if gam:
+                    sp = sp + ha * sP[i1] * (r1 - 0.5 * (p0 + p1))
+                    sq = sq + ha * sQ[i2] * (r2 - 0.5 * (q0 + q1))
+                dp[n] = sp
+                dq[n] = sq

@@ -43,6 +43,17 @@ class Plugin:
 # ----------------------------------------------------------------------------- cases
 
 
+def flat_points(x: Any, t: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """x and t broadcast against each other, as contiguous 1-D arrays (for a compiled
+    evaluation of an exact solution at the points (x, t)), and the broadcast shape.
+
+    Contiguous copies on purpose: a compiled loop over broadcast (strided) views runs
+    several times slower than the copy costs.
+    """
+    x, t = np.broadcast_arrays(np.asarray(x, float), np.asarray(t, float))
+    return np.ascontiguousarray(x).ravel(), np.ascontiguousarray(t).ravel(), x.shape
+
+
 class Exact(Protocol):
     """An exact (or reference) solution; arrays broadcast against each other."""
 

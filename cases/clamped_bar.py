@@ -14,30 +14,49 @@ Stresses this scene: a kinked, piecewise-linear solution with repeated impacts.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
-from bench.plugin import Case
-
-
-def _P(y):
-    r = np.mod(y, 3.0)
-    return np.where(r < 2.0, (1.0 - r) / 4.0, (r - 3.0) / 4.0) - np.floor(y / 3.0) / 4.0
+from bench.plugin import Case, flat_points
 
 
-def _dP(y):
-    return np.where(np.mod(y, 3.0) < 2.0, -0.25, 0.25)
+@njit(cache=True)
+def _mod3(y: float, fl: float) -> float:
+    """y mod 3 in [0, 3) given fl = floor(y / 3.0): equal to Python's y % 3.0 (np.mod)
+    for y >= 0, all this scene needs (y = x + t and 1 - x + t, x in [0, 1], t >= 0).
+
+    y - 3 fl is exact (Sterbenz) and is the remainder unless y / 3 rounded up to the
+    integer fl, where it is slightly negative and + 3 gives it. Branch-free, unlike the
+    libm fmod behind `%` (ten times slower here)."""
+    m = y - 3.0 * fl
+    return m + 3.0 if m < 0.0 else m
 
 
-def _Q(s):
-    r = 1.0 - s
-    m = np.mod(r, 3.0)
-    base = np.where(m < 1.0, m / 4.0, np.where(m < 2.0, (2.0 - m) / 4.0, (m - 2.0) / 4.0))
-    return base + np.floor(r / 3.0) / 4.0
-
-
-def _dQ(s):
-    m = np.mod(1.0 - s, 3.0)  # dQ/ds = -dQ0/dr
-    return np.where(m < 1.0, -0.25, np.where(m < 2.0, 0.25, -0.25))
+@njit(cache=True)
+def _fields_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
+    """u = P(x+t) + Q(x-t), u_x = P' + Q', u_t = P' - Q' at the points (x, t) (1-D
+    arrays); the slopes at a kink are those of the piece to the right, as np.where(r <
+    2, ...) gives them."""
+    for n in range(x.size):
+        y = x[n] + t[n]
+        fy = math.floor(y / 3.0)
+        ry = _mod3(y, fy)
+        P = ((1.0 - ry) / 4.0 if ry < 2.0 else (ry - 3.0) / 4.0) - fy / 4.0
+        dP = -0.25 if ry < 2.0 else 0.25
+        r = 1.0 - (x[n] - t[n])
+        fr = math.floor(r / 3.0)
+        m = _mod3(r, fr)
+        if m < 1.0:
+            Q, dQ = m / 4.0, -0.25  # dQ/ds = -dQ0/dr
+        elif m < 2.0:
+            Q, dQ = (2.0 - m) / 4.0, 0.25
+        else:
+            Q, dQ = (m - 2.0) / 4.0, -0.25
+        u[n] = P + (Q + fr / 4.0)
+        ux[n] = dP + dQ
+        ut[n] = dP - dQ
 
 
 class ClampedBarExact:
@@ -45,17 +64,21 @@ class ClampedBarExact:
 
     energy = 0.125
 
+    def fields(self, x, t, velocity: bool = True):
+        """(u, u_x, u_t) at once (u_t None unless `velocity`): what the error norms use."""
+        xf, tf, shape = flat_points(x, t)
+        u, ux, ut = np.empty(xf.size), np.empty(xf.size), np.empty(xf.size)
+        _fields_kernel(xf, tf, u, ux, ut)
+        return u.reshape(shape), ux.reshape(shape), (ut.reshape(shape) if velocity else None)
+
     def u(self, x, t):
-        x, t = np.broadcast_arrays(np.asarray(x, float), np.asarray(t, float))
-        return _P(x + t) + _Q(x - t)
+        return self.fields(x, t, velocity=False)[0]
 
     def ut(self, x, t):
-        x, t = np.broadcast_arrays(np.asarray(x, float), np.asarray(t, float))
-        return _dP(x + t) - _dQ(x - t)
+        return self.fields(x, t)[2]
 
     def ux(self, x, t):
-        x, t = np.broadcast_arrays(np.asarray(x, float), np.asarray(t, float))
-        return _dP(x + t) + _dQ(x - t)
+        return self.fields(x, t, velocity=False)[1]
 
     def stress(self, t):
         t = np.asarray(t, float)

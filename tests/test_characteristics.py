@@ -490,3 +490,57 @@ def test_default_grid_is_capped(monkeypatch):
     assert sol.energy(299.5) == pytest.approx(0.125, rel=1e-12)
     assert np.max(np.abs(np.array(sol.contact_intervals()[-3:])
                          - [(292, 293), (295, 296), (298, 299)])) < 1e-10
+
+
+# --------------------------------------------------------------------------------------
+# Compiled evaluation: the closed form of cases/clamped_bar and the cell search
+
+
+def test_clamped_bar_compiled_closed_form_matches_numpy():
+    """cases.clamped_bar evaluates the closed form in compiled code, with its own y mod 3
+    (no libm fmod); it must give np.mod's values everywhere, also a rounding away from
+    the multiples of 3, where y / 3 rounds up to an integer."""
+    from cases.clamped_bar import ClampedBarExact
+
+    rng = np.random.default_rng(7)
+    k = 3.0 * np.arange(1, 3001)
+    x = np.concatenate([rng.uniform(0.0, 1.0, 20000), np.zeros(3 * k.size),
+                        np.tile(np.linspace(0.0, 1.0, 21), 50)])
+    t = np.concatenate([rng.uniform(0.0, 3000.0, 20000), np.nextafter(k, 0.0), k,
+                        np.nextafter(k, np.inf), np.repeat(0.5 * np.arange(50), 21)])
+    u, ux, ut = ClampedBarExact().fields(x, t)
+    np.testing.assert_array_equal(u, _cb_P(x + t) + _cb_Q(x - t))
+    np.testing.assert_array_equal(ux, _cb_dP(x + t) + _cb_dQ(x - t))
+    np.testing.assert_array_equal(ut, _cb_dP(x + t) - _cb_dQ(x - t))
+    # shapes: quadrature points (elements, 4) against sample times (K, 1, 1)
+    X, T = rng.uniform(0.0, 1.0, (5, 4)), np.linspace(0.0, 12.0, 7)[:, None, None]
+    assert ClampedBarExact().u(X, T).shape == (7, 5, 4)
+    assert ClampedBarExact().fields(X, T, velocity=False)[2] is None
+
+
+def test_cell_search_fast_path_agrees_with_the_general_search():
+    """`_locate` takes the table's guess where it checks out and the lexicographic search
+    `_cell_of` elsewhere; on a solution with inserted nodes (impacts inside cells) and at
+    nodes exactly, both give the same cells."""
+    from bench.characteristics import _cell_of, _locate
+
+    sol = CharacteristicsSolution(L=1.0, E=1.0, rho=1.0, g=9.81, far_end="free",
+                                  u0=0.05, v0=0.0, T=3.0, cells_per_length=50)
+    assert sol.inserted_nodes > 0
+    rng = np.random.default_rng(3)
+    k = np.concatenate([rng.integers(0, sol._K + 1, 5000), np.repeat(
+        np.arange(sol._K + 1), np.diff(np.concatenate((sol._node0, [sol._r.size]))))])
+    r = np.concatenate([rng.uniform(0.0, 1.0, 5000), sol._r])  # every node of every block
+    keep = r < 1.0
+    k, r = k[keep].astype(float), r[keep]
+    ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
+    args = (sol.L, sol.ds, sol._lookup_table(), sol._cell0, sol._r, sol._ncells - 1)
+    _locate(k, r, *args, ii, bb)
+    ref = np.array([_cell_of(kn, rn, *args) for kn, rn in zip(k, r, strict=True)])
+    np.testing.assert_array_equal(ii, ref[:, 0])
+    np.testing.assert_array_equal(bb, ref[:, 1])
+    guess = sol._lookup_table()[np.floor((k * sol.L + r) / sol.ds).astype(np.intp)]
+    assert np.count_nonzero(guess != ii) > 0  # the general search was needed somewhere
+    # and the cell found holds the point: r0 <= r < r1 in block k
+    n0 = ii + bb
+    assert np.all((bb == k) & (sol._r[n0] <= r) & (r < sol._r[n0 + 1]))

@@ -200,3 +200,18 @@ def test_blocked_assembly_equals_one_assembly(monkeypatch):
     for a, b in ((whole.M, blocks.M), (whole.K, blocks.K)):
         np.testing.assert_allclose(b.diag, a.diag, rtol=1e-14, atol=0)
         np.testing.assert_allclose(b.off, a.off, rtol=1e-14, atol=0)
+
+
+def test_flat_points_broadcasts_and_keeps_the_shape():
+    from bench.plugin import flat_points
+
+    x, t = np.arange(8.0).reshape(2, 4), np.array([[[0.5]], [[1.5]], [[2.5]]])
+    xf, tf, shape = flat_points(x, t)
+    assert shape == (3, 2, 4)
+    assert xf.flags.c_contiguous and tf.flags.c_contiguous and xf.ndim == 1
+    bx, bt = np.broadcast_arrays(x, t)
+    np.testing.assert_array_equal(xf.reshape(shape), bx)
+    np.testing.assert_array_equal(tf.reshape(shape), bt)
+    assert flat_points(2.0, 3.0)[2] == ()
+    with pytest.raises(ValueError):
+        flat_points(np.zeros(3), np.zeros(4))
