@@ -205,7 +205,7 @@ def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt,
 def _load_to_lanes(sp: Spike, F: np.ndarray, scale: float) -> np.ndarray:
     """scale * F in the interleaved layout; a zero load is np.zeros, whose pages the
     kernel only reads, so it costs no resident memory at large n."""
-    return sp.to_lanes(scale * F) if np.any(F) else np.zeros(sp.lanes * sp.m)
+    return sp.to_lanes(scale * F) if np.any(F) else sp.zeros()
 
 
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
@@ -233,7 +233,7 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         k, done, min_u0, blow = _implicit_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(M.diag), sp.lower_to_lanes(M.off),
             _load_to_lanes(sp, semi.F, bdt2), sp.factors(), sp.hw, sp.w0, Ut, sp.to_lanes(V),
-            Al, np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1), float(U[0]), dt, beta,
+            Al, sp.zeros(), np.zeros(2 * sp.lanes + 1), float(U[0]), dt, beta,
             gamma, bool(semi.massless), int(nsteps), int(stride), semi.energy_offset, *bufs)
     else:
         if not semi.massless:
@@ -248,6 +248,6 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         k, done, min_u0, blow = _explicit_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
             _load_to_lanes(sp, semi.F, 1.0), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), Al,
-            np.zeros(sp.lanes * sp.m), np.zeros(2 * sp.lanes + 1), dt, gamma, int(nsteps),
+            sp.zeros(), np.zeros(2 * sp.lanes + 1), dt, gamma, int(nsteps),
             int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)

@@ -207,11 +207,10 @@ def run_ode_verlet(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         d, e = M.diag.copy(), M.off.copy()
         d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_bar on nodes 1.. plus an identity row
         sp = spike_factor(d, e)
-        N = sp.lanes * sp.m
         k, done, min_u0, blow = verlet_spike_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
-            sp.to_lanes(semi.F), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), np.zeros(N),
-            np.zeros(N), np.zeros(2 * sp.lanes + 1), float(dt), int(nsteps), int(stride),
+            sp.to_lanes(semi.F), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), sp.zeros(),
+            sp.zeros(), np.zeros(2 * sp.lanes + 1), float(dt), int(nsteps), int(stride),
             semi.energy_offset, *bufs)
     else:
         Sd, Se = factor_pt(M.diag[1:], M.off[1:])

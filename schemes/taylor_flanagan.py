@@ -223,17 +223,16 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     if fast and np.any(M.off):
         sp = spike_factor(M.diag, M.off)
-        N = sp.lanes * sp.m
         fac = sp.factors()
         lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
-        w = np.zeros(N)  # w = M^-1 e0, interleaved; node 0 is at position 0
+        w = sp.zeros()  # w = M^-1 e0, interleaved; node 0 is at position 0
         w[0] = 1.0
         spike_solve(lo, invd, sa, sb, Hrow, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
         wpos = np.flatnonzero(np.abs(w) > SPIKE_CUTOFF * abs(w[0]))
         k, done, min_u0, blow = tf_spike_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
             sp.to_lanes(semi.F), fac, wpos, w[wpos], float(w[0]), sp.to_lanes(U),
-            sp.to_lanes(V), sp.to_lanes(A), np.zeros(N), np.zeros(2 * sp.lanes + 1), float(dt),
+            sp.to_lanes(V), sp.to_lanes(A), sp.zeros(), np.zeros(2 * sp.lanes + 1), float(dt),
             int(nsteps), int(stride), semi.energy_offset, *bufs)
         return trajectory(out, k, done, min_u0, blow, dt)
     Sd, Se = factor_pt(M.diag, M.off)
