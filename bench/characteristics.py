@@ -676,9 +676,9 @@ class CharacteristicsSolution:
 
 # ------------------------------------------------------------------ compiled evaluation
 #
-# One point at a time: the local coordinates of both families, the cell search and the
-# interpolation, in the order of operations of the formulas in the docstrings (no
-# fastmath: the values are the IEEE results of those expressions).
+# By chunks of points, in stages: the local coordinates of both families, the cell
+# search, the interpolation, in the order of operations of the formulas in the
+# docstrings (no fastmath: the values are the IEEE results of those expressions).
 
 
 @njit(cache=True)
@@ -692,26 +692,21 @@ def _normal(k: float, r: float, L: float) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _cell_of(k: float, r: float, L: float, ds: float, lut: np.ndarray, cell0: np.ndarray,
-             rn: np.ndarray, last: int) -> tuple[int, int]:
-    """(cell, block) containing the point s = k L + r (cell to the right on a node).
+def _cell_of(k: float, r: float, i: int, b: int, L: float, cell0: np.ndarray, rn: np.ndarray,
+             last: int) -> tuple[int, int]:
+    """(cell, block) containing the point s = k L + r (cell to the right on a node), from
+    a first guess: cell i, block b near it.
 
-    The table on s = k L + r only gives a first guess; it is corrected by comparing
-    (k, r) with (block, local nodes) lexicographically, one cell per pass, so that the
-    choice of cell does not depend on how k L + r rounds. The block of cell i is the
-    last b with cell0[b] <= i (cell0[b] = b's first cell; the guess starts at the block
-    of k and moves with i).
+    The guess is corrected by comparing (k, r) with (block, local nodes)
+    lexicographically, one cell per pass, so that the choice of cell does not depend on
+    how k L + r rounds. The block of cell i is the last b with cell0[b] <= i (cell0[b] =
+    b's first cell); it moves with i.
     """
-    j = math.floor((k * L + r) / ds)
-    i = int(lut[min(max(j, 0), lut.size - 1)])
     nb = cell0.size
-    b = min(max(int(k), 0), nb - 1)
     while b > 0 and cell0[b] > i:
         b -= 1
     while b + 1 < nb and cell0[b + 1] <= i:
         b += 1
-    if b == k and rn[i + b] <= r < rn[i + b + 1]:  # the guess is right: the usual case
-        return i, b
     for _ in range(64):
         r0 = rn[i + b]
         r1 = rn[i + b + 1]
@@ -729,9 +724,10 @@ def _cell_of(k: float, r: float, L: float, ds: float, lut: np.ndarray, cell0: np
 
 @njit(cache=True)
 def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - compiled
-    """(cell, block) of the points (k[n], r[n]) into ii, bb: the table's first guess,
-    checked in a loop of its own (it is right but for inserted nodes and round-off),
-    and `_cell_of` where it is not."""
+    """(cell, block) of the points (k[n], r[n]) into ii, bb: a first guess from the table
+    on s = k L + r (the last cell starting at or before the bin of width ds below s) and
+    the block of k, checked in a loop of its own (it is right but for inserted nodes and
+    round-off), and `_cell_of` from that guess where it is not."""
     nl = lut.size - 1
     nb1 = cell0.size - 1
     ids = 1.0 / ds  # a guess: no division needed
@@ -742,7 +738,7 @@ def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - co
         i, b, kn, rr = ii[n], bb[n], k[n], r[n]
         if not (b == kn and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
                 and rn[i + b] <= rr and rr < rn[i + b + 1]):
-            ii[n], bb[n] = _cell_of(kn, rr, L, ds, lut, cell0, rn, last)
+            ii[n], bb[n] = _cell_of(kn, rr, i, b, L, cell0, rn, last)
 
 
 _CHUNK = 1024  # points per pass of `_fields_kernel` (its scratch stays in L1)

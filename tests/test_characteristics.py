@@ -534,12 +534,14 @@ def test_cell_search_fast_path_agrees_with_the_general_search():
     keep = r < 1.0
     k, r = k[keep].astype(float), r[keep]
     ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
-    args = (sol.L, sol.ds, sol._lookup_table(), sol._cell0, sol._r, sol._ncells - 1)
-    _locate(k, r, *args, ii, bb)
-    ref = np.array([_cell_of(kn, rn, *args) for kn, rn in zip(k, r, strict=True)])
+    lut = sol._lookup_table()
+    _locate(k, r, sol.L, sol.ds, lut, sol._cell0, sol._r, sol._ncells - 1, ii, bb)
+    # the general search alone, from the table's guess (by division) and the block of k
+    guess = lut[np.floor((k * sol.L + r) / sol.ds).astype(np.intp)].astype(np.int64)
+    ref = np.array([_cell_of(kn, rn, i, int(kn), sol.L, sol._cell0, sol._r, sol._ncells - 1)
+                    for kn, rn, i in zip(k, r, guess, strict=True)])
     np.testing.assert_array_equal(ii, ref[:, 0])
     np.testing.assert_array_equal(bb, ref[:, 1])
-    guess = sol._lookup_table()[np.floor((k * sol.L + r) / sol.ds).astype(np.intp)]
     assert np.count_nonzero(guess != ii) > 0  # the general search was needed somewhere
     # and the cell found holds the point: r0 <= r < r1 in block k
     n0 = ii + bb
