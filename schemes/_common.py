@@ -89,7 +89,12 @@ def blown_up(energy, energy0):
 
 def factor_pt(d: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """LDL^T factors of a symmetric positive definite tridiagonal matrix (LAPACK dpttrf)."""
-    df, ef, info = lapack.dpttrf(np.ascontiguousarray(d, float), np.ascontiguousarray(e, float))
+    d, e = np.ascontiguousarray(d, float), np.ascontiguousarray(e, float)
+    if d.size == 1:  # scipy's dpttrf wrapper rejects the empty e of a 1 x 1 matrix
+        if not d[0] > 0.0:
+            raise BenchError(f"system matrix not positive definite (1 x 1: {d[0]!r})")
+        return d.copy(), e.copy()
+    df, ef, info = lapack.dpttrf(d, e)
     if info != 0:
         raise BenchError(f"system matrix not positive definite (LAPACK dpttrf info={info})")
     return df, ef

@@ -22,29 +22,19 @@ velocity is taken as the backward difference (u0^{n+1} - u0^n) / dt.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, uint64
+from numba import njit
 
 from bench.params import Param
 from bench.plugin import Semidiscrete, Trajectory
 from schemes._common import (
     allocate,
-    blown_up,
     eliminate_contact_node,
     energy_of,
     initial_acceleration,
     trajectory,
 )
-from schemes._spike import (
-    L,
-    Spike,
-    backward_rows,
-    correct,
-    record_lane_sample,
-    reduced,
-    spike_factor,
-    stencil_forward,
-    stencil_solve,
-)
+from schemes._newmark_vec import explicit_kernel, implicit_kernel
+from schemes._spike import L, Spike, lane_zeros, spike_factor, stencil_solve
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
 GAMMA = Param(0.5, "Newmark gamma", low=0.5, high=1.0)
@@ -65,75 +55,19 @@ def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool) -
 
 # ---------------------------------------------------------------------------- kernels
 #
-# The kernels work in the lane-interleaved layout of `schemes._spike` (node i = c m + j
-# at position j L + c, L = LANES): the system matrix is solved by L blocks at once, one
-# row of all blocks per vector instruction. Each step makes three vector passes over
-# the state: (1) right-hand side and forward sweep, (2) backward sweep, then the reduced
-# interface system and the spike correction on a few rows per block, (3) the Newmark
-# update (the explicit kernel fuses it with the next step's predictor). Only the rows
-# at block ends (j = 0 and m - 1) see neighbours in other lanes; they are done by
-# scalar code. Samples are scattered back to node order, on sample steps
-# only. `contract` lets LLVM fuse a*b+c into one FMA (deterministic: results are
-# bit-identical from run to run).
+# The stepping kernels are generated (`schemes._newmark_codegen` writes
+# `schemes._newmark_vec`): they work in the lane-interleaved layout of `schemes._spike`
+# (node i = c m + j at position j L + c, L = LANES = 16), solving the system by 16
+# blocks at once, one row of all blocks per pair of `<8 x double>` vector operations
+# (`schemes._simd`), with the sweep recurrences carried in registers. The state is
+# (X, Q): X the next solve's predictor, Q = dt V + dt^2 (1 - gamma) A; V is formed on
+# sample steps only. Each step is two passes over the state: the backward sweep, then
+# one pass that finishes row j + 1 (spike correction, Newmark update) and starts row j
+# of the next step (right-hand side, forward sweep). `contract` lets LLVM fuse a*b+c
+# into one FMA (deterministic: results are bit-identical from run to run).
 _FM = {"contract"}
-
-
-@njit(cache=True, fastmath=_FM)
-def _implicit_kernel(Md, Me, Kd, Ke, F, Mdl, Mlo, bF, fac, hw, w0, Ut, V, A, z, coef, u0,
-                     dt, beta, gamma, massless, nsteps, stride, offset,
-                     t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Implicit Newmark; the state is the predictor Ut and (V, A) (interleaved); u0 = U[0].
-
-    fac = `Spike.factors()` of S; (hw, w0) its response to a unit force on node 0.
-    """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
-    N = L * m
-    ibdt2 = 1.0 / (beta * dt * dt)
-    c2 = (0.5 - beta) * dt * dt
-    dg = dt * gamma
-    dg1 = dt * (1.0 - gamma)
-    idt = 1.0 / dt
-    min_u0 = u0
-    E0 = E_out[0]
-    k = 1
-    for step in range(1, nsteps + 1):
-        # (1), (2): z = S^-1 (M Ut + beta dt^2 F), contact-free
-        stencil_forward(Mdl, Mlo, Ut, bF, 1.0, lo, m, z)
-        backward_rows(z, lo, invd, L * m)
-        x0 = reduced(z, Hrow, Hpos, Hval, coef)
-        # contact: U1 = U_f + mu w, w = S^-1 e0, through the spike coefficients
-        mu = -x0 / w0 if x0 < 0.0 else 0.0
-        if mu != 0.0:
-            for r in range(2 * L):
-                coef[r] += mu * hw[r]
-            coef[0] -= mu
-        correct(z, sa, sb, coef, m, ja, jb)
-        if mu != 0.0:
-            z[0] = 0.0
-        # (3) Newmark update, all nodes; the massless contact node is redone below
-        for p in range(N):
-            pu = uint64(p)
-            a1 = (z[pu] - Ut[pu]) * ibdt2
-            v1 = V[pu] + dg1 * A[pu] + dg * a1
-            Ut[pu] = z[pu] + dt * v1 + c2 * a1
-            V[pu] = v1
-            A[pu] = a1
-        u1 = z[0]
-        if massless:
-            v1 = (u1 - u0) * idt
-            V[0] = v1
-            A[0] = 0.0
-            Ut[0] = u1 + dt * v1
-        u0 = u1
-        if u1 < min_u0:
-            min_u0 = u1
-        if step % stride == 0 or step == nsteps:
-            energy = record_lane_sample(k, step * dt, pos, z, V, -mu * ibdt2, Md, Me, Kd, Ke,
-                                        F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
-            k += 1
-            if blown_up(energy, E0):
-                return k, step, min_u0, step
-    return k, nsteps, min_u0, -1
+#: rows per lane block the vector kernels need (smaller systems are padded)
+MIN_ROWS = 3
 
 
 @njit(cache=True, fastmath=_FM)
@@ -150,104 +84,95 @@ def massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
     return lam
 
 
-@njit(cache=True, fastmath=_FM)
-def _explicit_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, gamma,
-                     nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Central differences (beta = 0) with a massless contact node (interleaved layout).
-
-    fac = `Spike.factors()` of M_r with node 0 decoupled (`massless_acceleration`).
-    """
-    m, pos = fac[9], fac[10]
-    N = L * m
-    h2 = 0.5 * dt * dt
-    dg = dt * gamma
-    dg1 = dt * (1.0 - gamma)
-    idt = 1.0 / dt
-    p1 = pos[1]  # node 1's position
-    u0 = U[0]
-    min_u0 = u0
-    E0 = E_out[0]
-    k = 1
-    predicted = False  # U already holds the predictor (fused into the last update)
-    for step in range(1, nsteps + 1):
-        if not predicted:
-            for p in range(N):
-                pu = uint64(p)
-                U[pu] = U[pu] + dt * V[pu] + h2 * A[pu]
-        lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
-        ucon = U[0]
-        sample = step % stride == 0 or step == nsteps
-        if sample:  # V^{n+1} only: U^{n+1} is sampled below
-            for p in range(N):
-                pu = uint64(p)
-                V[pu] = V[pu] + dg1 * A[pu] + dg * z[pu]
-        else:  # V^{n+1} and the next step's predictor in one pass
-            for p in range(N):
-                pu = uint64(p)
-                v1 = V[pu] + dg1 * A[pu] + dg * z[pu]
-                V[pu] = v1
-                U[pu] = U[pu] + dt * v1 + h2 * z[pu]
-        predicted = not sample
-        A, z = z, A  # A^{n+1} is the solution; the old A is the next solve's scratch
-        V[0] = (ucon - u0) * idt
-        u0 = ucon
-        if ucon < min_u0:
-            min_u0 = ucon
-        if sample:
-            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
-                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
-            k += 1
-            if blown_up(energy, E0):
-                return k, step, min_u0, step
-    return k, nsteps, min_u0, -1
-
-
 def _load_to_lanes(sp: Spike, F: np.ndarray, scale: float) -> np.ndarray:
     """scale * F in the interleaved layout; a zero load is np.zeros, whose pages the
     kernel only reads, so it costs no resident memory at large n."""
     return sp.to_lanes(scale * F) if np.any(F) else sp.zeros()
 
 
+def h_diagonals(sp: Spike) -> tuple[np.ndarray, ...]:
+    """The reduced-system map H of `sp` as vector diagonals, for the vector kernels.
+
+    Rows 0..L-1 of H give A, rows L..2L-1 give B; its columns are the interface values
+    s (row 0 of every lane) and t (row m-1), which the kernels keep at ibuf[L:2L] and
+    ibuf[2L:3L] between zeros. The entries coupling lane c of (A or B) to lane c + d of
+    (s or t) form one diagonal: Dg[k] (L values), read against ibuf[Dsrc[k]:Dsrc[k]+L]
+    into A (Ddst[k] = 0) or B (1). Row 2L (the free x[0]) stays as (X0pos, X0val) pairs.
+    """
+    m = sp.m
+    cols = np.where(sp.Hpos < L, sp.Hpos, sp.Hpos - (m - 1) * L + L)  # 0..2L-1: (s, t)
+    diags: dict[tuple[int, int, int], np.ndarray] = {}
+    x0pos, x0val = [], []
+    for r, c, v in zip(sp.Hrow, cols, sp.Hval, strict=True):
+        if r == 2 * L:
+            x0pos.append(L + c)
+            x0val.append(v)
+            continue
+        dst, lane = divmod(int(r), L)
+        src, col_lane = divmod(int(c), L)
+        key = (dst, src, col_lane - lane)
+        diags.setdefault(key, np.zeros(L))[lane] = v
+    keys = sorted(diags)
+    Dg = lane_zeros(L * len(keys))
+    if keys:
+        Dg[:] = np.concatenate([diags[k] for k in keys])
+    Dsrc = np.array([L + L * src + d for (_, src, d) in keys], np.int64)
+    Ddst = np.array([dst for (dst, _, _) in keys], np.int64)
+    return Dg, Dsrc, Ddst, np.array(x0pos, np.int64), np.array(x0val, float)
+
+
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
                 beta: float, gamma: float) -> Trajectory:
-    """Factor outside the loop (interleaved SPIKE factors), then call the kernel.
+    """Factor outside the loop (interleaved SPIKE factors), then call the vector kernel.
 
     The kernel's state lives only in the interleaved layout; nothing in node order is
     kept alive while it steps beyond the problem itself and the sample buffers.
     """
-    M, K = semi.M, semi.K
+    M, K, F = semi.M, semi.K, semi.F
     n = semi.nfree
     dt, beta, gamma = float(dt), float(beta), float(gamma)
     U, V = semi.U0, semi.V0
-    out = allocate(semi, nsteps, stride)
-    out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
-    out["E"][0] = energy_of(M.diag, M.off, K.diag, K.off, semi.F, U, V, semi.energy_offset)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
-    if beta > 0.0:
-        bdt2 = beta * dt * dt
-        sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off)
-        A = initial_acceleration(semi)
-        Ut = sp.to_lanes(U + dt * V + (0.5 - beta) * dt * dt * A)
-        Al = sp.to_lanes(A)
-        del A
-        k, done, min_u0, blow = _implicit_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(M.diag), sp.lower_to_lanes(M.off),
-            _load_to_lanes(sp, semi.F, bdt2), sp.factors(), sp.hw, sp.w0, Ut, sp.to_lanes(V),
-            Al, sp.zeros(), np.zeros(2 * sp.lanes + 1), float(U[0]), dt, beta,
-            gamma, bool(semi.massless), int(nsteps), int(stride), semi.energy_offset, *bufs)
-    else:
+    if beta == 0.0:
         if not semi.massless:
             raise ValueError("explicit Newmark (beta = 0) here needs a massless contact node")
         if n < 2:
             raise ValueError("explicit Newmark needs at least one node besides the contact node")
+    out = allocate(semi, nsteps, stride)
+    out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
+    out["E"][0] = energy_of(M.diag, M.off, K.diag, K.off, F, U, V, semi.energy_offset)
+    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    A = initial_acceleration(semi)
+    dt2 = dt * dt
+    if beta > 0.0:
+        bdt2 = beta * dt2
+        sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off, MIN_ROWS)
+        # S X + G = M U~ + beta dt^2 F; X = U~ = U + dt V + (1/2 - beta) dt^2 A
+        Sd, Slo, G = sp.to_lanes(M.diag), sp.lower_to_lanes(M.off), _load_to_lanes(sp, F, bdt2)
+        X = sp.to_lanes(U + dt * V + (0.5 - beta) * dt2 * A)
+        k1, k2, kv = (gamma + 0.5 - beta) / beta, 1.0 / beta, gamma / (beta * dt)
+        kernel = implicit_kernel
+    else:
         d, e = M.diag.copy(), M.off.copy()
         d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_r on nodes 1.. plus an identity row
-        sp = spike_factor(d, e)
+        sp = spike_factor(d, e, MIN_ROWS)
         del d, e
-        Al = sp.to_lanes(initial_acceleration(semi))
-        k, done, min_u0, blow = _explicit_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
-            _load_to_lanes(sp, semi.F, 1.0), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), Al,
-            sp.zeros(), np.zeros(2 * sp.lanes + 1), dt, gamma, int(nsteps),
-            int(stride), semi.energy_offset, *bufs)
+        # S X + G = dt^2 (F - K X); X = U + dt V + dt^2 / 2 A (node 0 set by the kernel)
+        Sd, Slo = sp.to_lanes(-dt2 * K.diag), sp.lower_to_lanes(-dt2 * K.off)
+        G = _load_to_lanes(sp, F, dt2)
+        X = sp.to_lanes(U + dt * V + 0.5 * dt2 * A)
+        k1, k2, kv = gamma + 0.5, 1.0, gamma / dt
+        kernel = explicit_kernel
+    Q = sp.to_lanes(dt * V + dt2 * (1.0 - gamma) * A)
+    del A
+    SloN = lane_zeros(L)  # S[i, i-1] of row 0's next lane, for row m-1
+    SloN[: L - 1] = Slo[1:L]
+    Dg, Dsrc, Ddst, X0pos, X0val = h_diagonals(sp)
+    hw = lane_zeros(2 * L)
+    hw[:] = sp.hw
+    k, done, min_u0, blow = kernel(
+        M.diag, M.off, K.diag, K.off, F, Sd, Slo, SloN, G, bool(np.any(F)), sp.factors(),
+        Dg, Dsrc, Ddst, X0pos, X0val, hw, sp.w0, X, Q, sp.zeros(), sp.zeros(),
+        np.zeros(2 * L), lane_zeros(4 * L), float(U[0]), k1, k2, kv,
+        1.0 / (beta * dt2) if beta > 0.0 else 0.0, dt, bool(semi.massless), int(nsteps),
+        int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)

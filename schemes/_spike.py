@@ -112,13 +112,17 @@ class Spike:
         return y[self.pos]
 
 
-def spike_factor(d: np.ndarray, e: np.ndarray) -> Spike:
-    """Factor S = tridiag(e, d, e) (symmetric positive definite) for `spike_solve`."""
+def spike_factor(d: np.ndarray, e: np.ndarray, min_rows: int = 1) -> Spike:
+    """Factor S = tridiag(e, d, e) (symmetric positive definite) for `spike_solve`.
+
+    m = max(min_rows, ceil(n / lanes)) rows per block (the vector Newmark kernels need
+    3; the extra rows of a small system are padding).
+    """
     d = np.asarray(d, float)
     e = np.asarray(e, float)
     n = d.size
     lanes = LANES
-    m = -(-n // lanes)
+    m = max(int(min_rows), -(-n // lanes))
     N = lanes * m
     dp = np.ones(N)
     dp[:n] = d

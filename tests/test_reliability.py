@@ -306,9 +306,9 @@ def test_ctrl_c_while_writing_results_leaves_no_partial_file(tmp_path, monkeypat
 def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
     out = tmp_path / "out"
     # the console script is `from bench.cli import main; sys.exit(main())`; "ready" marks
-    # the end of the imports so that SIGINT lands in main (a long job: 8 runs of ~2 s)
-    argv = ["run", "--case", "clamped_bar", "--scheme", "standard", "--nx", "800",
-            "--T", "12", "--stride", "200", "--out", str(out)]
+    # the end of the imports so that SIGINT lands in main (a long job: 8 runs of ~1.5 s)
+    argv = ["run", "--case", "clamped_bar", "--scheme", "standard", "--nx", "4000",
+            "--T", "48", "--stride", "2000", "--out", str(out)]
     for dt in ("1e-4", "1.01e-4", "1.02e-4", "1.03e-4", "1.04e-4", "1.05e-4", "1.06e-4"):
         argv += ["--dt", dt]
     code = ("import sys; from bench.cli import main; print('ready', flush=True); "

@@ -1,10 +1,20 @@
-"""Explicit 8 x double vectors for numba (a numba type wrapping LLVM's <8 x double>).
+"""Explicit 8 x double vectors for numba: a numba type wrapping LLVM's <8 x double>.
 
-vload(a, i) / vstore(a, i, v): 8 consecutive doubles at a[i] (unaligned allowed);
-vfma(a, b, c) = a*b + c (one rounding), vfnma(a, b, c) = c - a*b (one rounding);
-+, -, * on vectors; vsplat(x) broadcasts a scalar. Values live in registers, so a
-loop-carried vector is a register recurrence (no store-to-load forwarding).
+Used by the generated Newmark kernels (`schemes._newmark_vec`). A value of this type
+lives in registers, so a loop-carried vector (the forward and backward sweeps of a
+tridiagonal solve, 16 lanes = two vectors) is a register recurrence instead of a chain
+of stores and reloads through memory, which is what numba's auto-vectorised loops give.
+
+- vload(a, i) / vstore(a, i, v): the 8 doubles a[i : i + 8] (unaligned allowed);
+- vsplat(x): x in all 8 elements;
+- vfma(a, b, c) = a * b + c and vfnma(a, b, c) = c - a * b, each rounded once;
+- +, -, * between two vectors, element by element (IEEE, no reassociation).
+
+Indices are unsigned (uint64), like the scalar kernels of `schemes._spike`.
 """
+
+from __future__ import annotations
+
 import operator
 
 from llvmlite import ir
@@ -16,7 +26,9 @@ _V = ir.VectorType(ir.DoubleType(), 8)
 
 
 class F64x8(types.Type):
-    def __init__(self):
+    """numba type of a <8 x double> value."""
+
+    def __init__(self) -> None:
         super().__init__(name="F64x8")
 
 
@@ -38,6 +50,7 @@ def _ptr(context, builder, aryty, ary, idx, idxty):
 
 @intrinsic
 def vload(typingctx, a, i):
+    """The 8 doubles a[i : i + 8]."""
     def codegen(context, builder, sig, args):
         p = _ptr(context, builder, sig.args[0], args[0], args[1], sig.args[1])
         return builder.load(p, align=8)
@@ -45,16 +58,8 @@ def vload(typingctx, a, i):
 
 
 @intrinsic
-def vloada(typingctx, a, i):
-    """vload with a 64-byte alignment promise."""
-    def codegen(context, builder, sig, args):
-        p = _ptr(context, builder, sig.args[0], args[0], args[1], sig.args[1])
-        return builder.load(p, align=64)
-    return f64x8(a, i), codegen
-
-
-@intrinsic
 def vstore(typingctx, a, i, v):
+    """a[i : i + 8] = v."""
     def codegen(context, builder, sig, args):
         p = _ptr(context, builder, sig.args[0], args[0], args[1], sig.args[1])
         builder.store(args[2], p, align=8)
@@ -64,6 +69,7 @@ def vstore(typingctx, a, i, v):
 
 @intrinsic
 def vsplat(typingctx, x):
+    """x in all 8 elements."""
     def codegen(context, builder, sig, args):
         x = context.cast(builder, args[0], sig.args[0], types.float64)
         v = ir.Constant(_V, ir.Undefined)
@@ -72,22 +78,15 @@ def vsplat(typingctx, x):
     return f64x8(x), codegen
 
 
-@intrinsic
-def vget(typingctx, v, k):
-    def codegen(context, builder, sig, args):
-        k = context.cast(builder, args[1], sig.args[1], types.int32)
-        return builder.extract_element(args[0], k)
-    return types.float64(v, k), codegen
-
-
 def _fma(builder, a, b, c):
-    mod = builder.module
-    fn = cgutils.get_or_insert_function(mod, ir.FunctionType(_V, [_V, _V, _V]), "llvm.fma.v8f64")
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V, [_V, _V, _V]),
+                                        "llvm.fma.v8f64")
     return builder.call(fn, [a, b, c])
 
 
 @intrinsic
 def vfma(typingctx, a, b, c):
+    """a * b + c, rounded once."""
     def codegen(context, builder, sig, args):
         return _fma(builder, *args)
     return f64x8(a, b, c), codegen
@@ -95,12 +94,13 @@ def vfma(typingctx, a, b, c):
 
 @intrinsic
 def vfnma(typingctx, a, b, c):
+    """c - a * b, rounded once."""
     def codegen(context, builder, sig, args):
         return _fma(builder, builder.fneg(args[0]), args[1], args[2])
     return f64x8(a, b, c), codegen
 
 
-def _binop(name):
+def _binop(name: str):
     @intrinsic
     def f(typingctx, a, b):
         def codegen(context, builder, sig, args):
@@ -109,16 +109,12 @@ def _binop(name):
     return f
 
 
-vadd, vsub, vmul = _binop("fadd"), _binop("fsub"), _binop("fmul")
-
-
-def _register_binop(op, f):
-    """overload the Python operator `op` on two F64x8 with the intrinsic `f`."""
+def _register(op, f) -> None:
     @overload(op)
     def ov(a, b):
         if isinstance(a, F64x8) and isinstance(b, F64x8):
             return lambda a, b: f(a, b)
 
 
-for _op, _f in ((operator.add, vadd), (operator.sub, vsub), (operator.mul, vmul)):
-    _register_binop(_op, _f)
+for _op, _name in ((operator.add, "fadd"), (operator.sub, "fsub"), (operator.mul, "fmul")):
+    _register(_op, _binop(_name))
