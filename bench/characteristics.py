@@ -121,7 +121,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from bench.plugin import flat_points
+from bench.plugin import flat_points, grid_points
 
 __all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES"]
 
@@ -181,6 +181,11 @@ def _data_function(name: str, data: Any, L: float) -> tuple[Fn, FloatArray, Fn |
 
         return fcall, np.empty(0), None
     raise ValueError(f"{name} must be a callable, a number or a tuple (x_samples, values)")
+
+
+def _within(a: FloatArray, lo: float, hi: float) -> bool:
+    """All of a in [lo, hi] (False for NaN): two reductions, not five passes."""
+    return a.size == 0 or bool(np.min(a) >= lo and np.max(a) <= hi)
 
 
 def _merge_nodes(base: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
@@ -525,12 +530,15 @@ class CharacteristicsSolution:
         self._delta = np.array(deltas)
         self._K = K
         self._lut: NDArray[np.integer] | None = None  # see _lookup_table
+        # every block the base grid (no kinks, nothing inserted): cells are found
+        # without the lookup table (`_table`)
+        self._uniform = bool(np.all(sizes == self.cells_per_length + 1))
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
         t = np.asarray(t, dtype=float)
         slack = _T_SLACK * self.T
-        if np.any(~np.isfinite(t)) or np.any(t < -slack) or np.any(t > self.T + slack):
+        if not _within(t, -slack, self.T + slack):
             bad = t[~((t >= -slack) & (t <= self.T + slack))].ravel()[0]
             raise ValueError(f"t = {bad!r} outside the stored interval [0, T={self.T!r}]")
         return np.clip(t, 0.0, self.T)
@@ -539,7 +547,7 @@ class CharacteristicsSolution:
         """x and t checked (in the bar, in [0, T]) and clipped, not yet broadcast."""
         x = np.asarray(x, dtype=float)
         slack = _T_SLACK * self.L
-        if np.any(~np.isfinite(x)) or np.any(x < -slack) or np.any(x > self.L + slack):
+        if not _within(x, -slack, self.L + slack):
             bad = x[~((x >= -slack) & (x <= self.L + slack))].ravel()[0]
             raise ValueError(f"x = {bad!r} outside the bar [0, L={self.L!r}]")
         return np.clip(x, 0.0, self.L), self._times(t)
@@ -553,6 +561,11 @@ class CharacteristicsSolution:
             self._lut = np.maximum(lut, 0).astype(np.int32 if lut[-1] < 2**31 else np.int64)
         return self._lut
 
+    def _table(self) -> NDArray[np.integer]:
+        """What `_locate` guesses cells from: the lookup table, or on a uniform grid none
+        (the bin is the cell but for round-off; the cells found are the same)."""
+        return _NO_TABLE if self._uniform else self._lookup_table()
+
     def _fields(self, x: FloatArray, tau: FloatArray, value: bool, slopes: bool
                 ) -> tuple[FloatArray | None, FloatArray | None, FloatArray | None]:
         """u, and p'(x + tau) + a/2, -(q'(x - tau) + a/2) (limits from the future), from
@@ -562,7 +575,7 @@ class CharacteristicsSolution:
         dp = np.empty(xf.size) if slopes else np.empty(0)
         dq = np.empty(xf.size) if slopes else np.empty(0)
         _fields_kernel(xf, tf, self.L, self.gam, self.far_end == "clamped", self.u_L,
-                       self.ds, self._lookup_table(), self._cell0, self._r, self._P,
+                       self.ds, self._table(), self._cell0, self._r, self._P,
                        self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
                        self._ncells, u, dp, dq)
         return ((u.reshape(shape) if value else None), (dp.reshape(shape) if slopes else None),
@@ -610,6 +623,18 @@ class CharacteristicsSolution:
         u, dp, dq = self._fields(x, self.c * t, True, True)
         ux = dp - dq + self.gam * x
         return u, ux, (self.c * (dp + dq) if velocity else None)
+
+    def fields_into(self, x: ArrayLike, t: ArrayLike, u: FloatArray, ux: FloatArray,
+                    ut: FloatArray | None = None) -> None:
+        """`fields` at the points (x[m], t[k]) written into u[k, m], ux[k, m] and ut[k, m]
+        (x, t 1-D; the outputs C-contiguous float arrays of shape (t.size, x.size)), the
+        very same values without temporaries: what the error norms use."""
+        x, t = grid_points(x, t, u, ux, ut)
+        x, t = self._points(x, t)
+        _grid_kernel(x, self.c * t, self.L, self.gam, self.far_end == "clamped", self.u_L,
+                     self.c, self.ds, self._table(), self._cell0, self._r, self._P,
+                     self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
+                     self._ncells, u, ux, np.empty((0, 0)) if ut is None else ut)
 
     def stress(self, t: ArrayLike) -> FloatArray:
         """Contact stress E u_x(0, t) <= 0 (limit t -> t+)."""
@@ -727,13 +752,20 @@ def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - co
     """(cell, block) of the points (k[n], r[n]) into ii, bb: a first guess from the table
     on s = k L + r (the last cell starting at or before the bin of width ds below s) and
     the block of k, checked in a loop of its own (it is right but for inserted nodes and
-    round-off), and `_cell_of` from that guess where it is not."""
+    round-off), and `_cell_of` from that guess where it is not. An empty table stands
+    for a uniform grid (every block the base grid, nothing inserted): the guess is then
+    the bin itself, within a cell of the right one."""
     nl = lut.size - 1
     nb1 = cell0.size - 1
     ids = 1.0 / ds  # a guess: no division needed
-    for n in range(k.size):
-        ii[n] = lut[min(max(math.floor((k[n] * L + r[n]) * ids), 0), nl)]
-        bb[n] = min(max(int(k[n]), 0), nb1)
+    if nl >= 0:
+        for n in range(k.size):
+            ii[n] = lut[min(max(math.floor((k[n] * L + r[n]) * ids), 0), nl)]
+            bb[n] = min(max(int(k[n]), 0), nb1)
+    else:
+        for n in range(k.size):
+            ii[n] = min(max(math.floor((k[n] * L + r[n]) * ids), 0), last)
+            bb[n] = min(max(int(k[n]), 0), nb1)
     for n in range(k.size):
         i, b, kn, rr = ii[n], bb[n], k[n], r[n]
         if not (b == kn and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
@@ -742,6 +774,7 @@ def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - co
 
 
 _CHUNK = 1024  # points per pass of `_fields_kernel` (its scratch stays in L1)
+_NO_TABLE = np.empty(0, np.int32)  # `_locate` on a uniform grid
 
 
 @njit(cache=True)
@@ -816,3 +849,73 @@ def _fields_kernel(x, tau, L, gam, clamped, u_L, ds, lut, cell0, rn, P, Q, dP, d
                     sq = sq + ha * sQ[i2] * (r2 - 0.5 * (q0 + q1))
                 dp[n] = sp
                 dq[n] = sq
+
+
+@njit(cache=True)
+def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
+                 delta, ncells, u, ux, ut):  # pragma: no cover - compiled
+    """u, u_x = dp - dq + gam x (and u_t = c (dp + dq) unless ut is empty) at the points
+    (x[m], tau[k]) into [k, m]: the expressions of `_fields_kernel` and `fields`, in
+    the same stages, one sample time at a time (its block and offset once, u_p and
+    gam x once per point). Written out, not through helpers taking arrays (numba would
+    count references to them at every point)."""
+    M = x.size
+    kp, rp, kq, rq = np.empty(M), np.empty(M), np.empty(M), np.empty(M)
+    ip, bp = np.empty(M, np.int64), np.empty(M, np.int64)
+    iq, bq = np.empty(M, np.int64), np.empty(M, np.int64)
+    upx = np.empty(M)
+    gx = np.empty(M)
+    for m in range(M):
+        xn = x[m]
+        if clamped:
+            upx[m] = u_L + 0.5 * gam * (xn * xn - L * L)
+        else:
+            upx[m] = gam * (0.5 * xn * xn - L * xn)
+        gx[m] = gam * xn
+    last = ncells - 1
+    qa = 0.25 * gam
+    ha = 0.5 * gam
+    nd = delta.size - 1
+    want_v = ut.size > 0
+    for n in range(tau.size):
+        tn = tau[n]
+        k = math.floor(tn / L)
+        rho = tn - k * L
+        for m in range(M):
+            xn = x[m]
+            a = xn + rho
+            low = a < L
+            kp[m], rp[m] = _normal(k if low else k + 1.0, a if low else (xn - L) + rho, L)
+            e = rho - xn
+            pos = e >= 0.0
+            kq[m], rq[m] = _normal(k + 1.0 if pos else k, e if pos else (L - xn) + rho, L)
+        _locate(kp, rp, L, ds, lut, cell0, rn, last, ip, bp)
+        _locate(kq, rq, L, ds, lut, cell0, rn, last, iq, bq)
+        for m in range(M):
+            i1, b1, r1 = ip[m], bp[m], rp[m]
+            i2, b2, r2 = iq[m], bq[m], rq[m]
+            p0, p1 = rn[i1 + b1], rn[i1 + b1 + 1]
+            q0, q1 = rn[i2 + b2], rn[i2 + b2 + 1]
+            v0 = P[i1 + b1]
+            pv = v0 + (r1 - p0) / (p1 - p0) * (P[i1 + b1 + 1] - v0)
+            v0 = Q[i2 + b2]
+            qv = v0 + (r2 - q0) / (q1 - q0) * (Q[i2 + b2 + 1] - v0)
+            sp = dP[i1]
+            sq = dQ[i2]
+            if gam:
+                pv = pv + qa * sP[i1] * (r1 - p0) * (r1 - p1)
+                qv = qv + qa * sQ[i2] * (r2 - q0) * (r2 - q1)
+                sp = sp + ha * sP[i1] * (r1 - 0.5 * (p0 + p1))
+                sq = sq + ha * sQ[i2] * (r2 - 0.5 * (q0 + q1))
+            if b1 == b2 + 1:
+                off = delta[min(max(b2, 0), nd)]
+            elif b2 == b1 + 1:
+                off = -delta[min(max(b1, 0), nd)]
+            elif b1 == b2:
+                off = 0.0
+            else:  # |x + tau - (x - tau')| <= L
+                raise RuntimeError("characteristics: p and q cells more than a block apart")
+            u[n, m] = pv + qv + off + upx[m]
+            ux[n, m] = sp - sq + gx[m]
+            if want_v:
+                ut[n, m] = c * (sp + sq)

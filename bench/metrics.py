@@ -3,9 +3,10 @@
 Space norms use scikit-fem's Gauss quadrature on each element (4 points). Per block of
 elements x samples (bounded size, so memory does not grow with the mesh or the number
 of samples beyond the trajectory itself): the exact fields are evaluated at the
-quadrature points of all the block's sample times in one vectorised call (the exact
-solution's `fields` when it has one, else `u`, `ux`, `ut`), and a compiled kernel
-interpolates the P1 samples there and accumulates the squared errors. Time norms over
+quadrature points of all the block's sample times in one compiled or vectorised call
+(the exact solution's `fields_into` when it has one, writing in place, else `fields`,
+else `u`, `ux`, `ut`), and a compiled kernel interpolates the P1 samples there and
+accumulates the squared errors (and, the first time, the exact norms). Time norms over
 the sample times: L_inf is the max, L2(0,T) the trapezoidal rule. Every error is
 relative: divided by the same norm of the exact solution (GetFEM's dynamic 1D contact
 test).
@@ -15,7 +16,10 @@ depend on the mesh, the sample times and the reference only, not on the scheme: 
 are kept for the next calls on the same (reference, mesh, sample times), the most
 recent first, up to `EXACT_CACHE_BYTES` in all, so the schemes of a table that share
 a grid evaluate the reference once. Entries hold the reference weakly; larger problems
-are evaluated block by block every time (memory bounded by the block).
+are evaluated block by block every time (memory bounded by the block). With
+`fields_into` an entry's values are one allocation, carved into the blocks (one array
+per block would be handed back to the system block by block and faulted in again, page
+by page, at the next grid), and a problem too large to keep reuses one block's arrays.
 """
 
 from __future__ import annotations
@@ -115,32 +119,92 @@ def _error_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w,
 
 
 @njit(cache=True)
-def _exact_sums(use_v, row0, w, u, ux, v, nu, nux, nv):  # pragma: no cover - compiled
-    """Add sum_e,q w u^2 (and the same for u_x, v) of samples row0.. to nu, nux, nv
-    (partial sums as in `_error_sums`)."""
+def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
+                          eu, eux, ev, nu, nux, nv):  # pragma: no cover - compiled
+    """`_error_sums` and, in the same pass over the exact values, sum_e,q w u^2 (and the
+    same for u_x, v) of samples row0.. added to nu, nux, nv: what the first scheme on a
+    grid needs. The norms' partial sums run over `_LEAF` elements in the order
+    (element, point), one per field."""
     kb, ne, _ = u.shape
+    a0, a1, a2, a3 = p0[0], p0[1], p0[2], p0[3]
+    b0, b1, b2, b3 = p1[0], p1[1], p1[2], p1[3]
     for k in range(kb):
+        row = row0 + k
         tu = 0.0
         tx = 0.0
         tv = 0.0
+        mu = 0.0
+        mx = 0.0
+        mv = 0.0
         for c0 in range(0, ne, _LEAF):
+            u0 = u1 = u2 = u3 = 0.0
+            x0 = x1 = x2 = x3 = 0.0
+            v0 = v1 = v2 = v3 = 0.0
             su = 0.0
             sx = 0.0
             sv = 0.0
             for e in range(c0, min(ne, c0 + _LEAF)):
-                for q in range(4):
-                    we = w[e, q]
-                    su += we * (u[k, e, q] * u[k, e, q])
-                    sx += we * (ux[k, e, q] * ux[k, e, q])
-                    if use_v:
-                        sv += we * (v[k, e, q] * v[k, e, q])
-            tu += su
-            tx += sx
-            tv += sv
-        nu[row0 + k] += tu
-        nux[row0 + k] += tx
+                j = lo + e
+                a = U[row, j] if j < nfree else u_fixed
+                b = U[row, j + 1] if j + 1 < nfree else u_fixed
+                w0, w1, w2, w3 = w[e, 0], w[e, 1], w[e, 2], w[e, 3]
+                e0, e1, e2, e3 = u[k, e, 0], u[k, e, 1], u[k, e, 2], u[k, e, 3]
+                d = (a * a0 + b * b0) - e0
+                u0 += w0 * (d * d)
+                d = (a * a1 + b * b1) - e1
+                u1 += w1 * (d * d)
+                d = (a * a2 + b * b2) - e2
+                u2 += w2 * (d * d)
+                d = (a * a3 + b * b3) - e3
+                u3 += w3 * (d * d)
+                f0, f1, f2, f3 = ux[k, e, 0], ux[k, e, 1], ux[k, e, 2], ux[k, e, 3]
+                gx = a * g0[e] + b * g1[e]
+                d = gx - f0
+                x0 += w0 * (d * d)
+                d = gx - f1
+                x1 += w1 * (d * d)
+                d = gx - f2
+                x2 += w2 * (d * d)
+                d = gx - f3
+                x3 += w3 * (d * d)
+                su += w0 * (e0 * e0)
+                sx += w0 * (f0 * f0)
+                su += w1 * (e1 * e1)
+                sx += w1 * (f1 * f1)
+                su += w2 * (e2 * e2)
+                sx += w2 * (f2 * f2)
+                su += w3 * (e3 * e3)
+                sx += w3 * (f3 * f3)
+                if use_v:
+                    a = V[row, j] if j < nfree else 0.0
+                    b = V[row, j + 1] if j + 1 < nfree else 0.0
+                    e0, e1, e2, e3 = v[k, e, 0], v[k, e, 1], v[k, e, 2], v[k, e, 3]
+                    d = (a * a0 + b * b0) - e0
+                    v0 += w0 * (d * d)
+                    d = (a * a1 + b * b1) - e1
+                    v1 += w1 * (d * d)
+                    d = (a * a2 + b * b2) - e2
+                    v2 += w2 * (d * d)
+                    d = (a * a3 + b * b3) - e3
+                    v3 += w3 * (d * d)
+                    sv += w0 * (e0 * e0)
+                    sv += w1 * (e1 * e1)
+                    sv += w2 * (e2 * e2)
+                    sv += w3 * (e3 * e3)
+            tu += (u0 + u1) + (u2 + u3)
+            tx += (x0 + x1) + (x2 + x3)
+            tv += (v0 + v1) + (v2 + v3)
+            mu += su
+            mx += sx
+            mv += sv
+        eu[row] += tu
+        eux[row] += tx
         if use_v:
-            nv[row0 + k] += tv
+            ev[row] += tv
+        nu[row] += mu
+        nux[row] += mx
+        if use_v:
+            nv[row] += mv
 
 
 @dataclass(frozen=True)
@@ -269,25 +333,31 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
     x, t = semi.x, traj.t
     nel, K = x.size - 1, t.size
     err = {k: np.zeros(K) for k in ("eu", "eux", "ev")}
+    norms = {k: np.zeros(K) for k in ("nu", "nux", "nv")}
     u_fixed = float(semi.u_fixed) if semi.u_fixed is not None else 0.0
     U = traj.U
     V = traj.V if need_v else traj.U
     ec, step = _blocks(nel)
 
-    def add_errors(g: _Geometry, a: int, vals: tuple) -> None:
+    def add(g: _Geometry, a: int, vals: tuple, with_norms: bool) -> None:
         u, ux, v = vals
-        _error_sums(U, V, need_v, a, g.lo, semi.nfree, u_fixed, g.p0, g.p1, g.g0, g.g1,
-                    g.w, u, ux, u if v is None else v, err["eu"], err["eux"], err["ev"])
+        args = (U, V, need_v, a, g.lo, semi.nfree, u_fixed, g.p0, g.p1, g.g0, g.g1, g.w, u, ux,
+                u if v is None else v, err["eu"], err["eux"], err["ev"])
+        if with_norms:
+            _error_and_exact_sums(*args, norms["nu"], norms["nux"], norms["nv"])
+        else:
+            _error_sums(*args)
 
     hit = _lookup(exact, x, t, need_v)
     if hit is not None:
         values = iter(hit.values)
         for g in hit.geometry:
             for a in range(0, K, step):
-                add_errors(g, a, next(values))
+                add(g, a, next(values), False)
         return {**err, **hit.norms}, hit
 
-    size = 8 * (3 if need_v else 2) * K * nel * 4
+    nf = 3 if need_v else 2
+    size = 8 * nf * K * nel * 4
     keep = size <= EXACT_CACHE_BYTES
     try:
         ref = weakref.ref(exact)
@@ -295,17 +365,33 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
         keep, ref = False, None
     if keep:
         _make_room(size)
-    norms = {k: np.zeros(K) for k in ("nu", "nux", "nv")}
+    fill = getattr(exact, "fields_into", None)
+    # with `fields_into`, one allocation for all the values kept (or for one block,
+    # reused, when nothing is kept): not one per block, whose pages the allocator would
+    # hand back to the system and fault in again at the next grid
+    pool = None
+    if fill is not None:
+        pool = np.empty(size // 8 if keep else nf * min(step, K) * min(ec, nel) * 4)
+    at = 0
     geometry: list[_Geometry] = []
     values: list[tuple] = []
     for e0 in range(0, nel, ec):
         g = _Geometry.of(x, e0, min(nel, e0 + ec))
+        ne = g.X.shape[0]
         for a in range(0, K, step):
-            vals = _exact_values(exact, g.X, t[a : a + step, None, None], need_v)
-            u, ux, v = vals
-            _exact_sums(need_v, a, g.w, u, ux, u if v is None else v,
-                        norms["nu"], norms["nux"], norms["nv"])
-            add_errors(g, a, vals)
+            kb = min(step, K - a)
+            if pool is not None:
+                n = kb * ne * 4
+                if not keep:
+                    at = 0
+                block = pool[at : at + nf * n].reshape(nf, kb, ne, 4)
+                at += nf * n
+                vals = (block[0], block[1], block[2] if need_v else None)
+                fill(g.X.reshape(-1), t[a : a + kb],
+                     *(None if f is None else f.reshape(kb, ne * 4) for f in vals))
+            else:
+                vals = _exact_values(exact, g.X, t[a : a + kb, None, None], need_v)
+            add(g, a, vals, True)
             if keep:
                 values.append(vals)
         if keep:
@@ -363,7 +449,8 @@ def warm_up() -> None:
     z1, z2, z4, zq, z3 = np.zeros(1), np.zeros((1, 2)), np.zeros(4), np.zeros((1, 4)), \
         np.zeros((1, 1, 4))
     _error_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1, z1)
-    _exact_sums(True, 0, zq, z3, z3, z3, z1, z1, z1)
+    _error_and_exact_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1,
+                          z1, z1, z1, z1)
 
 
 def energy_metrics(traj: Trajectory) -> dict[str, float]:

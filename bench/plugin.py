@@ -54,8 +54,33 @@ def flat_points(x: Any, t: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]
     return np.ascontiguousarray(x).ravel(), np.ascontiguousarray(t).ravel(), x.shape
 
 
+def grid_points(x: Any, t: Any, *out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """x and t as contiguous 1-D float arrays, after checking that every output given
+    (None skipped) is a writeable C-contiguous float64 array of shape (t.size, x.size):
+    the arguments of an exact solution's `fields_into` (whose compiled kernels write
+    there without bounds checks)."""
+    x = np.ascontiguousarray(x, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    if x.ndim != 1 or t.ndim != 1:
+        raise ValueError(f"fields_into: x and t must be 1-D, got {x.shape} and {t.shape}")
+    for arr in out:
+        if arr is not None and not (
+                isinstance(arr, np.ndarray) and arr.dtype == np.float64
+                and arr.shape == (t.size, x.size) and arr.flags.c_contiguous
+                and arr.flags.writeable):
+            raise ValueError("fields_into: outputs must be writeable C-contiguous float64 "
+                             f"arrays of shape {(t.size, x.size)}")
+    return x, t
+
+
 class Exact(Protocol):
-    """An exact (or reference) solution; arrays broadcast against each other."""
+    """An exact (or reference) solution; arrays broadcast against each other.
+
+    Optional, for the error norms (`bench.metrics`): `fields(x, t, velocity)` giving
+    (u, u_x, u_t or None) at once, and `fields_into(x, t, u, ux, ut=None)` writing the
+    same values at the points (x[m], t[k]) into given (t.size, x.size) arrays
+    (`grid_points`), so that the norms keep them without temporaries.
+    """
 
     def u(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
     def ut(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...

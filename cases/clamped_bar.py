@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bench.plugin import Case, flat_points
+from bench.plugin import Case, flat_points, grid_points
 
 
 @njit(cache=True)
@@ -35,28 +35,46 @@ def _mod3(y: float, fl: float) -> float:
 
 
 @njit(cache=True)
+def _point(x: float, t: float) -> tuple[float, float, float]:
+    """(u, u_x, u_t) = (P(x+t) + Q(x-t), P' + Q', P' - Q') at one point; the slopes at
+    a kink are those of the piece to the right, as np.where(r < 2, ...) gives them."""
+    y = x + t
+    fy = math.floor(y / 3.0)
+    ry = _mod3(y, fy)
+    P = ((1.0 - ry) / 4.0 if ry < 2.0 else (ry - 3.0) / 4.0) - fy / 4.0
+    dP = -0.25 if ry < 2.0 else 0.25
+    r = 1.0 - (x - t)
+    fr = math.floor(r / 3.0)
+    m = _mod3(r, fr)
+    if m < 1.0:
+        Q, dQ = m / 4.0, -0.25  # dQ/ds = -dQ0/dr
+    elif m < 2.0:
+        Q, dQ = (2.0 - m) / 4.0, 0.25
+    else:
+        Q, dQ = (m - 2.0) / 4.0, -0.25
+    return P + (Q + fr / 4.0), dP + dQ, dP - dQ
+
+
+@njit(cache=True)
 def _fields_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
-    """u = P(x+t) + Q(x-t), u_x = P' + Q', u_t = P' - Q' at the points (x, t) (1-D
-    arrays); the slopes at a kink are those of the piece to the right, as np.where(r <
-    2, ...) gives them."""
+    """`_point` at the points (x[n], t[n]) (1-D arrays)."""
     for n in range(x.size):
-        y = x[n] + t[n]
-        fy = math.floor(y / 3.0)
-        ry = _mod3(y, fy)
-        P = ((1.0 - ry) / 4.0 if ry < 2.0 else (ry - 3.0) / 4.0) - fy / 4.0
-        dP = -0.25 if ry < 2.0 else 0.25
-        r = 1.0 - (x[n] - t[n])
-        fr = math.floor(r / 3.0)
-        m = _mod3(r, fr)
-        if m < 1.0:
-            Q, dQ = m / 4.0, -0.25  # dQ/ds = -dQ0/dr
-        elif m < 2.0:
-            Q, dQ = (2.0 - m) / 4.0, 0.25
-        else:
-            Q, dQ = (m - 2.0) / 4.0, -0.25
-        u[n] = P + (Q + fr / 4.0)
-        ux[n] = dP + dQ
-        ut[n] = dP - dQ
+        u[n], ux[n], ut[n] = _point(x[n], t[n])
+
+
+@njit(cache=True)
+def _grid_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
+    """`_point` at the points (x[m], t[k]) into u[k, m], ux[k, m] (and ut[k, m] unless
+    ut is empty): every sample time against the same points, without broadcast copies."""
+    want_v = ut.size > 0
+    for k in range(t.size):
+        tk = t[k]
+        for m in range(x.size):
+            a, b, c = _point(x[m], tk)
+            u[k, m] = a
+            ux[k, m] = b
+            if want_v:
+                ut[k, m] = c
 
 
 class ClampedBarExact:
@@ -70,6 +88,14 @@ class ClampedBarExact:
         u, ux, ut = np.empty(xf.size), np.empty(xf.size), np.empty(xf.size)
         _fields_kernel(xf, tf, u, ux, ut)
         return u.reshape(shape), ux.reshape(shape), (ut.reshape(shape) if velocity else None)
+
+    def fields_into(self, x: np.ndarray, t: np.ndarray, u: np.ndarray, ux: np.ndarray,
+                    ut: np.ndarray | None = None) -> None:
+        """`fields` at the points (x[m], t[k]) written into u[k, m], ux[k, m] and ut[k, m]
+        (x, t 1-D; the outputs C-contiguous float arrays of shape (t.size, x.size)):
+        what the error norms use, without temporaries."""
+        x, t = grid_points(x, t, u, ux, ut)
+        _grid_kernel(x, t, u, ux, np.empty((0, 0)) if ut is None else ut)
 
     def u(self, x, t):
         return self.fields(x, t, velocity=False)[0]

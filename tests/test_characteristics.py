@@ -546,3 +546,122 @@ def test_cell_search_fast_path_agrees_with_the_general_search():
     # and the cell found holds the point: r0 <= r < r1 in block k
     n0 = ii + bb
     assert np.all((bb == k) & (sol._r[n0] <= r) & (r < sol._r[n0 + 1]))
+
+
+# --------------------------------------------------------------------------------------
+# `fields_into`: every point against every time, written in place (what the error norms
+# use), and the cell search without the lookup table on uniform grids
+
+
+def _grid_solutions():
+    return {
+        "clamped bar, uniform grid": _clamped(12.0, cells_per_length=40),
+        "gravity, inserted nodes": CharacteristicsSolution(
+            L=1.0, E=1.0, rho=1.0, g=9.81, far_end="free", u0=0.05, v0=0.0, T=3.0,
+            cells_per_length=50),
+        "clamped, gravity, u_L": CharacteristicsSolution(
+            L=2.0, E=9.0, rho=1.0, g=3.0, far_end="clamped", u_L=0.2,
+            u0=lambda x: 0.2 + 0.25 * (2.0 - x), v0=-0.3, T=4.0, cells_per_length=400),
+        "tuple data with kinks": CharacteristicsSolution(
+            L=1.0, E=4.0, rho=1.0, far_end="free", u0=((0.0, 0.3, 1.0), (0.1, 0.0, 0.0)),
+            v0=((0.0, 0.5, 0.5, 1.0), (0.0, 0.0, -1.0, -1.0)), T=2.0, cells_per_length=28),
+    }
+
+
+@pytest.mark.parametrize("name", list(_grid_solutions()))
+def test_fields_into_is_the_pointwise_evaluation(name):
+    """`fields_into` (its own compiled kernel, per sample time) writes exactly the values
+    of `u`, `ux`, `ut` at the same points, also at nodes, x = 0, x = L, t = 0, t = T."""
+    sol = _grid_solutions()[name]
+    L, T = sol.L, sol.T
+    rng = np.random.default_rng(5)
+    x = np.sort(np.concatenate(([0.0, L], rng.uniform(0.0, L, 150),
+                                np.linspace(0.0, L, sol.cells_per_length + 1))))
+    t = np.concatenate(([0.0, T], rng.uniform(0.0, T, 60),
+                        np.linspace(0.0, T, 41), np.nextafter(np.linspace(0.0, T, 41)[1:], 0)))
+    u, ux, ut = (np.full((t.size, x.size), np.nan) for _ in range(3))
+    sol.fields_into(x, t, u, ux, ut)
+    X, Tt = x[None, :], t[:, None]
+    np.testing.assert_array_equal(u, sol.u(X, Tt))
+    np.testing.assert_array_equal(ux, sol.ux(X, Tt))
+    np.testing.assert_array_equal(ut, sol.ut(X, Tt))
+    u2, ux2 = np.zeros_like(u), np.zeros_like(u)
+    sol.fields_into(x, t, u2, ux2)  # without the velocity
+    np.testing.assert_array_equal(u2, u)
+    np.testing.assert_array_equal(ux2, ux)
+
+
+def test_fields_into_matches_the_clamped_bar_closed_form():
+    sol = _grid_solutions()["clamped bar, uniform grid"]
+    assert sol._uniform  # the cells are found without the lookup table
+    rng = np.random.default_rng(6)
+    x, t = rng.uniform(0.0, 1.0, 300), rng.uniform(0.0, 12.0, 200)
+    u, ux, ut = (np.empty((t.size, x.size)) for _ in range(3))
+    sol.fields_into(x, t, u, ux, ut)
+    X, Tt = np.broadcast_arrays(x[None, :], t[:, None])
+    ok = _away_from_kinks(X, Tt)
+    assert np.max(np.abs(u - (_cb_P(X + Tt) + _cb_Q(X - Tt)))) < 1e-12
+    assert np.max(np.abs(ux - (_cb_dP(X + Tt) + _cb_dQ(X - Tt)))[ok]) < 1e-12
+    assert np.max(np.abs(ut - (_cb_dP(X + Tt) - _cb_dQ(X - Tt)))[ok]) < 1e-12
+
+
+def test_fields_into_checks_its_arguments():
+    sol = _clamped(3.0, cells_per_length=20)
+    x, t = np.linspace(0.0, 1.0, 5), np.linspace(0.0, 3.0, 4)
+    good = np.empty((4, 5))
+    for bad in (np.empty((5, 4)), np.empty((4, 5), order="F")[:, :], np.empty((4, 5), np.float32),
+                np.empty((4, 10))[:, ::2]):
+        with pytest.raises(ValueError, match="fields_into"):
+            sol.fields_into(x, t, bad, good)
+    with pytest.raises(ValueError, match="outside the bar"):
+        sol.fields_into(x + 0.5, t, good, good.copy())
+    with pytest.raises(ValueError, match="outside the stored interval"):
+        sol.fields_into(x, t + 1.0, good, good.copy())
+
+
+def test_cell_search_without_table_on_a_uniform_grid():
+    """On a uniform grid `_locate` guesses the bin itself (empty table); the cells are
+    those of an independent binary search in each block's nodes, at every node too."""
+    from bench.characteristics import _NO_TABLE, _locate
+
+    sol = _clamped(12.0, cells_per_length=40)
+    assert sol._uniform and sol.inserted_nodes == 0
+    assert not _grid_solutions()["gravity, inserted nodes"]._uniform
+    rng = np.random.default_rng(4)
+    k = np.concatenate([rng.integers(0, sol._K + 1, 5000), np.repeat(
+        np.arange(sol._K + 1), np.diff(np.concatenate((sol._node0, [sol._r.size]))))])
+    r = np.concatenate([rng.uniform(0.0, 1.0, 5000), sol._r])
+    keep = r < 1.0
+    k, r = k[keep].astype(float), r[keep]
+    ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
+    _locate(k, r, sol.L, sol.ds, _NO_TABLE, sol._cell0, sol._r, sol._ncells - 1, ii, bb)
+    kb = k.astype(int)
+    want = np.array([sol._cell0[b] + np.searchsorted(
+        sol._r[sol._node0[b]:sol._node0[b] + sol._sizes[b]], rr, side="right") - 1
+        for b, rr in zip(kb, r, strict=True)])
+    np.testing.assert_array_equal(bb, kb)
+    np.testing.assert_array_equal(ii, want)
+
+
+def test_clamped_bar_fields_into_matches_numpy():
+    """cases.clamped_bar's `fields_into` (every point against every time) gives the
+    numpy closed form's values bitwise, also a rounding away from multiples of 3."""
+    from cases.clamped_bar import ClampedBarExact
+
+    rng = np.random.default_rng(8)
+    k = 3.0 * np.arange(1, 401)
+    x = np.concatenate(([0.0, 1.0], rng.uniform(0.0, 1.0, 60), np.linspace(0.0, 1.0, 21)))
+    t = np.concatenate(([0.0], rng.uniform(0.0, 1200.0, 300), np.nextafter(k, 0.0), k,
+                        np.nextafter(k, np.inf), 0.5 * np.arange(50)))
+    u, ux, ut = (np.full((t.size, x.size), np.nan) for _ in range(3))
+    ClampedBarExact().fields_into(x, t, u, ux, ut)
+    X, T = np.broadcast_arrays(x[None, :], t[:, None])
+    np.testing.assert_array_equal(u, _cb_P(X + T) + _cb_Q(X - T))
+    np.testing.assert_array_equal(ux, _cb_dP(X + T) + _cb_dQ(X - T))
+    np.testing.assert_array_equal(ut, _cb_dP(X + T) - _cb_dQ(X - T))
+    u2, ux2 = np.zeros_like(u), np.zeros_like(u)
+    ClampedBarExact().fields_into(x, t, u2, ux2)  # without the velocity
+    np.testing.assert_array_equal(u2, u)
+    np.testing.assert_array_equal(ux2, ux)
+    with pytest.raises(ValueError, match="fields_into"):
+        ClampedBarExact().fields_into(x, t, u[:, :-1], ux)

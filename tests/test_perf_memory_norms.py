@@ -297,3 +297,66 @@ def test_table_builds_each_reference_once(monkeypatch):
     again = run_table(["dropped_bar"], ["standard", "redistributed", "hht"], [12], T=1.0)
     assert len(built) == 1 + 3 and harness._references == []
     assert again["err_u_l2_l2"].tolist() == [r.row["err_u_l2_l2"] for r in runs]
+
+
+class _Pointwise:
+    """A reference's `fields`, `u`, `ux`, `ut` and `stress` only (no `fields_into`): the
+    generic path of the norms."""
+
+    def __init__(self, exact) -> None:
+        self.exact = exact
+
+    def fields(self, x, t, velocity=True):
+        return self.exact.fields(x, t, velocity=velocity)
+
+    def u(self, x, t):
+        return self.exact.u(x, t)
+
+    def ux(self, x, t):
+        return self.exact.ux(x, t)
+
+    def ut(self, x, t):
+        return self.exact.ut(x, t)
+
+    def stress(self, t):
+        return self.exact.stress(t)
+
+
+def _root(a: np.ndarray) -> np.ndarray:
+    while a.base is not None:
+        a = a.base
+    return a
+
+
+@pytest.mark.parametrize("case_name", ["clamped_bar", "dropped_bar"])
+@pytest.mark.parametrize("chunk", [120, 740])  # blocks of 30 + 7 elements / of 5 samples
+@pytest.mark.parametrize("keep", [True, False])
+def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_name, chunk,
+                                                           keep):
+    """References with `fields_into` write their values in place: into one allocation
+    carved into the blocks when kept, into one block's arrays reused when not. Same
+    errors as the direct scikit-fem quadrature, over uneven blocks of elements and of
+    samples, and the same numbers as through `fields`."""
+    monkeypatch.setattr(metrics, "_CHUNK_POINTS", chunk)
+    if not keep:
+        monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 0)
+    case = make_case(case_name)
+    semi = discretise(case, mesh_nodes(case.L, 37, grading=1.6))
+    if semi.u_fixed is not None:
+        semi = dataclasses.replace(semi, u_fixed=0.3)
+    exact = case.exact(2.0)
+    assert hasattr(exact, "fields_into")
+    traj = _trajectory(semi, np.linspace(0.0, 1.9, 23))  # contact from t = 1
+    got = error_metrics(semi, traj, exact, case.provides)
+    want = _direct(semi, traj, exact)
+    for col in ERROR_COLUMNS:
+        assert got[col] == pytest.approx(want[col], rel=1e-13, abs=0), col
+    if keep:
+        (entry,) = metrics._cache
+        arrays = [a for vals in entry.values for a in vals if a is not None]
+        assert len(arrays) == 3 * len(entry.values) and len({id(_root(a)) for a in arrays}) == 1
+        assert error_metrics(semi, traj, exact, case.provides) == got  # warm: the same
+    else:
+        assert metrics._cache == []
+    metrics.clear_cache()
+    assert error_metrics(semi, traj, _Pointwise(exact), case.provides) == got
