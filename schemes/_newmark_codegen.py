@@ -140,7 +140,7 @@ def _pass_a(e: _Emitter, implicit: bool, upd: bool) -> None:
 
 def _finals(e: _Emitter, implicit: bool, rows: str, sample: bool, update: bool) -> None:
     """Final values (spike correction) of `rows`, the contact node's, then (update) the
-    Newmark update of the same rows."""
+    Newmark update of the same rows (`_updates`)."""
     e(f"for i in {rows}:")
     e.indent()
     e("p = uint64(i) * U16")
@@ -166,9 +166,13 @@ def _finals(e: _Emitter, implicit: bool, rows: str, sample: bool, update: bool) 
         e("z[0] = 0.0  # the massless node has no acceleration")
     if implicit:
         e("u1 = z[0]")
-    if not update:
-        return
-    e(f"for i in {rows}:")
+    if update:
+        _updates(e, implicit, rows, sample)
+
+
+def _updates(e: _Emitter, implicit: bool, rows: str, sample: bool, comment: str = "") -> None:
+    """The Newmark update (`_update`) of `rows` from their final values in z."""
+    e(f"for i in {rows}:{comment}")
     e.indent()
     e("p = uint64(i) * U16")
     for h, o in HALVES:
@@ -312,13 +316,7 @@ def _kernel(e: _Emitter, implicit: bool) -> None:
       "                            F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)",
       "k += 1", "if blown_up(energy, E0):", "    return k, step, min_u0, step")
     if not implicit:
-        e("for i in range(m):  # the update, after the sample of U1")
-        e.indent()
-        e("p = uint64(i) * U16")
-        for h, o in HALVES:
-            e(f"zf{h} = vload(z, p{o})")
-            _update(e, False, h, f"p{o}", f"xn{h}", False)
-        e.dedent()
+        _updates(e, False, "range(m)", False, "  # the update, after the sample of U1")
         e("Q[0] = v0")
     e.dedent()
     e.dedent()
