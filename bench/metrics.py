@@ -11,6 +11,15 @@ the sample times: L_inf is the max, L2(0,T) the trapezoidal rule. Every error is
 relative: divided by the same norm of the exact solution (GetFEM's dynamic 1D contact
 test).
 
+The kernels are explicit SIMD (`schemes._simd`): the 4 points of an element are one
+vector. Summation order of every space norm, per sample: one partial sum per quadrature
+point over a leaf of `_LEAF` (64) elements in element order, the leaf's sum (s0 + s1) +
+(s2 + s3), the leaves' sums added in order, then the blocks' (so long meshes stay
+accurate). The errors keep the bits of the former scalar kernels (same terms, same
+order); the exact norms, formerly one serial sum per leaf, changed in the last bits.
+The warm path (values kept) and the cold path (values evaluated, norms summed in the
+same pass) compute the errors with the same code: the same bits.
+
 The exact values at the quadrature points (and the exact norms and contact stress)
 depend on the mesh, the sample times and the reference only, not on the scheme: they
 are kept for the next calls on the same (reference, mesh, sample times), the most
@@ -34,6 +43,7 @@ from numba import njit
 from skfem import Basis, ElementLineP1, MeshLine
 
 from bench.plugin import Exact, Semidiscrete, Trajectory
+from schemes._simd import v4bcast, v4hsum, v4load, v4splat, vloadc, vstore
 
 ERROR_COLUMNS = (
     "err_u_linf_l2", "err_u_linf_h1", "err_v_linf_l2",
@@ -53,83 +63,119 @@ EXACT_CACHE_BYTES = 96 * 2**20
 _LEAF = 64  # elements per partial sum in the kernels (sums stay accurate on long meshes)
 
 
-@njit(cache=True)
-def _error_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w,
-                u, ux, v, eu, eux, ev):  # pragma: no cover - compiled
-    """Add sum_e,q w (u_h - u)^2 (and the same for u_x, v) of samples row0.. to eu, eux,
-    ev. u_h is the P1 interpolant of rows of U (V): element e of the block has the nodes
-    lo + e and lo + e + 1, nodes >= nfree are the clamped one (u_fixed, velocity 0).
-    p0, p1 (4,): basis values at the 4 points; g0, g1 (elements,): basis slopes; w
-    (elements, 4): weights; u, ux, v (samples, elements, 4): the exact values.
+# The norm kernels (`_error_sums`, `_error_and_exact_sums`) take the 4 quadrature points
+# of an element as one vector of 4 lanes (`schemes._simd.F64x4`, lane q = point q): the
+# exact values u, ux, v (samples, elements, 4) and the weights w (elements, 4) are
+# C-contiguous, so that element e of sample k is the 4 doubles at flat index
+# 4 (k ne + e). The P1 interpolant there is A p0 + B p1: A, B the values of the element's
+# two nodes in all 4 lanes (memory operands broadcast by the arithmetic itself, no
+# shuffle), p0, p1 the basis values at the points. The slopes a g0[e] + b g1[e] of a
+# sample are computed first, 8 elements per vector, and then broadcast the same way.
+# Elements with a node >= nfree (the clamped one) take their node values by a test, in a
+# second loop. The terms are the IEEE results of the expressions written below (no fma),
+# lane by lane, so the terms are those of the former scalar kernels, and both kernels
+# compute the errors with the same code (`_leaf`): the warm and cold paths give the same
+# bits.
 
-    One partial sum per quadrature point and partial sums over `_LEAF` elements: about
-    as accurate as numpy's pairwise sums."""
-    kb, ne, _ = u.shape
-    a0, a1, a2, a3 = p0[0], p0[1], p0[2], p0[3]
-    b0, b1, b2, b3 = p1[0], p1[1], p1[2], p1[3]
-    for k in range(kb):
-        row = row0 + k
-        tu = 0.0
-        tx = 0.0
-        tv = 0.0
-        for c0 in range(0, ne, _LEAF):
-            u0 = u1 = u2 = u3 = 0.0
-            x0 = x1 = x2 = x3 = 0.0
-            v0 = v1 = v2 = v3 = 0.0
-            for e in range(c0, min(ne, c0 + _LEAF)):
-                j = lo + e
-                a = U[row, j] if j < nfree else u_fixed
-                b = U[row, j + 1] if j + 1 < nfree else u_fixed
-                w0, w1, w2, w3 = w[e, 0], w[e, 1], w[e, 2], w[e, 3]
-                d = (a * a0 + b * b0) - u[k, e, 0]
-                u0 += w0 * (d * d)
-                d = (a * a1 + b * b1) - u[k, e, 1]
-                u1 += w1 * (d * d)
-                d = (a * a2 + b * b2) - u[k, e, 2]
-                u2 += w2 * (d * d)
-                d = (a * a3 + b * b3) - u[k, e, 3]
-                u3 += w3 * (d * d)
-                gx = a * g0[e] + b * g1[e]
-                d = gx - ux[k, e, 0]
-                x0 += w0 * (d * d)
-                d = gx - ux[k, e, 1]
-                x1 += w1 * (d * d)
-                d = gx - ux[k, e, 2]
-                x2 += w2 * (d * d)
-                d = gx - ux[k, e, 3]
-                x3 += w3 * (d * d)
-                if use_v:
-                    a = V[row, j] if j < nfree else 0.0
-                    b = V[row, j + 1] if j + 1 < nfree else 0.0
-                    d = (a * a0 + b * b0) - v[k, e, 0]
-                    v0 += w0 * (d * d)
-                    d = (a * a1 + b * b1) - v[k, e, 1]
-                    v1 += w1 * (d * d)
-                    d = (a * a2 + b * b2) - v[k, e, 2]
-                    v2 += w2 * (d * d)
-                    d = (a * a3 + b * b3) - v[k, e, 3]
-                    v3 += w3 * (d * d)
-            tu += (u0 + u1) + (u2 + u3)
-            tx += (x0 + x1) + (x2 + x3)
-            tv += (v0 + v1) + (v2 + v3)
-        eu[row] += tu
-        eux[row] += tx
+
+@njit(cache=True, inline="always")
+def _sq(A, B, P0, P1, E, W):  # pragma: no cover - compiled
+    """w (u_h - u)^2 lane by lane, u_h = a p0 + b p1."""
+    d = (A * P0 + B * P1) - E
+    return W * (d * d)
+
+
+@njit(cache=True, inline="always")
+def _slopes(U, ub, row, lo, nfree, u_fixed, g0, g1, ne, nfull, gx
+            ):  # pragma: no cover - compiled
+    """gx[e] = a g0[e] + b g1[e] for the ne elements of the block, a, b the values of
+    their nodes in row `row` of U (flat index ub: node lo); elements < nfull have both
+    nodes free."""
+    n8 = nfull - nfull % 8
+    for e in range(0, n8, 8):
+        vstore(gx, e, vloadc(U, ub + e) * vloadc(g0, e) + vloadc(U, ub + e + 1) * vloadc(g1, e))
+    for e in range(n8, ne):
+        j = lo + e
+        a = U[row, j] if j < nfree else u_fixed
+        b = U[row, j + 1] if j + 1 < nfree else u_fixed
+        gx[e] = a * g0[e] + b * g1[e]
+
+
+@njit(cache=True, inline="always")
+def _add_u(su, sx, mu, mx, A, B, P0, P1, W, E, F, G, norms):  # pragma: no cover - compiled
+    """One element's terms of u and u_x (node values A, B, slope G, exact values E, F)
+    added lane by lane; the exact norms' terms too if norms."""
+    su = su + _sq(A, B, P0, P1, E, W)
+    d = F - G  # (u_x - g)^2 is (g - u_x)^2 exactly
+    sx = sx + W * (d * d)
+    if norms:
+        mu = mu + W * (E * E)
+        mx = mx + W * (F * F)
+    return su, sx, mu, mx
+
+
+@njit(cache=True, inline="always")
+def _add_v(sv, mv, A, B, P0, P1, W, E, norms):  # pragma: no cover - compiled
+    """One element's terms of v added lane by lane (and of its norm if norms)."""
+    sv = sv + _sq(A, B, P0, P1, E, W)
+    if norms:
+        mv = mv + W * (E * E)
+    return sv, mv
+
+
+@njit(cache=True, inline="always")
+def _leaf(U, V, use_v, ub, vb, row, lo, nfree, u_fixed, P0, P1, w, u, ux, v, gx, base,
+          c0, c1, nfull, norms):  # pragma: no cover - compiled
+    """Per-lane (per point) sums, over the elements [c0, c1) of one sample in element
+    order, of w (u_h - u)^2, w (u_h,x - u_x)^2, w (v_h - v)^2 (if use_v) and, if norms,
+    of w u^2, w u_x^2, w v^2. The sample is row `row` of U, V (flat index ub, vb: node
+    lo), its exact values at flat index base, its slopes in gx."""
+    su = v4splat(0.0)
+    sx = su
+    sv = su
+    mu = su
+    mx = su
+    mv = su
+    cf = max(c0, min(c1, nfull))  # [c0, cf): both nodes free
+    for e in range(c0, cf):
+        q = 4 * e
+        W = v4load(w, q)
+        su, sx, mu, mx = _add_u(su, sx, mu, mx, v4bcast(U, ub + e), v4bcast(U, ub + e + 1),
+                                P0, P1, W, v4load(u, base + q), v4load(ux, base + q),
+                                v4bcast(gx, e), norms)
         if use_v:
-            ev[row] += tv
+            sv, mv = _add_v(sv, mv, v4bcast(V, vb + e), v4bcast(V, vb + e + 1), P0, P1, W,
+                            v4load(v, base + q), norms)
+    for e in range(cf, c1):  # a node >= nfree: the clamped one (u_fixed, velocity 0)
+        j = lo + e
+        q = 4 * e
+        W = v4load(w, q)
+        A = v4splat(U[row, j] if j < nfree else u_fixed)
+        B = v4splat(U[row, j + 1] if j + 1 < nfree else u_fixed)
+        su, sx, mu, mx = _add_u(su, sx, mu, mx, A, B, P0, P1, W, v4load(u, base + q),
+                                v4load(ux, base + q), v4bcast(gx, e), norms)
+        if use_v:
+            A = v4splat(V[row, j] if j < nfree else 0.0)
+            B = v4splat(V[row, j + 1] if j + 1 < nfree else 0.0)
+            sv, mv = _add_v(sv, mv, A, B, P0, P1, W, v4load(v, base + q), norms)
+    return su, sx, sv, mu, mx, mv
 
 
-@njit(cache=True)
-def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
-                          eu, eux, ev, nu, nux, nv):  # pragma: no cover - compiled
-    """`_error_sums` and, in the same pass over the exact values, sum_e,q w u^2 (and the
-    same for u_x, v) of samples row0.. added to nu, nux, nv: what the first scheme on a
-    grid needs. The norms' partial sums run over `_LEAF` elements in the order
-    (element, point), one per field."""
+@njit(cache=True, inline="always")
+def _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
+          eu, eux, ev, nu, nux, nv, norms):  # pragma: no cover - compiled
+    """The body of both kernels (norms: a constant in each)."""
     kb, ne, _ = u.shape
-    a0, a1, a2, a3 = p0[0], p0[1], p0[2], p0[3]
-    b0, b1, b2, b3 = p1[0], p1[1], p1[2], p1[3]
+    P0 = v4load(p0, 0)
+    P1 = v4load(p1, 0)
+    nfull = min(ne, max(0, nfree - 1 - lo))  # elements with both nodes free
+    gx = np.empty(ne)
     for k in range(kb):
         row = row0 + k
+        base = 4 * ne * k
+        ub = row * U.shape[1] + lo
+        vb = row * V.shape[1] + lo
+        _slopes(U, ub, row, lo, nfree, u_fixed, g0, g1, ne, nfull, gx)
         tu = 0.0
         tx = 0.0
         tv = 0.0
@@ -137,74 +183,59 @@ def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1,
         mx = 0.0
         mv = 0.0
         for c0 in range(0, ne, _LEAF):
-            u0 = u1 = u2 = u3 = 0.0
-            x0 = x1 = x2 = x3 = 0.0
-            v0 = v1 = v2 = v3 = 0.0
-            su = 0.0
-            sx = 0.0
-            sv = 0.0
-            for e in range(c0, min(ne, c0 + _LEAF)):
-                j = lo + e
-                a = U[row, j] if j < nfree else u_fixed
-                b = U[row, j + 1] if j + 1 < nfree else u_fixed
-                w0, w1, w2, w3 = w[e, 0], w[e, 1], w[e, 2], w[e, 3]
-                e0, e1, e2, e3 = u[k, e, 0], u[k, e, 1], u[k, e, 2], u[k, e, 3]
-                d = (a * a0 + b * b0) - e0
-                u0 += w0 * (d * d)
-                d = (a * a1 + b * b1) - e1
-                u1 += w1 * (d * d)
-                d = (a * a2 + b * b2) - e2
-                u2 += w2 * (d * d)
-                d = (a * a3 + b * b3) - e3
-                u3 += w3 * (d * d)
-                f0, f1, f2, f3 = ux[k, e, 0], ux[k, e, 1], ux[k, e, 2], ux[k, e, 3]
-                gx = a * g0[e] + b * g1[e]
-                d = gx - f0
-                x0 += w0 * (d * d)
-                d = gx - f1
-                x1 += w1 * (d * d)
-                d = gx - f2
-                x2 += w2 * (d * d)
-                d = gx - f3
-                x3 += w3 * (d * d)
-                su += w0 * (e0 * e0)
-                sx += w0 * (f0 * f0)
-                su += w1 * (e1 * e1)
-                sx += w1 * (f1 * f1)
-                su += w2 * (e2 * e2)
-                sx += w2 * (f2 * f2)
-                su += w3 * (e3 * e3)
-                sx += w3 * (f3 * f3)
-                if use_v:
-                    a = V[row, j] if j < nfree else 0.0
-                    b = V[row, j + 1] if j + 1 < nfree else 0.0
-                    e0, e1, e2, e3 = v[k, e, 0], v[k, e, 1], v[k, e, 2], v[k, e, 3]
-                    d = (a * a0 + b * b0) - e0
-                    v0 += w0 * (d * d)
-                    d = (a * a1 + b * b1) - e1
-                    v1 += w1 * (d * d)
-                    d = (a * a2 + b * b2) - e2
-                    v2 += w2 * (d * d)
-                    d = (a * a3 + b * b3) - e3
-                    v3 += w3 * (d * d)
-                    sv += w0 * (e0 * e0)
-                    sv += w1 * (e1 * e1)
-                    sv += w2 * (e2 * e2)
-                    sv += w3 * (e3 * e3)
-            tu += (u0 + u1) + (u2 + u3)
-            tx += (x0 + x1) + (x2 + x3)
-            tv += (v0 + v1) + (v2 + v3)
-            mu += su
-            mx += sx
-            mv += sv
+            su, sx, sv, nu_, nx_, nv_ = _leaf(U, V, use_v, ub, vb, row, lo, nfree, u_fixed,
+                                              P0, P1, w, u, ux, v, gx, base, c0,
+                                              min(ne, c0 + _LEAF), nfull, norms)
+            tu += v4hsum(su)
+            tx += v4hsum(sx)
+            tv += v4hsum(sv)
+            if norms:
+                mu += v4hsum(nu_)
+                mx += v4hsum(nx_)
+                mv += v4hsum(nv_)
         eu[row] += tu
         eux[row] += tx
         if use_v:
             ev[row] += tv
-        nu[row] += mu
-        nux[row] += mx
-        if use_v:
-            nv[row] += mv
+        if norms:
+            nu[row] += mu
+            nux[row] += mx
+            if use_v:
+                nv[row] += mv
+
+
+@njit(cache=True)
+def _error_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w,
+                u, ux, v, eu, eux, ev):  # pragma: no cover - compiled
+    """Add sum_e,q w (u_h - u)^2 (and the same for u_x, v) of samples row0.. to eu, eux,
+    ev. u_h is the P1 interpolant of rows of U (V): element e of the block has the nodes
+    lo + e and lo + e + 1, nodes >= nfree are the clamped one (u_fixed, velocity 0).
+    p0, p1 (4,): basis values at the 4 points; g0, g1 (elements,): basis slopes; w
+    (elements, 4): weights; u, ux, v (samples, elements, 4): the exact values. Every
+    array C-contiguous float64 (the vector loads are typed for that only: a typing error
+    otherwise).
+
+    Summation order, per sample and field: one partial sum per quadrature point q (a
+    vector lane) over a leaf of `_LEAF` elements, in element order; the leaf's sum is
+    (s0 + s1) + (s2 + s3); the leaves' sums are added in order, then the block's to
+    eu, eux, ev. That is the order of the former scalar kernel, and its terms (the IEEE
+    results of w ((a p0 + b p1) - u)^2 and w ((a g0 + b g1) - u_x)^2, no fma): the same
+    bits."""
+    _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
+          eu, eux, ev, eu, eux, ev, False)
+
+
+@njit(cache=True)
+def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
+                          eu, eux, ev, nu, nux, nv):  # pragma: no cover - compiled
+    """`_error_sums` and, in the same pass over the exact values, sum_e,q w u^2 (and the
+    same for u_x, v) of samples row0.. added to nu, nux, nv: what the first scheme on a
+    grid needs. The error sums are those of `_error_sums`, bit for bit (the same code).
+    The norms are summed in the same order: one partial sum per point over a leaf,
+    (s0 + s1) + (s2 + s3), the leaves in order (the former kernel had one serial sum per
+    leaf in the order (element, point): the norms differ from it in the last bits)."""
+    _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
+          eu, eux, ev, nu, nux, nv, True)
 
 
 @dataclass(frozen=True)
@@ -335,8 +366,8 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
     err = {k: np.zeros(K) for k in ("eu", "eux", "ev")}
     norms = {k: np.zeros(K) for k in ("nu", "nux", "nv")}
     u_fixed = float(semi.u_fixed) if semi.u_fixed is not None else 0.0
-    U = traj.U
-    V = traj.V if need_v else traj.U
+    U = np.ascontiguousarray(traj.U, dtype=float)  # the kernels load rows as vectors
+    V = np.ascontiguousarray(traj.V, dtype=float) if need_v else U
     ec, step = _blocks(nel)
 
     def add(g: _Geometry, a: int, vals: tuple, with_norms: bool) -> None:
@@ -451,6 +482,7 @@ def warm_up() -> None:
     _error_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1, z1)
     _error_and_exact_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1,
                           z1, z1, z1, z1)
+
 
 
 def energy_metrics(traj: Trajectory) -> dict[str, float]:
