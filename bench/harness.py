@@ -36,6 +36,7 @@ COLUMNS = (
 
 _warmed: set[tuple[type, str]] = set()
 _warmed_metrics: list[bool] = []
+_warmed_references: set[type] = set()  # reference types whose kernels are loaded
 #: a plan's semi-discrete problem dropped after the checks, rebuilt when it runs
 _REBUILD: Any = object()
 #: semi-discrete problems a table keeps from its checks to its runs, in bytes (the
@@ -267,6 +268,9 @@ def _execute(plan: _Plan) -> Run:
             if not _warmed_metrics:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
                 _warmed_metrics.append(True)
+            if type(exact) not in _warmed_references:  # and the reference's own
+                metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
+                _warmed_references.add(type(exact))
             start = time.perf_counter()
             row.update(error_metrics(semi, traj, exact, case.provides))
             norm_s = time.perf_counter() - start

@@ -50,8 +50,16 @@ def flat_points(x: Any, t: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]
     Contiguous copies on purpose: a compiled loop over broadcast (strided) views runs
     several times slower than the copy costs.
     """
-    x, t = np.broadcast_arrays(np.asarray(x, float), np.asarray(t, float))
-    return np.ascontiguousarray(x).ravel(), np.ascontiguousarray(t).ravel(), x.shape
+    x, t = np.asarray(x, float), np.asarray(t, float)
+    shape = np.broadcast_shapes(x.shape, t.shape)
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        # an expanded operand is copied from a read-only broadcast view (a writeable
+        # one is deprecated: numpy warns when numba reads its flags)
+        return (np.ascontiguousarray(a) if a.shape == shape
+                else np.broadcast_to(a, shape).copy()).ravel()
+
+    return flat(x), flat(t), shape
 
 
 def grid_points(x: Any, t: Any, *out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

@@ -360,3 +360,69 @@ def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_nam
         assert metrics._cache == []
     metrics.clear_cache()
     assert error_metrics(semi, traj, _Pointwise(exact), case.provides) == got
+
+
+class _Recording:
+    """Records how the norms call a reference: `fields_into` (arguments' shapes, times)
+    and `stress`; the values are those of `_Smooth`."""
+
+    def __init__(self, with_fields_into: bool = True) -> None:
+        self.log: list[tuple] = []
+        if not with_fields_into:
+            self.fields_into = None
+
+    def fields_into(self, x, t, u, ux, ut=None):
+        self.log.append(("fields_into", x.shape, tuple(t), u.shape, ut is None))
+        X, Tt = np.meshgrid(x, t)
+        u[:], ux[:] = np.cos(X + Tt), -np.sin(X + Tt)
+        if ut is not None:
+            ut[:] = -np.sin(X + Tt)
+
+    def u(self, x, t):
+        self.log.append(("u", np.shape(x), np.shape(t)))
+        return np.cos(x + t)
+
+    def ux(self, x, t):
+        return -np.sin(x + t)
+
+    def ut(self, x, t):
+        return -np.sin(x + t)
+
+    def stress(self, t):
+        self.log.append(("stress", tuple(np.asarray(t))))
+        return np.zeros(np.shape(t))
+
+
+@pytest.mark.parametrize("provides", [PROVIDES, frozenset({"u"}), frozenset({"u", "v"}),
+                                      frozenset({"stress"})])
+def test_warm_up_reference_calls_what_the_norms_call_on_one_point_and_time(provides):
+    x = np.linspace(0.0, 2.0, 11)
+    t = np.array([0.25, 0.5, 0.75])
+    ref = _Recording()
+    metrics.warm_up_reference(ref, x, t, provides)
+    expected = []
+    if "u" in provides:
+        expected.append(("fields_into", (4,), (0.25,), (1, 4), "v" not in provides))
+    if "stress" in provides:
+        expected.append(("stress", (0.25,)))
+    assert ref.log == expected
+    # the points are the first element's Gauss points, inside it
+    generic = _Recording(with_fields_into=False)
+    metrics.warm_up_reference(generic, x, t, frozenset({"u"}))
+    assert generic.log == [("u", (1, 4), (1, 1, 1))]
+
+
+def test_harness_warms_each_reference_type_once_before_timing_the_norms(monkeypatch):
+    calls = []
+    real = metrics.warm_up_reference
+
+    def spy(exact, x, t, provides):
+        calls.append((type(exact).__name__, metrics._cache == []))
+        real(exact, x, t, provides)
+
+    monkeypatch.setattr(metrics, "warm_up_reference", spy)
+    monkeypatch.setattr(harness, "_warmed_references", set())
+    metrics.clear_cache()
+    run_table(["clamped_bar", "dropped_bar"], ["standard", "restitution"], [10], T=0.5)
+    # once per reference type, before the first norms on it (nothing kept yet)
+    assert calls == [("ClampedBarExact", True), ("CharacteristicsSolution", False)], calls
