@@ -68,7 +68,8 @@ are kept in all later blocks (the kink they mark travels on; each adds one node 
 later block); a crossing closer than 1e-9 cells to a node is snapped to that node. To
 keep memory linear in T, a block holds at most twice its base number of nodes: beyond
 that, further crossings are not inserted (O(ds) smearing of those impacts). The
-attribute inserted_nodes counts the inserted nodes.
+attribute inserted_nodes counts the inserted nodes, capped_nodes those left out at the
+cap (crossings and take-off vertices).
 
 Data: f = u0 - u_p is sampled at the grid nodes; int_0^x v0 uses the midpoint rule per
 cell (exact at the nodes for piecewise linear v0, and for v0 with jumps at nodes: tuple
@@ -104,6 +105,26 @@ from the energy of the true data). Callable data with kinks or jumps off the gri
 O(ds) local errors. Lower ds to tighten. Past the node cap (above), crossings are
 smeared over one cell (O(ds) local errors).
 
+Evaluation on a grid (`fields_into`: the Gauss points of a mesh against the sample
+times, what the error norms use). For one time, x + tau and x - tau are monotone in x,
+so along sorted points the cells of p and of q come in runs of consecutive points.
+Where the points are dense in the cells (several per cell on average), the runs are
+found by a walk over the cells (the run's end estimated from x, then checked on the
+points' own local coordinates, so that every point gets the cell that the pointwise
+search gives it, node conventions included), and on a run the fields are polynomials in
+x - x_a (x_a its first point): u quadratic, u_x and u_t linear, evaluated 8 points at a
+time. They differ from the pointwise values (`fields`) by round-off only (the
+polynomials are rounded otherwise): a few eps of the data scale (u: max |u| +
+L max |u_x|; u_x, u_t: their maxima plus gam L, c gam L; measured 4e-16,
+tests/test_characteristics_runs.py bounds it by 2e-15). Otherwise (fewer than
+_RUN_POINTS points per cell, or x not sorted) `fields_into` evaluates point by point,
+with the very values of `fields`. A sample time where some point has no cell (only
+past the stored blocks) is evaluated point by point too.
+
+A coarse grid is exact where the data qualify (above): `coarse_solution` builds one,
+which is what the scenes with such data use (build and evaluation cost scale with the
+number of cells).
+
 contact_intervals() uses the max construction: node j is in contact iff d_j >= 0 and
 d_j >= max_{i<j} d_i up to a round-off tolerance (64 eps times the bounded block scale);
 inserted crossing nodes are in contact; runs of contact nodes give (impact, take-off)
@@ -122,8 +143,10 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from bench.plugin import flat_points, grid_points
+from schemes._simd import vfma, vload, vsplat, vstore
 
-__all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES"]
+__all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES",
+           "coarse_solution"]
 
 FloatArray = NDArray[np.float64]
 Fn = Callable[[FloatArray], FloatArray]
@@ -136,6 +159,7 @@ _ROUND = 64 * np.finfo(float).eps  # relative round-off of the marched (bounded)
 _SNAP = 1e-9  # a crossing closer than this (in cells) after a node is put on the node
 _T_SLACK = 1e-12  # relative slack on t in [0, T] and x in [0, L]
 _GAUSS = np.array([-1.0, 1.0]) / math.sqrt(3.0)  # 2-point Gauss-Legendre on [-1, 1]
+_RUN_POINTS = 6.0  # `fields_into` by runs from this many points per cell (estimated)
 
 
 def _data_function(name: str, data: Any, L: float) -> tuple[Fn, FloatArray, Fn | None]:
@@ -388,6 +412,7 @@ class CharacteristicsSolution:
         runs: list[tuple[float, float]] = []
         open_start: float | None = None
         inserted = 0
+        capped = 0  # nodes not inserted because of the node cap
         half = 0.5 * gam
         tk = R / c
         for k in range(1, K + 1):
@@ -413,6 +438,7 @@ class CharacteristicsSolution:
                     dv = B.d[j] + 0.5 * b0[j] * xi
                     th = xi / B.h[j]
                     keep = (dv > before[j + 1] + tol) & (th > _SNAP) & (th < 1.0 - _SNAP)
+                    capped += max(int(np.count_nonzero(keep)) - max(room, 0), 0)
                     j, xi, dv = j[keep][:max(room, 0)], xi[keep][:max(room, 0)], dv[keep][
                         :max(room, 0)]
                     if j.size:
@@ -444,6 +470,7 @@ class CharacteristicsSolution:
                 inner = ok & (th > _SNAP) & (th < 1.0 - _SNAP)
                 if np.count_nonzero(inner) > room:
                     refused = j[inner]
+                    capped += refused.size
                     inner[:] = False  # cap reached: not inserted (O(ds) smearing)
                 j, xi, lev = j[inner], xi[inner], lev[inner]
                 if j.size:
@@ -504,6 +531,7 @@ class CharacteristicsSolution:
             runs.append((open_start, float(tk[-1])))
         self._runs = runs
         self.inserted_nodes = inserted
+        self.capped_nodes = capped
 
         # ---- global arrays: blocks kept whole (the shared end node appears twice, once
         # in each block's gauge); cells of block k are nodes node0[k] + (0..m_k - 1)
@@ -627,14 +655,35 @@ class CharacteristicsSolution:
     def fields_into(self, x: ArrayLike, t: ArrayLike, u: FloatArray, ux: FloatArray,
                     ut: FloatArray | None = None) -> None:
         """`fields` at the points (x[m], t[k]) written into u[k, m], ux[k, m] and ut[k, m]
-        (x, t 1-D; the outputs C-contiguous float arrays of shape (t.size, x.size)), the
-        very same values without temporaries: what the error norms use."""
+        (x, t 1-D; the outputs C-contiguous float arrays of shape (t.size, x.size))
+        without temporaries: what the error norms use. For sorted x dense in the cells,
+        by runs of points per cell, equal to `fields` up to round-off (module docstring,
+        "Evaluation on a grid"); otherwise point by point, the very values of `fields`."""
         x, t = grid_points(x, t, u, ux, ut)
-        x, t = self._points(x, t)
-        _grid_kernel(x, self.c * t, self.L, self.gam, self.far_end == "clamped", self.u_L,
-                     self.c, self.ds, self._table(), self._cell0, self._r, self._P,
-                     self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
-                     self._ncells, u, ux, np.empty((0, 0)) if ut is None else ut)
+        # the checks and clipping of `_points`, from one pass over each array
+        xlo, xhi, ordered = _scan(x)
+        tlo, thi, _ = _scan(t)
+        sx, st = _T_SLACK * self.L, _T_SLACK * self.T
+        if not (xlo >= -sx and xhi <= self.L + sx and tlo >= -st and thi <= self.T + st):
+            self._points(x, t)  # raises the ValueError that names the bad value
+        if xlo < 0.0 or xhi > self.L:
+            x = np.clip(x, 0.0, self.L)
+        if tlo < 0.0 or thi > self.T:
+            t = np.clip(t, 0.0, self.T)
+        kernel = _run_kernel if self._by_runs(x.size, ordered, xhi - xlo) else _grid_kernel
+        kernel(x, self.c * t, self.L, self.gam, self.far_end == "clamped", self.u_L,
+               self.c, self.ds, self._table(), self._cell0, self._r, self._P, self._Q,
+               self._dP, self._dQ, self._sP, self._sQ, self._delta, self._ncells, u, ux,
+               _NO_FIELD if ut is None else ut)
+
+    def _by_runs(self, size: int, ordered: bool, span: float) -> bool:
+        """Whether `fields_into` takes the runs of points per cell (module docstring) for
+        `size` points: sorted, and on average at least _RUN_POINTS of them per cell
+        over their range `span` (cells counted with the inserted nodes)."""
+        if size < 2 or not ordered:
+            return False
+        cell = self.L * (self._K + 1) / self._ncells  # mean cell length
+        return span <= 0.0 or size * cell >= _RUN_POINTS * span
 
     def stress(self, t: ArrayLike) -> FloatArray:
         """Contact stress E u_x(0, t) <= 0 (limit t -> t+)."""
@@ -699,6 +748,22 @@ class CharacteristicsSolution:
         return float(e)
 
 
+def coarse_solution(cells_per_length: int = 1, **kwargs: Any) -> CharacteristicsSolution:
+    """`CharacteristicsSolution(**kwargs)` on a grid of `cells_per_length` cells per length
+    L, for data that this grid carries exactly (module docstring, "Accuracy": u0 piecewise
+    linear and v0 piecewise constant with their kinks and jumps on the grid, e.g.
+    constants or tuples): then the solution is that of the default grid up to round-off,
+    but built in about a millisecond and evaluated by long runs of points per cell
+    (`fields_into`). Whether the data qualify is the caller's claim, to be tested against
+    the default grid. If a crossing or a take-off vertex was left out at the node cap
+    (`capped_nodes`: an O(ds) smearing, large on a coarse grid), the default grid is
+    used instead."""
+    if "ds" in kwargs:
+        raise ValueError("coarse_solution sets the grid: give cells_per_length, not ds")
+    sol = CharacteristicsSolution(cells_per_length=cells_per_length, **kwargs)
+    return CharacteristicsSolution(**kwargs) if sol.capped_nodes else sol
+
+
 # ------------------------------------------------------------------ compiled evaluation
 #
 # By chunks of points, in stages: the local coordinates of both families, the cell
@@ -708,11 +773,16 @@ class CharacteristicsSolution:
 
 @njit(cache=True)
 def _normal(k: float, r: float, L: float) -> tuple[float, float]:
-    """(k, r) with 0 <= r < L (values are interpolated in local coordinates)."""
+    """(k, r) with 0 <= r < L (values are interpolated in local coordinates). A tiny
+    negative r whose r + L rounds to L is the node k L itself: (k, 0), not (k - 1, L),
+    which no cell holds (the search would take a cell of block k and extrapolate it)."""
     if r >= L:
         return k + 1.0, r - L
     if r < 0.0:
-        return k - 1.0, r + L
+        r = r + L
+        if r < L:
+            return k - 1.0, r
+        return k, 0.0
     return k, r
 
 
@@ -775,6 +845,7 @@ def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - co
 
 _CHUNK = 1024  # points per pass of `_fields_kernel` (its scratch stays in L1)
 _NO_TABLE = np.empty(0, np.int32)  # `_locate` on a uniform grid
+_NO_FIELD = np.empty((0, 0))  # `fields_into` without u_t
 
 
 @njit(cache=True)
@@ -919,3 +990,286 @@ def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, 
             ux[n, m] = sp - sq + gx[m]
             if want_v:
                 ut[n, m] = c * (sp + sq)
+
+
+# ------------------------------------------------------------------ evaluation by runs
+#
+# `fields_into` on sorted points (module docstring, "Evaluation on a grid"). Per sample
+# time: the runs of each family (consecutive points in one cell), then the pair runs (one
+# cell of each family) with the coefficients of their polynomials in x - x_a, then the
+# polynomials 8 points at a time. Everything per sample time is written out in the one
+# kernel: helpers taking arrays would count references at every call.
+
+
+@njit(cache=True)
+def _scan(a):  # pragma: no cover - compiled
+    """(min, max, nondecreasing) of a 1-D array in one pass; min and max NaN if a holds
+    a NaN (so that range checks fail)."""
+    lo = np.inf
+    hi = -np.inf
+    up = True
+    for i in range(a.size):
+        v = a[i]
+        if v != v:
+            return np.nan, np.nan, False
+        lo = min(lo, v)
+        hi = max(hi, v)
+        if i > 0 and v < a[i - 1]:
+            up = False
+    return lo, hi, up
+
+
+@njit(cache=True)
+def _local_point(fam, xn, yn, k, rho, L):  # pragma: no cover - compiled
+    """(block, r, path) of the point x = xn for the family fam (0: p at x + tau, with
+    yn = x - L; 1: q at x - tau, with yn = L - x) at tau = k L + rho: the coordinates of
+    `_fields_kernel` (the same operations). path = 3 branch + shift, branch 0 for
+    x + rho < L (p) or rho - x >= 0 (q), shift 0, 1, 2 for r + L, r, r - L (`_normal`;
+    its node case r = 0 goes with shift 1, whose r it does not exceed for p nor undercut
+    for q). Along increasing x the path never comes back (it is monotone in the order of
+    the cases), and on one path r is a monotone function of x (nondecreasing for p,
+    nonincreasing for q): a run checked at both ends holds in between."""
+    if fam == 0:
+        a = xn + rho
+        if a < L:
+            kk, rr, br = k, a, 0
+        else:
+            kk, rr, br = k + 1.0, yn + rho, 1
+    else:
+        e = rho - xn
+        if e >= 0.0:
+            kk, rr, br = k + 1.0, e, 0
+        else:
+            kk, rr, br = k, yn + rho, 1
+    if rr >= L:
+        return kk + 1.0, rr - L, 3 * br + 2
+    if rr < 0.0:
+        rr = rr + L
+        if rr < L:
+            return kk - 1.0, rr, 3 * br
+        return kk, 0.0, 3 * br + 1  # `_normal`: the node itself (r = 0 is not r + L)
+    return kk, rr, 3 * br + 1
+
+
+@njit(cache=True)
+def _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
+                delta, ncells, u, ux, ut):  # pragma: no cover - compiled
+    """`_grid_kernel` for sorted x (nondecreasing), by runs of points per cell.
+
+    The cells are those of `_locate` (the same check: block k and r0 <= r < r1, from the
+    next cell along the family or the table's guess, `_cell_of` otherwise); a sample time
+    where a point has no such cell (none in the stored interval: past its blocks) is done
+    by `_grid_kernel`. Returns the number of such sample times.
+    """
+    M = x.size
+    N = tau.size
+    if M == 0 or N == 0:
+        return 0
+    xp = np.empty(M + 8)  # x, padded for the loads of 8 past the end
+    ys = np.empty((2, M))  # x - L (p), L - x (q): as `_fields_kernel` rounds them
+    upx = np.empty(M)
+    for m in range(M):
+        xn = x[m]
+        xp[m] = xn
+        ys[0, m] = xn - L
+        ys[1, m] = L - xn
+        if clamped:
+            upx[m] = u_L + 0.5 * gam * (xn * xn - L * L)
+        else:
+            upx[m] = gam * (0.5 * xn * xn - L * xn)
+    for m in range(M, M + 8):
+        xp[m] = x[M - 1]
+    # bins of x (2 per point): xb[j] is the first point at or after x0 + j w
+    x0 = x[0]
+    nbin = 2 * M
+    w = (x[M - 1] - x0) / nbin
+    if w > 0.0:
+        iw = 1.0 / w
+        xb = np.empty(nbin + 1, np.int64)
+        jj = 0
+        for j in range(nbin + 1):
+            lim = x0 + j * w
+            while jj < M and x[jj] < lim:
+                jj += 1
+            xb[j] = jj
+    else:
+        iw = 0.0
+        nbin = 0
+        xb = np.zeros(1, np.int64)
+    runs = np.empty((2, 3, M + 1), np.int64)  # per family: first point, cell, block
+    rs = np.empty(2 * M + 1, np.int64)  # first point of each pair run (and M)
+    cs = np.empty((2 * M, 8))  # its x_a and coefficients
+    tmp = np.empty(24)
+    uf = u.reshape(u.size)
+    uxf = ux.reshape(ux.size)
+    utf = ut.reshape(ut.size)
+    want_v = ut.size > 0
+    size = u.size
+    last = ncells - 1
+    nl = lut.size - 1
+    nb1 = cell0.size - 1
+    qa = 0.25 * gam
+    ha = 0.5 * gam
+    nd = delta.size - 1
+    ids = 1.0 / ds
+    dup0 = 0.0 if clamped else -gam * L  # u_p'(x) = gam x + dup0
+    nbad = 0
+    for n in range(N):
+        tn = tau[n]
+        k = math.floor(tn / L)
+        rho = tn - k * L
+        found = True
+        for fam in range(2):
+            step = 1 if fam == 0 else -1  # p walks up the cells, q down
+            m = 0
+            nr = 0
+            i = -1
+            b = 0
+            while m < M:
+                kk, rr, pa = _local_point(fam, x[m], ys[fam, m], k, rho, L)
+                ok = False
+                if i >= 0:  # the next cell along the family
+                    i += step
+                    if 0 <= i <= last:
+                        if step > 0 and b < nb1 and i >= cell0[b + 1]:
+                            b += 1
+                        elif step < 0 and i < cell0[b]:
+                            b -= 1
+                        ok = b == kk and rn[i + b] <= rr and rr < rn[i + b + 1]
+                if not ok:  # `_locate`
+                    if nl >= 0:
+                        i = lut[min(max(math.floor((kk * L + rr) * ids), 0), nl)]
+                    else:
+                        i = min(max(math.floor((kk * L + rr) * ids), 0), last)
+                    b = min(max(int(kk), 0), nb1)
+                    if not (b == kk and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
+                            and rn[i + b] <= rr and rr < rn[i + b + 1]):
+                        i, b = _cell_of(kk, rr, i, b, L, cell0, rn, last)
+                        if not (b == kk and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
+                                and rn[i + b] <= rr and rr < rn[i + b + 1]):
+                            found = False
+                            break
+                r0 = rn[i + b]
+                r1 = rn[i + b + 1]
+                # the end of the run: the first point estimated out of the cell (from x),
+                # then moved until the point before it is in and the point itself out
+                br = pa // 3
+                sh = 0.0 if pa - 3 * br == 1 else (L if pa - 3 * br == 0 else -L)
+                if fam == 0:
+                    xe = r1 - rho - sh + (L if br == 1 else 0.0)
+                else:
+                    xe = (L if br == 1 else 0.0) + rho + sh - r0
+                f = (xe - x0) * iw
+                j = M if f > nbin else (xb[int(f)] if f > 0.0 else 0)
+                j = max(j, m + 1)
+                while j < M and x[j] < xe:
+                    j += 1
+                while j < M:
+                    k2, r2, p2 = _local_point(fam, x[j], ys[fam, j], k, rho, L)
+                    if not (p2 == pa and r0 <= r2 and r2 < r1):
+                        break
+                    j += 1
+                while j - 1 > m:
+                    k2, r2, p2 = _local_point(fam, x[j - 1], ys[fam, j - 1], k, rho, L)
+                    if p2 == pa and r0 <= r2 and r2 < r1:
+                        break
+                    j -= 1
+                runs[fam, 0, nr] = m
+                runs[fam, 1, nr] = i
+                runs[fam, 2, nr] = b
+                nr += 1
+                m = j
+            runs[fam, 0, nr] = M
+            if not found:
+                break
+        if not found:
+            nbad += 1
+            _grid_kernel(x, tau[n:n + 1], L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q,
+                         dP, dQ, sP, sQ, delta, ncells, u[n:n + 1], ux[n:n + 1],
+                         ut[n:n + 1] if want_v else ut)
+            continue
+        # pair runs: u = c0 + dx (c1 + c2 dx), u_x = e0 + e1 dx, u_t = f0 + f1 dx with
+        # dx = x - x_a; p moves by +dx in its local r, q by -dx; the values at x_a are
+        # those of `_fields_kernel`'s formulas (up to rounding)
+        jp = 0
+        jq = 0
+        nt = 0
+        far = False
+        m = 0
+        while m < M:
+            ep = runs[0, 0, jp + 1]
+            eq = runs[1, 0, jq + 1]
+            i1 = runs[0, 1, jp]
+            b1 = runs[0, 2, jp]
+            i2 = runs[1, 1, jq]
+            b2 = runs[1, 2, jq]
+            db = b1 - b2  # gauge offsets: o_bp - o_bq, neighbouring blocks only
+            far |= (db > 1) | (db < -1)
+            off = (delta[min(max(b2, 0), nd)] if db == 1
+                   else (-delta[min(max(b1, 0), nd)] if db == -1 else 0.0))
+            xa = x[m]
+            n1 = i1 + b1
+            n2 = i2 + b2
+            p0 = rn[n1]
+            hp = rn[n1 + 1] - p0
+            q0 = rn[n2]
+            hq = rn[n2 + 1] - q0
+            vp = P[n1]
+            vq = Q[n2]
+            slp = (P[n1 + 1] - vp) / hp
+            slq = (Q[n2 + 1] - vq) / hq
+            cqp = qa * sP[i1]
+            cqq = qa * sQ[i2]
+            chp = ha * sP[i1]
+            chq = ha * sQ[i2]
+            dpa = _local_point(0, xa, ys[0, m], k, rho, L)[1] - p0
+            dqa = _local_point(1, xa, ys[1, m], k, rho, L)[1] - q0
+            spa = dP[i1] + chp * (dpa - 0.5 * hp)
+            sqa = dQ[i2] + chq * (dqa - 0.5 * hq)
+            rs[nt] = m
+            cs[nt, 0] = xa
+            cs[nt, 1] = (vp + dpa * (slp + cqp * (dpa - hp))) + (
+                vq + dqa * (slq + cqq * (dqa - hq))) + off + upx[m]
+            cs[nt, 2] = ((slp + cqp * (2.0 * dpa - hp)) - (slq + cqq * (2.0 * dqa - hq))
+                         + (gam * xa + dup0))
+            cs[nt, 3] = cqp + cqq + 0.5 * gam
+            cs[nt, 4] = spa - sqa + gam * xa
+            cs[nt, 5] = chp + chq + gam
+            cs[nt, 6] = c * (spa + sqa)
+            cs[nt, 7] = c * (chp - chq)
+            nt += 1
+            m = min(ep, eq)
+            jp += ep == m
+            jq += eq == m
+        if far:  # |x + tau - (x - tau')| <= L
+            raise RuntimeError("characteristics: p and q cells more than a block apart")
+        rs[nt] = M
+        # 8 points at a time; the last 8 of a run may run into the next run or the next
+        # sample time, which are written after it (not past the end of the arrays)
+        base = n * M
+        for t in range(nt):
+            e = rs[t + 1]
+            Xa = vsplat(cs[t, 0])
+            C0, C1, C2 = vsplat(cs[t, 1]), vsplat(cs[t, 2]), vsplat(cs[t, 3])
+            E0, E1 = vsplat(cs[t, 4]), vsplat(cs[t, 5])
+            F0, F1 = vsplat(cs[t, 6]), vsplat(cs[t, 7])
+            stop = min(e, size - 7 - base)
+            j = rs[t]
+            while j < stop:
+                dx = vload(xp, j) - Xa
+                vstore(uf, base + j, vfma(vfma(C2, dx, C1), dx, C0))
+                vstore(uxf, base + j, vfma(E1, dx, E0))
+                if want_v:
+                    vstore(utf, base + j, vfma(F1, dx, F0))
+                j += 8
+            if j < e:  # at the end of the arrays: through a scratch vector
+                dx = vload(xp, j) - Xa
+                vstore(tmp, 0, vfma(vfma(C2, dx, C1), dx, C0))
+                vstore(tmp, 8, vfma(E1, dx, E0))
+                vstore(tmp, 16, vfma(F1, dx, F0))
+                for jj in range(j, e):
+                    uf[base + jj] = tmp[jj - j]
+                    uxf[base + jj] = tmp[8 + jj - j]
+                    if want_v:
+                        utf[base + jj] = tmp[16 + jj - j]
+    return nbad
