@@ -488,12 +488,14 @@ def warm_up() -> None:
 def warm_up_reference(exact: Exact, x: np.ndarray, t: np.ndarray,
                       provides: frozenset[str]) -> None:
     """Load (or compile) the reference's own compiled code outside any timing: one call
-    of each method that `error_metrics` uses, the same way (first element's quadrature
-    points of the mesh x, first sample time of t)."""
+    of each method that `error_metrics` uses, the same way (the quadrature points of the
+    first block of elements of the mesh x, as the norms pass them, so that a reference
+    choosing its algorithm by the points takes the same one; the first sample time)."""
     t1 = np.asarray(t, float)[:1]
     if "u" in provides:
         need_v = "v" in provides
-        X = _Geometry.of(np.asarray(x, float), 0, 1).X
+        x = np.asarray(x, float)
+        X = _Geometry.of(x, 0, _blocks(x.size - 1)[0]).X
         fill = getattr(exact, "fields_into", None)
         if fill is not None:
             u, ux, v = (np.empty((1, X.size)) for _ in range(3))

@@ -409,14 +409,14 @@ def test_warm_up_reference_calls_what_the_norms_call_on_one_point_and_time(provi
     metrics.warm_up_reference(ref, x, t, provides)
     expected = []
     if "u" in provides:
-        expected.append(("fields_into", (4,), (0.25,), (1, 4), "v" not in provides))
+        expected.append(("fields_into", (40,), (0.25,), (1, 40), "v" not in provides))
     if "stress" in provides:
         expected.append(("stress", (0.25,)))
     assert ref.log == expected
-    # the points are the first element's Gauss points, inside it
+    # the points are the first block's Gauss points, as the norms pass them
     generic = _Recording(with_fields_into=False)
     metrics.warm_up_reference(generic, x, t, frozenset({"u"}))
-    assert generic.log == [("u", (1, 4), (1, 1, 1))]
+    assert generic.log == [("u", (10, 4), (1, 1, 1))]
 
 
 def test_harness_warms_each_reference_type_once_before_timing_the_norms(monkeypatch):
