@@ -106,24 +106,27 @@ def vfnma(typingctx, a, b, c):
     return f64x8(a, b, c), codegen
 
 
-def _binop(name: str):
-    @intrinsic
-    def f(typingctx, a, b):
-        def codegen(context, builder, sig, args):
-            return getattr(builder, name)(args[0], args[1])
-        return f64x8(a, b), codegen
-    return f
+def _register_arithmetic(vtype: types.Type) -> None:
+    """+, -, * between two values of the vector type vtype, element by element."""
+    def binop(name: str):
+        @intrinsic
+        def f(typingctx, a, b):
+            def codegen(context, builder, sig, args):
+                return getattr(builder, name)(args[0], args[1])
+            return vtype(a, b), codegen
+        return f
+
+    def register(op, f) -> None:
+        @overload(op)
+        def ov(a, b):
+            if a == vtype and b == vtype:
+                return lambda a, b: f(a, b)
+
+    for op, name in ((operator.add, "fadd"), (operator.sub, "fsub"), (operator.mul, "fmul")):
+        register(op, binop(name))
 
 
-def _register(op, f) -> None:
-    @overload(op)
-    def ov(a, b):
-        if isinstance(a, F64x8) and isinstance(b, F64x8):
-            return lambda a, b: f(a, b)
-
-
-for _op, _name in ((operator.add, "fadd"), (operator.sub, "fsub"), (operator.mul, "fmul")):
-    _register(_op, _binop(_name))
+_register_arithmetic(f64x8)
 
 
 # ---------------------------------------------------------------------------------------
@@ -228,22 +231,5 @@ def v4hsum(typingctx, v):
     return types.float64(v), codegen
 
 
-def _binop4(name: str):
-    @intrinsic
-    def f(typingctx, a, b):
-        def codegen(context, builder, sig, args):
-            return getattr(builder, name)(args[0], args[1])
-        return f64x4(a, b), codegen
-    return f
-
-
-def _register4(op, f) -> None:
-    @overload(op)
-    def ov(a, b):
-        if isinstance(a, F64x4) and isinstance(b, F64x4):
-            return lambda a, b: f(a, b)
-
-
-for _op, _name in ((operator.add, "fadd"), (operator.sub, "fsub"), (operator.mul, "fmul")):
-    _register4(_op, _binop4(_name))
+_register_arithmetic(f64x4)
 
