@@ -1041,14 +1041,8 @@ def _local_point(fam, xn, yn, k, rho, L):  # pragma: no cover - compiled
             kk, rr, br = k + 1.0, e, 0
         else:
             kk, rr, br = k, yn + rho, 1
-    if rr >= L:
-        return kk + 1.0, rr - L, 3 * br + 2
-    if rr < 0.0:
-        rr = rr + L
-        if rr < L:
-            return kk - 1.0, rr, 3 * br
-        return kk, 0.0, 3 * br + 1  # `_normal`: the node itself (r = 0 is not r + L)
-    return kk, rr, 3 * br + 1
+    kn, rn_ = _normal(kk, rr, L)  # its node case (kk, 0.0) keeps the block: shift 1
+    return kn, rn_, 3 * br + int(kn - kk) + 1
 
 
 @njit(cache=True)
