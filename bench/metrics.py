@@ -17,23 +17,34 @@ point over a leaf of `_LEAF` (64) elements in element order, the leaf's sum (s0 
 (s2 + s3), the leaves' sums added in order, then the blocks' (so long meshes stay
 accurate). The errors keep the bits of the former scalar kernels (same terms, same
 order); the exact norms, formerly one serial sum per leaf, changed in the last bits.
-The warm path (values kept) and the cold path (values evaluated, norms summed in the
-same pass) compute the errors with the same code: the same bits.
+The next calls on a grid (values kept, or evaluated again) and the first (values
+evaluated, norms summed in the same pass) compute the errors with the same code: the
+same bits.
 
-The exact values at the quadrature points (and the exact norms and contact stress)
-depend on the mesh, the sample times and the reference only, not on the scheme: they
-are kept for the next calls on the same (reference, mesh, sample times), the most
-recent first, up to `EXACT_CACHE_BYTES` in all, so the schemes of a table that share
-a grid evaluate the reference once. Entries hold the reference weakly; larger problems
-are evaluated block by block every time (memory bounded by the block). With
-`fields_into` an entry's values are one allocation, carved into the blocks (one array
-per block would be handed back to the system block by block and faulted in again, page
-by page, at the next grid), and a problem too large to keep reuses one block's arrays.
+What depends on the mesh, the sample times and the reference only, not on the scheme, is
+kept for the next calls on the same (reference, mesh, sample times), the most recent
+first, up to `EXACT_CACHE_BYTES` in all: the blocks' quadrature (scikit-fem's), the
+exact norms and the exact contact stress, so that the next schemes of a table on that
+grid compute the errors only. The exact values at the quadrature points are kept too
+when the reference is slow to evaluate (longer than `KEEP_VALUES_NS` per point on the
+first block, timed again if so: one interruption does not count): a fine characteristics
+grid evaluated point by point, a numpy reference. A fast one (the closed forms, the
+characteristics on a grid of runs: about 1-2 ns per point) is evaluated again at each
+call into one block reused from call to call, which costs less than keeping its values:
+24 bytes per point newly touched by the first scheme (page faults, tens of ms for a
+default grid in a fresh process) and read back from memory by the others. Either way the
+errors have the same bits. Entries hold the reference weakly; larger problems are
+evaluated block by block every time (memory bounded by the block). With `fields_into` an
+entry's values are one allocation, carved into the blocks (one array per block would be
+handed back to the system block by block and faulted in again, page by page, at the next
+grid).
 """
 
 from __future__ import annotations
 
+import functools
 import threading
+import time
 import weakref
 from dataclasses import dataclass, field
 from typing import Any
@@ -41,6 +52,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 from skfem import Basis, ElementLineP1, MeshLine
+from skfem.quadrature import get_quadrature
+from skfem.refdom import RefLine
 
 from bench.plugin import Exact, Semidiscrete, Trajectory
 from schemes._simd import v4bcast, v4hsum, v4load, v4splat, vloadc, vstore
@@ -54,10 +67,16 @@ NEEDS = {
     "err_u_linf_l2": "u", "err_u_linf_h1": "u", "err_u_l2_l2": "u", "err_u_l2_h1": "u",
     "err_v_linf_l2": "v", "err_v_l2_l2": "v", "err_stress_l2": "stress",
 }
-_CHUNK_POINTS = 32_768  # quadrature points per block (256 kB per field: stays in cache)
+_CHUNK_POINTS = 65_536  # quadrature points per block (512 kB per field)
 _QUAD_ORDER = 7  # 4 Gauss points per element
-#: largest size of the exact values kept for the next calls (see the module docstring)
+#: largest size of what is kept for the next calls on a grid (see the module docstring)
 EXACT_CACHE_BYTES = 96 * 2**20
+#: the exact values are kept only for a reference that takes longer than this (ns per
+#: quadrature point, all its fields, measured on the first block) to evaluate: a faster
+#: one is evaluated again into one reused block, which costs less than keeping its
+#: values (memory newly touched) and reading them back (see the module docstring)
+KEEP_VALUES_NS = 5.0
+_clock = time.perf_counter
 
 
 _LEAF = 64  # elements per partial sum in the kernels (sums stay accurate on long meshes)
@@ -253,7 +272,7 @@ class _Geometry:
 
     @classmethod
     def of(cls, x: np.ndarray, e0: int, e1: int) -> _Geometry:
-        basis = Basis(MeshLine(x[e0 : e1 + 1]), ElementLineP1(), intorder=_QUAD_ORDER)
+        basis = Basis(MeshLine(x[e0 : e1 + 1]), ElementLineP1(), quadrature=_quadrature())
         d0, d1 = basis.element_dofs
         p0, p1 = (basis.basis[j][0].value for j in range(2))
         g0, g1 = (basis.basis[j][0].grad[0] for j in range(2))
@@ -268,6 +287,13 @@ class _Geometry:
         c = np.ascontiguousarray
         return cls(e0, c(basis.global_coordinates().value[0]), c(basis.dx), c(p0[0]),
                    c(p1[0]), c(g0[:, 0]), c(g1[:, 0]))
+
+
+@functools.cache
+def _quadrature() -> tuple[np.ndarray, np.ndarray]:
+    """scikit-fem's rule of order `_QUAD_ORDER` on the reference line (what `intorder`
+    computes for each basis: computed once)."""
+    return get_quadrature(RefLine, _QUAD_ORDER)
 
 
 def _blocks(nel: int) -> tuple[int, int]:
@@ -300,20 +326,24 @@ def _exact_values(exact: Exact, X: np.ndarray, t: np.ndarray, need_v: bool
 
 @dataclass
 class _Entry:
-    """What the error norms need of the reference on one (mesh, sample times)."""
+    """What the error norms need of the reference on one (mesh, sample times): the
+    quadrature of the blocks, the exact norms and stress, and the exact values at the
+    quadrature points when the reference is slow to evaluate (None otherwise)."""
 
     ref: Any  # weakref to the reference
     x: np.ndarray
     t: np.ndarray
     need_v: bool
     geometry: list[_Geometry]
-    values: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]]  # per block, in order
+    values: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] | None  # per block
     norms: dict[str, np.ndarray]
     stress: dict[str, np.ndarray] = field(default_factory=dict)  # "s": exact stress at t
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for vals in self.values for a in vals if a is not None)
+        held = [a for vals in self.values or () for a in vals if a is not None]
+        held += [a for g in self.geometry for a in (g.X, g.w, g.g0, g.g1)]
+        return sum(a.nbytes for a in held)
 
     def matches(self, exact: Exact, x: np.ndarray, t: np.ndarray, need_v: bool) -> bool:
         return (self.ref() is exact and need_v <= self.need_v
@@ -357,10 +387,36 @@ def _make_room(nbytes: int) -> None:
             _cache.pop()
 
 
+_scratch = threading.local()  # per thread: one block's values when they are not kept
+
+
+def _scratch_block(size: int) -> np.ndarray:
+    """A reused array of at least `size` doubles (the same pages from call to call)."""
+    buf = getattr(_scratch, "buf", None)
+    if buf is None or buf.size < size:
+        buf = _scratch.buf = np.full(size, 0.0)  # its pages touched now, not in the
+        # timing of the first block's evaluation
+    return buf[:size]
+
+
+def _evaluate(exact: Exact, g: _Geometry, t: np.ndarray, need_v: bool,
+              out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """u, u_x (and u_t) at the block's points for the times t: written into out
+    (fields, samples, elements, 4) by the reference's `fields_into`, or made by
+    `_exact_values` when out is None."""
+    if out is None:
+        return _exact_values(exact, g.X, t[:, None, None], need_v)
+    vals = (out[0], out[1], out[2] if need_v else None)
+    n = g.X.size
+    exact.fields_into(g.X.reshape(-1), t,
+                      *(None if f is None else f.reshape(t.size, n) for f in vals))
+    return vals
+
+
 def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: bool
                  ) -> tuple[dict[str, np.ndarray], _Entry | None]:
     """Squared space norms per sample, accumulated over blocks of elements x samples,
-    and the cache entry used or made (None when the values are too large to keep)."""
+    and the cache entry used or made (None when it is too large to keep)."""
     x, t = semi.x, traj.t
     nel, K = x.size - 1, t.size
     err = {k: np.zeros(K) for k in ("eu", "eux", "ev")}
@@ -369,6 +425,14 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
     U = np.ascontiguousarray(traj.U, dtype=float)  # the kernels load rows as vectors
     V = np.ascontiguousarray(traj.V, dtype=float) if need_v else U
     ec, step = _blocks(nel)
+    nf = 3 if need_v else 2
+    into = getattr(exact, "fields_into", None) is not None
+    # one block's values, reused from block to block (and from call to call) when they
+    # are not kept: `fields_into` writes there
+    block = _scratch_block(nf * min(step, K) * min(ec, nel) * 4) if into else None
+
+    def out(ne: int, kb: int, where: np.ndarray | None) -> np.ndarray | None:
+        return None if where is None else where[: nf * kb * ne * 4].reshape(nf, kb, ne, 4)
 
     def add(g: _Geometry, a: int, vals: tuple, with_norms: bool) -> None:
         u, ux, v = vals
@@ -381,29 +445,25 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
 
     hit = _lookup(exact, x, t, need_v)
     if hit is not None:
-        values = iter(hit.values)
+        kept = iter(hit.values) if hit.values is not None else None
         for g in hit.geometry:
             for a in range(0, K, step):
-                add(g, a, next(values), False)
+                kb = min(step, K - a)
+                vals = next(kept) if kept is not None else _evaluate(
+                    exact, g, t[a : a + kb], need_v, out(g.X.shape[0], kb, block))
+                add(g, a, vals, False)
         return {**err, **hit.norms}, hit
 
-    nf = 3 if need_v else 2
-    size = 8 * nf * K * nel * 4
-    keep = size <= EXACT_CACHE_BYTES
     try:
         ref = weakref.ref(exact)
     except TypeError:  # not weakly referable: nothing is kept
-        keep, ref = False, None
-    if keep:
-        _make_room(size)
-    fill = getattr(exact, "fields_into", None)
-    # with `fields_into`, one allocation for all the values kept (or for one block,
-    # reused, when nothing is kept): not one per block, whose pages the allocator would
-    # hand back to the system and fault in again at the next grid
-    pool = None
-    if fill is not None:
-        pool = np.empty(size // 8 if keep else nf * min(step, K) * min(ec, nel) * 4)
-    at = 0
+        ref = None
+    quadrature = 80 * nel  # bytes of the blocks' X, w (4 per element), g0, g1
+    size = 8 * nf * K * nel * 4  # bytes of the values
+    keep = ref is not None and quadrature <= EXACT_CACHE_BYTES
+    fits = keep and size + quadrature <= EXACT_CACHE_BYTES
+    keep_values: bool | None = None  # decided on the first block's evaluation
+    pool, at = None, 0  # with `fields_into`: the kept values, one allocation
     geometry: list[_Geometry] = []
     values: list[tuple] = []
     for e0 in range(0, nel, ec):
@@ -411,19 +471,29 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
         ne = g.X.shape[0]
         for a in range(0, K, step):
             kb = min(step, K - a)
-            if pool is not None:
-                n = kb * ne * 4
-                if not keep:
-                    at = 0
-                block = pool[at : at + nf * n].reshape(nf, kb, ne, 4)
-                at += nf * n
-                vals = (block[0], block[1], block[2] if need_v else None)
-                fill(g.X.reshape(-1), t[a : a + kb],
-                     *(None if f is None else f.reshape(kb, ne * 4) for f in vals))
-            else:
-                vals = _exact_values(exact, g.X, t[a : a + kb, None, None], need_v)
+            n = nf * kb * ne * 4
+            dest = out(ne, kb, pool[at:] if keep_values and into else block)
+            start = _clock()
+            vals = _evaluate(exact, g, t[a : a + kb], need_v, dest)
+            if keep_values is None:
+                cost = (_clock() - start) * 1e9 / (kb * ne * 4)
+                if fits and cost > KEEP_VALUES_NS:  # slow, or interrupted: once more
+                    start = _clock()
+                    vals = _evaluate(exact, g, t[a : a + kb], need_v, dest)
+                    cost = min(cost, (_clock() - start) * 1e9 / (kb * ne * 4))
+                keep_values = fits and cost > KEEP_VALUES_NS
+                if keep_values:
+                    _make_room(size + quadrature)
+                    if into:  # one allocation for all the values: not one per block,
+                        # whose pages would go back to the system and fault in again
+                        pool = np.empty(size // 8)
+                        first = out(ne, kb, pool)
+                        first[...] = block[:n].reshape(first.shape)
+                        vals = (first[0], first[1], first[2] if need_v else None)
+            if keep_values and into:
+                at += n
             add(g, a, vals, True)
-            if keep:
+            if keep_values:
                 values.append(vals)
         if keep:
             geometry.append(g)
@@ -431,7 +501,8 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
         return {**err, **norms}, None
     for arr in norms.values():
         arr.flags.writeable = False
-    entry = _Entry(ref, x.copy(), t.copy(), need_v, geometry, values, norms)
+    entry = _Entry(ref, x.copy(), t.copy(), need_v, geometry,
+                   values if keep_values else None, norms)
     _store(entry)
     return {**err, **norms}, entry
 
@@ -482,6 +553,7 @@ def warm_up() -> None:
     _error_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1, z1)
     _error_and_exact_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1,
                           z1, z1, z1, z1)
+    _scratch_block(3 * _CHUNK_POINTS)  # the block of values not kept: allocated once
 
 
 

@@ -4,9 +4,10 @@
     python benchmarks/norm_cost.py clamped_bar --nx 80 --dt 0.002
 
 Every registered scheme, the case's default stride. The first scheme on a (case, mesh,
-sample times) evaluates the reference at every quadrature point; the next ones reuse
-those values (bench.metrics), so its norm time is the larger one. JIT compilation is
-outside both times. See also benchmarks/test_norms.py (pytest-benchmark).
+sample times) also builds the quadrature and sums the exact norms, which the next ones
+reuse (bench.metrics; the reference's values too when it is slow to evaluate), so its
+norm time is the larger one. JIT compilation is outside both times. See also
+benchmarks/test_norms.py (pytest-benchmark).
 """
 
 from __future__ import annotations

@@ -5,10 +5,13 @@ default sampling cost no more than the stepping itself". Each benchmark times
 `bench.metrics.error_metrics` on one run (the case's default stride, which is 1 for the
 default-run cases: every step is a sample) in two modes:
 
-- cold: the first scheme on a (case, mesh, sample times): the reference is evaluated at
-  every quadrature point (`metrics.clear_cache()` before each round);
-- warm: the next schemes on the same grid, which reuse those values (the default run
-  and `run_table` run every scheme of a case on the same grid).
+- cold: the first scheme on a (case, mesh, sample times): the quadrature is built, the
+  reference evaluated at every quadrature point and the exact norms summed
+  (`metrics.clear_cache()` before each round);
+- warm: the next schemes on the same grid (the default run and `run_table` run every
+  scheme of a case on the same grid), which reuse the quadrature and the exact norms
+  and evaluate these fast references again (bench.metrics keeps the values of slow
+  references only).
 
 `extra_info` holds the stepping time of every registered scheme on the same
 configuration (`scheme.integrate`, JIT excluded, median of 3: what the harness reports

@@ -80,13 +80,21 @@ def test_norm_memory_is_bounded_by_blocks_not_by_the_mesh(monkeypatch):
 
 def test_kept_values_respect_their_budget(monkeypatch):
     monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 2 * 2**20)
+    monkeypatch.setattr(metrics, "KEEP_VALUES_NS", 0.0)  # values kept whenever they fit
     case = make_case("clamped_bar")
     semi = discretise(case, mesh_nodes(case.L, 4000))
     exact = case.exact(2.0)
     error_metrics(semi, _trajectory(semi, np.linspace(0, 2, 11)), exact, case.provides)
-    assert metrics._cache == []  # 11 x 4000 x 4 x 3 doubles: over 2 MB, not kept
+    # 11 x 4000 x 4 x 3 doubles: over 2 MB, not kept; the quadrature (320 kB) and norms are
+    (entry,) = metrics._cache
+    assert entry.values is None and entry.nbytes == 80 * 4000
     error_metrics(semi, _trajectory(semi, np.linspace(0, 2, 3)), exact, case.provides)
-    assert len(metrics._cache) == 1 and metrics._cache[0].nbytes <= 2 * 2**20
+    assert len(metrics._cache) == 2 and metrics._cache[0].values is not None
+    assert sum(e.nbytes for e in metrics._cache) <= 2 * 2**20
+    monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 80 * 4000 - 1)  # not even those
+    metrics.clear_cache()
+    error_metrics(semi, _trajectory(semi, np.linspace(0, 2, 3)), exact, case.provides)
+    assert metrics._cache == []
 
 
 def test_run_peak_does_not_grow_with_the_number_of_steps():
@@ -252,7 +260,8 @@ def test_fields_are_u_ux_ut_exactly(far_end, g, u_L):
     assert sol.fields(X, T, velocity=False)[2] is None
 
 
-def test_kept_reference_values_give_the_same_errors_without_new_evaluations():
+def test_kept_reference_values_give_the_same_errors_without_new_evaluations(monkeypatch):
+    monkeypatch.setattr(metrics, "KEEP_VALUES_NS", 0.0)  # values kept whatever their cost
     case = make_case("clamped_bar")
     semi = discretise(case, mesh_nodes(case.L, 30))
     t = np.linspace(0.0, 1.0, 17)
@@ -330,15 +339,17 @@ def _root(a: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("case_name", ["clamped_bar", "dropped_bar"])
 @pytest.mark.parametrize("chunk", [120, 740])  # blocks of 30 + 7 elements / of 5 samples
-@pytest.mark.parametrize("keep", [True, False])
+@pytest.mark.parametrize("keep", ["values", "quadrature", "nothing"])
 def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_name, chunk,
                                                            keep):
     """References with `fields_into` write their values in place: into one allocation
     carved into the blocks when kept, into one block's arrays reused when not. Same
     errors as the direct scikit-fem quadrature, over uneven blocks of elements and of
-    samples, and the same numbers as through `fields`."""
+    samples, and the same numbers as through `fields`; the next call on the grid (kept
+    values, or evaluated again with the kept quadrature and norms) gives the same bits."""
     monkeypatch.setattr(metrics, "_CHUNK_POINTS", chunk)
-    if not keep:
+    monkeypatch.setattr(metrics, "KEEP_VALUES_NS", 0.0 if keep == "values" else np.inf)
+    if keep == "nothing":
         monkeypatch.setattr(metrics, "EXACT_CACHE_BYTES", 0)
     case = make_case(case_name)
     semi = discretise(case, mesh_nodes(case.L, 37, grading=1.6))
@@ -351,13 +362,16 @@ def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_nam
     want = _direct(semi, traj, exact)
     for col in ERROR_COLUMNS:
         assert got[col] == pytest.approx(want[col], rel=1e-13, abs=0), col
-    if keep:
+    if keep == "values":
         (entry,) = metrics._cache
         arrays = [a for vals in entry.values for a in vals if a is not None]
         assert len(arrays) == 3 * len(entry.values) and len({id(_root(a)) for a in arrays}) == 1
-        assert error_metrics(semi, traj, exact, case.provides) == got  # warm: the same
+    elif keep == "quadrature":
+        (entry,) = metrics._cache
+        assert entry.values is None and len(entry.geometry) == (1 if chunk == 740 else 2)
     else:
         assert metrics._cache == []
+    assert error_metrics(semi, traj, exact, case.provides) == got  # warm: the same bits
     metrics.clear_cache()
     pointwise = error_metrics(semi, traj, _Pointwise(exact), case.provides)
     # the characteristics solution's `fields_into` evaluates sorted points dense in its
@@ -367,6 +381,62 @@ def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_nam
         assert pointwise == got
     for col in ERROR_COLUMNS:
         assert pointwise[col] == pytest.approx(got[col], rel=1e-13, abs=0), col
+
+
+class _Clock:
+    """A stand-in for `metrics._clock` that the references below advance."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class _Timed:
+    """The clamped bar's closed form, each of whose evaluations takes ns[0], ns[1], ...
+    (the last one repeated) nanoseconds per point on `clock`: a fast or a slow reference,
+    or one interrupted once, without depending on this machine's speed."""
+
+    def __init__(self, clock: _Clock, ns: list[float]) -> None:
+        self.exact, self.clock, self.ns, self.calls = make_case("clamped_bar").exact(2.0), \
+            clock, list(ns), 0
+
+    def fields_into(self, x, t, u, ux, ut=None):
+        ns = self.ns[min(self.calls, len(self.ns) - 1)]
+        self.calls += 1
+        self.clock.now += ns * 1e-9 * x.size * t.size
+        self.exact.fields_into(x, t, u, ux, ut)
+
+    def stress(self, t):
+        return self.exact.stress(t)
+
+
+@pytest.mark.parametrize("ns,kept,calls", [
+    ([1.0], False, 10), ([4.9], False, 10), ([5.1], True, 11), ([300.0], True, 11),
+    ([300.0, 1.0], False, 11)])  # interrupted once: timed again, fast
+def test_values_are_kept_for_slow_references_only(monkeypatch, ns, kept, calls):
+    """The values are kept when the reference's first block took longer than
+    KEEP_VALUES_NS per point, twice (a slow one is timed again: one interruption does
+    not make a fast reference slow); otherwise the next call on the grid evaluates it
+    again, with the kept quadrature and norms. Either way, the same bits."""
+    clock = _Clock()
+    monkeypatch.setattr(metrics, "_clock", clock)
+    monkeypatch.setattr(metrics, "KEEP_VALUES_NS", 5.0)
+    monkeypatch.setattr(metrics, "_CHUNK_POINTS", 480)  # 30 elements x 4 samples: 10 blocks
+    case = make_case("clamped_bar")
+    semi = discretise(case, mesh_nodes(case.L, 30))
+    t = np.linspace(0.0, 1.9, 40)
+    ref = _Timed(clock, ns)
+    error_metrics(semi, _trajectory(semi, t), ref, case.provides)
+    (entry,) = metrics._cache
+    assert (entry.values is not None) == kept and len(entry.geometry) == 1
+    assert ref.calls == calls
+    second = error_metrics(semi, _trajectory(semi, t, seed=1), ref, case.provides)
+    assert ref.calls == calls + (0 if kept else 10)
+    metrics.clear_cache()
+    plain = error_metrics(semi, _trajectory(semi, t, seed=1), case.exact(2.0), case.provides)
+    assert second == plain
 
 
 class _Recording:
