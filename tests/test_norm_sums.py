@@ -187,3 +187,24 @@ def test_warm_up_compiles_the_signature_used():
     _run(b, True, cold=False)
     _run(b, True, cold=True)
     assert (len(_error_sums.signatures), len(_error_and_exact_sums.signatures)) == before
+
+
+@pytest.mark.parametrize("K", [1, 2, 3, 17, 129, 2401])
+def test_time_norms_from_one_stacked_trapezoid_equal_one_call_each(K):
+    """The L2(0,T) columns integrate their series in one np.trapezoid over the stack:
+    the same bits as the plain formula, column by column (nan below two samples or for
+    a zero norm)."""
+    rng = np.random.default_rng(K)
+    t = np.cumsum(rng.random(K))
+    pairs = {f"c{i}": (rng.random(K) ** 3 * 10.0 ** -i, rng.random(K) * 10.0**i)
+             for i in range(4)}
+    pairs["zero"] = (rng.random(K), np.zeros(K))
+    got = metrics._rel_l2(t, pairs)
+    assert list(got) == list(pairs)
+    for col, (e, n) in pairs.items():
+        if K < 2 or col == "zero":
+            assert math.isnan(got[col]), col
+        else:
+            want = math.sqrt(float(np.trapezoid(e, t))) / math.sqrt(float(np.trapezoid(n, t)))
+            assert got[col] == want, col
+    assert metrics._rel_l2(t, {}) == {}
