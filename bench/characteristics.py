@@ -116,10 +116,19 @@ x - x_a (x_a its first point): u quadratic, u_x and u_t linear, evaluated 8 poin
 time. They differ from the pointwise values (`fields`) by round-off only (the
 polynomials are rounded otherwise): a few eps of the data scale (u: max |u| +
 L max |u_x|; u_x, u_t: their maxima plus gam L, c gam L; measured 4e-16,
-tests/test_characteristics_runs.py bounds it by 2e-15). Otherwise (fewer than
-_RUN_POINTS points per cell, or x not sorted) `fields_into` evaluates point by point,
-with the very values of `fields`. A sample time where some point has no cell (only
-past the stored blocks) is evaluated point by point too.
+tests/test_characteristics_runs.py bounds it by 2e-15). Sorted points sparse in the
+cells (fewer than _RUN_POINTS per cell: the Gauss points of a mesh on the fine grid of a
+smooth scene, pulse or grazing) have no runs: each point needs its own cells. They are
+evaluated point by point, with the very values of `fields` (the expressions of the
+pointwise kernel, lane by lane, on the cells it finds), but 8 points at a time in
+vectors and for a group of sample times at once (`_sparse_kernel`, the comment above
+it): in a sample time every point's blocks are k and k + 1, so a point's cell is
+guessed from its local coordinate and its block's few nodes off the base grid (the
+kinks and inserted nodes, `_sparse_table`), then checked on the cell's nodes as the
+pointwise search checks its own; a failed guess (round-off at a node) takes the
+pointwise search. A grid with many such nodes per block, and unsorted x, are evaluated
+by the pointwise kernel itself. A sample time where some point has no cell (only past
+the stored blocks) is evaluated point by point too.
 
 A coarse grid is exact where the data qualify (above): `coarse_solution` builds one,
 which is what the scenes with such data use (build and evaluation cost scale with the
@@ -139,11 +148,34 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 from numpy.typing import ArrayLike, NDArray
 
 from bench.plugin import flat_points, grid_points
-from schemes._simd import vfma, vload, vsplat, vstore
+from schemes._simd import (
+    _data,
+    _float_array,
+    _gather_indices,
+    _gather_lanes,
+    _gather_pairs,
+    _index_array,
+    f64x8,
+    vany,
+    vdiv,
+    vfloor,
+    vfma,
+    vgather,
+    vload,
+    vprefetch,
+    vselect_eq,
+    vselect_ge,
+    vselect_le,
+    vselect_lt,
+    vsplat,
+    vstore,
+    vstore_index,
+)
 
 __all__ = ["CharacteristicsSolution", "DEFAULT_CELLS_PER_LENGTH", "DEFAULT_MAX_NODES",
            "coarse_solution"]
@@ -561,6 +593,8 @@ class CharacteristicsSolution:
         # every block the base grid (no kinks, nothing inserted): cells are found
         # without the lookup table (`_table`)
         self._uniform = bool(np.all(sizes == self.cells_per_length + 1))
+        self._sparse: tuple[FloatArray, NDArray[np.int64], NDArray[np.int64]] | None = None
+        self._sparse_made = False  # see _sparse_table
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
@@ -588,6 +622,35 @@ class CharacteristicsSolution:
             lut = np.searchsorted(self._s0, np.arange(nb) * self.ds, side="right") - 1
             self._lut = np.maximum(lut, 0).astype(np.int32 if lut[-1] < 2**31 else np.int64)
         return self._lut
+
+    def _sparse_table(self) -> tuple[FloatArray, NDArray[np.int64], NDArray[np.int64]] | None:
+        """What `_sparse_kernel` guesses cells from (xz, xs, cend): per block b, its nodes
+        off the base grid (the kinks of the data, the inserted nodes) xz[xs[b]:xs[b + 1]]
+        and its last cell cend[b]; None (the pointwise kernel then) when a block has more
+        than _SPARSE_EXTRA of them, or when they are not told apart from the base nodes
+        (a node closer to a base node than the round-off of r n / L). Made once, in one
+        pass over the blocks from the first that has such nodes (on the fine grid of a
+        smooth scene: the impacts' inserted nodes, a few per block)."""
+        if not self._sparse_made:
+            n = self.cells_per_length
+            extra = self._sizes - (n + 1)  # nodes off the base grid, per block
+            table = None
+            if int(np.max(extra)) <= _SPARSE_EXTRA:
+                xs = np.concatenate(([0], np.cumsum(extra))).astype(np.int64)
+                xz = np.empty(0)
+                tol = max(1e-10, 64.0 * np.finfo(float).eps * n)
+                found = np.zeros_like(extra)
+                if xs[-1] > 0:  # base nodes: R = i L / n (np.linspace), r n / L = i + O(eps n)
+                    lo = int(self._node0[int(np.argmax(extra > 0))])
+                    g = self._r[lo:] * (n / self.L)
+                    at = lo + np.flatnonzero(np.abs(g - np.rint(g)) > tol)
+                    xz = self._r[at]
+                    found = np.bincount(np.searchsorted(self._node0, at, side="right") - 1,
+                                        minlength=extra.size)
+                if np.array_equal(found, extra):
+                    table = (xz, xs, (self._cell0 + self._sizes - 2).astype(np.int64))
+            self._sparse, self._sparse_made = table, True
+        return self._sparse
 
     def _table(self) -> NDArray[np.integer]:
         """What `_locate` guesses cells from: the lookup table, or on a uniform grid none
@@ -623,7 +686,8 @@ class CharacteristicsSolution:
         """Memory held by the stored representation, in bytes."""
         arrays = (self._r, self._s0, self._P, self._Q, self._dP, self._dQ, self._sP,
                   self._sQ, self._sizes, self._node0, self._cell0, self._delta)
-        return sum(a.nbytes for a in arrays) + (0 if self._lut is None else self._lut.nbytes)
+        tables = (() if self._lut is None else (self._lut,)) + (self._sparse or ())
+        return sum(a.nbytes for a in arrays + tables)
 
     def u(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
         """Displacement u(x, t)."""
@@ -658,7 +722,8 @@ class CharacteristicsSolution:
         (x, t 1-D; the outputs C-contiguous float arrays of shape (t.size, x.size))
         without temporaries: what the error norms use. For sorted x dense in the cells,
         by runs of points per cell, equal to `fields` up to round-off (module docstring,
-        "Evaluation on a grid"); otherwise point by point, the very values of `fields`."""
+        "Evaluation on a grid"); otherwise point by point, the very values of `fields`
+        (sorted x: 8 points at a time, `_evaluation`)."""
         x, t = grid_points(x, t, u, ux, ut)
         # the checks and clipping of `_points`, from one pass over each array
         xlo, xhi, ordered = _scan(x)
@@ -670,11 +735,32 @@ class CharacteristicsSolution:
             x = np.clip(x, 0.0, self.L)
         if tlo < 0.0 or thi > self.T:
             t = np.clip(t, 0.0, self.T)
-        kernel = _run_kernel if self._by_runs(x.size, ordered, xhi - xlo) else _grid_kernel
-        kernel(x, self.c * t, self.L, self.gam, self.far_end == "clamped", self.u_L,
-               self.c, self.ds, self._table(), self._cell0, self._r, self._P, self._Q,
-               self._dP, self._dQ, self._sP, self._sQ, self._delta, self._ncells, u, ux,
-               _NO_FIELD if ut is None else ut)
+        how = self._evaluation(x.size, ordered, xhi - xlo)
+        sparse = how == "sparse"
+        _fields_grid(_HOW[how], x, self.c * t, self.L, self.gam, self.far_end == "clamped",
+                     self.u_L, self.c, self.ds, _NO_TABLE if sparse else self._table(),
+                     *(self._sparse_guess() if sparse else _NO_GUESS), self._cell0, self._r,
+                     self._P, self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
+                     self._ncells, u, ux, _NO_FIELD if ut is None else ut)
+
+    def _evaluation(self, size: int, ordered: bool, span: float) -> str:
+        """How `fields_into` evaluates `size` points spanning `span`: "runs" (sorted and
+        dense in the cells, `_by_runs`), "sparse" (sorted otherwise, `_sparse_kernel`, if
+        the grid has its table), else "points" (`_grid_kernel`). The three give the same
+        cells; "sparse" and "points" the same bits."""
+        if self._by_runs(size, ordered, span):
+            return "runs"
+        if ordered and size > 0 and self._sparse_table() is not None:
+            return "sparse"
+        return "points"
+
+    def _sparse_guess(self) -> tuple[Any, ...]:
+        """`_sparse_kernel`'s arguments for its guesses: uniform grid or not, the last
+        entry of the lookup table and s0 (`_exact_cell`), then `_sparse_table`."""
+        table = self._sparse_table()
+        assert table is not None
+        nlut = int(math.ceil(float(self._s0[-1]) / self.ds)) + 1  # `_lookup_table`'s
+        return (self._uniform, nlut, self._s0, *table)
 
     def _by_runs(self, size: int, ordered: bool, span: float) -> bool:
         """Whether `fields_into` takes the runs of points per cell (module docstring) for
@@ -1267,3 +1353,350 @@ def _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, d
                     if want_v:
                         utf[base + jj] = tmp[16 + jj - j]
     return nbad
+
+
+# ------------------------------------------------------------------ sparse sorted points
+#
+# `fields_into` on sorted points sparse in the cells (module docstring, "Evaluation on a
+# grid"): the Gauss points of a mesh against the sample times on a fine grid, one or two
+# points per cell and sample time. Each point needs its own cells, so the work per point
+# is that of `_grid_kernel` (the same expressions, lane by lane: the same bits), but 8
+# points at a time in 8 x double vectors (`schemes._simd`: loads, selects, division,
+# floor, gathers, prefetches; below, the loads of each lane's cell), for a group of _ROWS
+# sample times at once, in two passes: (1) the local coordinates of both families and a
+# guess of their cells, without memory access; (2) the cells' data, the check of the
+# guess, the values. The guess: in a sample time every point's blocks are k and k + 1
+# (tau = k L + rho), so a lane's cell is the block's first cell + floor(r / ds) + the
+# block's nodes off the base grid at or below r (its kinks and inserted nodes, a short
+# list per block: `_sparse_table`). It is checked on the cell's nodes (r0 <= r < r1)
+# as `_locate` checks its own guess; the lanes of a failed check (round-off at a node:
+# none on the norms' grids of the scenes) take `_locate`'s own search (`_exact_cell`), so
+# every lane has the pointwise kernel's cell, and the values are its values.
+# Where the time goes: finding cells (a table, a search per point) is replaced by the
+# guess; what is left is loading each point's cell (6 numbers from 3 arrays per family:
+# no reuse from point to point) and the arithmetic. The two passes keep each loop's
+# dependency chains short (the loads of pass 2 do not wait for the coordinates, nor a
+# point's loads for the previous point's). The group of times keeps the cells in cache:
+# the cells of point m at time n + d are those of point m' at time n for x_m' = x_m +
+# c d dt, so as the 8 points move along x the group's cells slide along the nodes, and
+# the lines about to be needed are asked for ahead (a prefetch per cache line, once):
+# a first pass over a cold solution then waits for memory far less than point by point.
+# The scratch rows are padded so that the 9 of one lane are not 4 kB apart (one cache
+# set).
+
+_ROWS = 64  # sample times per pass of `_sparse_kernel` over 8 points
+_PREFETCH_MAX = 1 << 13  # at most this many elements asked for at once (a hint)
+_SPARSE_EXTRA = 16  # at most this many nodes off the base grid per block for it
+
+
+@intrinsic
+def _vgather_cell(typingctx, rn, V, D, jn, jc, i):
+    """(rn[j], rn[j + 1], V[j], V[j + 1], D[k]) lane by lane, j = jn[i + lane] (a cell's
+    first node), k = jc[i + lane] (the cell): the data of a lane's cell."""
+    if not (_float_array(rn) and _float_array(V) and _float_array(D) and _index_array(jn)
+            and _index_array(jc) and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        nodes = _gather_indices(context, builder, sig, args, 3)
+        cells = _gather_indices(context, builder, sig, args, 4)
+        r0, r1 = _gather_pairs(builder, _data(context, builder, sig.args[0], args[0]), nodes)
+        v0, v1 = _gather_pairs(builder, _data(context, builder, sig.args[1], args[1]), nodes)
+        d = _gather_lanes(context, builder, sig.args[2], args[2], cells)
+        return context.make_tuple(builder, sig.return_type, [r0, r1, v0, v1, d])
+    return types.UniTuple(f64x8, 5)(rn, V, D, jn, jc, i), codegen
+
+
+@njit(cache=True)
+def _prefetch_range(a, lo, hi):  # pragma: no cover - compiled
+    """Ask for the cache lines of a[lo:hi] (nothing if the range is empty or larger than
+    _PREFETCH_MAX: a hint)."""
+    lo = max(lo, 0)
+    hi = min(hi, a.size)
+    if hi - lo <= _PREFETCH_MAX:
+        step = max(64 // a.itemsize, 1)
+        for i in range(lo - lo % step, hi, step):
+            vprefetch(a, i)
+
+
+@njit(cache=True)
+def _first_guess(kn, rr, L, ds, uniform, nlut, s0, last):  # pragma: no cover - compiled
+    """`_locate`'s first guess of the cell of (kn, rr): on a uniform grid the bin of width
+    ds, otherwise the lookup table's entry (`_lookup_table`), found by the search that
+    makes the table, so that the table is not needed."""
+    g = math.floor((kn * L + rr) * (1.0 / ds))
+    if uniform:
+        return min(max(g, 0), last)
+    key = min(max(g, 0), nlut) * ds  # np.searchsorted(s0, key, side="right") - 1, >= 0
+    lo = 0
+    hi = s0.size
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if s0[mid] <= key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return max(lo - 1, 0)
+
+
+@njit(cache=True)
+def _exact_cell(kn, rr, L, ds, uniform, nlut, s0, cell0, rn, last):  # pragma: no cover
+    """(cell, block) of the point (kn, rr) as `_locate` finds it: its first guess, its
+    check, and `_cell_of` from the guess."""
+    nb1 = cell0.size - 1
+    i = _first_guess(kn, rr, L, ds, uniform, nlut, s0, last)
+    b = min(max(int(kn), 0), nb1)
+    if not (b == kn and cell0[b] <= i and (b == nb1 or i < cell0[b + 1])
+            and rn[i + b] <= rr and rr < rn[i + b + 1]):
+        i, b = _cell_of(kn, rr, i, b, L, cell0, rn, last)
+    return i, b
+
+
+@njit(cache=True)
+def _normal8(k0, r0, Lv, zero, one):  # pragma: no cover - compiled
+    """`_normal` lane by lane: (k, r) with 0 <= r < L."""
+    T = r0 + Lv
+    kk = vselect_lt(r0, zero, vselect_lt(T, Lv, k0 - one, k0), k0)
+    rr = vselect_lt(r0, zero, vselect_lt(T, Lv, T, zero), r0)
+    return vselect_ge(r0, Lv, k0 + one, kk), vselect_ge(r0, Lv, r0 - Lv, rr)
+
+
+@njit(cache=True)
+def _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, xs, cend,
+                   cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
+                   ut):  # pragma: no cover - compiled
+    """`_grid_kernel` (its values, bit for bit) 8 points at a time, for points sparse in
+    the cells (see the comment above). xz[xs[b]:xs[b + 1]]: the nodes of block b off the
+    base grid, cend[b]: its last cell; uniform, nlut, s0: `_locate`'s guess (`_exact_cell`).
+    Returns the number of (8 points, sample time) whose cells were not all guessed."""
+    M = x.size
+    N = tau.size
+    if M == 0 or N == 0:
+        return 0
+    R = _ROWS
+    xp = np.empty(M + 8)  # x, u_p(x), gam x, padded with the last point
+    upx = np.empty(M + 8)
+    gx = np.empty(M + 8)
+    for m in range(M + 8):
+        xn = x[min(m, M - 1)]
+        xp[m] = xn
+        if clamped:
+            upx[m] = u_L + 0.5 * gam * (xn * xn - L * L)
+        else:
+            upx[m] = gam * (0.5 * xn * xn - L * xn)
+        gx[m] = gam * xn
+    uf = u.reshape(u.size)
+    uxf = ux.reshape(ux.size)
+    utf = ut.reshape(ut.size)
+    want_v = ut.size > 0
+    last = ncells - 1
+    nd = delta.size - 1
+    nb1 = cell0.size - 1
+    # per sample time of a group: k, rho; for the blocks k and k + 1: stored or not,
+    # first cell, last cell
+    row = np.empty((R, 8))
+    fs = np.empty((5, R * 8 + 8))  # per lane: k, r of p, of q; to `_exact_cell`
+    ix = np.empty((4, R * 8 + 24), np.int64)  # per lane: first node and cell of p, of q
+    tmp = np.empty((3, 8))
+    zero = vsplat(0.0)
+    one = vsplat(1.0)
+    mone = vsplat(-1.0)
+    Lv = vsplat(L)
+    ids = vsplat(1.0 / ds)
+    half = vsplat(0.5)
+    qa = vsplat(0.25 * gam)
+    ha = vsplat(0.5 * gam)
+    cv = vsplat(c)
+    guessed = 0
+    ahead = np.zeros(4, np.int64)  # the ends of what was asked for (p: up to, q: from)
+    for n0 in range(0, N, R):
+        nr = min(R, N - n0)
+        for r in range(nr):
+            tn = tau[n0 + r]
+            k = math.floor(tn / L)
+            row[r, 0] = k
+            row[r, 1] = tn - k * L
+            for h in range(2):
+                bb = k + h
+                ok = 0 <= bb <= nb1
+                row[r, 2 + h] = 1.0 if ok else 0.0
+                row[r, 4 + h] = cell0[bb] if ok else 0.0
+                row[r, 6 + h] = cend[bb] if ok else 0.0
+        for m0 in range(0, M, 8):
+            X = vload(xp, m0)
+            XmL = X - Lv  # x - L (p) and L - x (q), rounded as `_grid_kernel` rounds them
+            LmX = Lv - X
+            # ---- pass 1: coordinates, guesses
+            for r in range(nr):
+                kf = row[r, 0]
+                ik = int(kf)
+                K0 = vsplat(kf)
+                K1 = vsplat(kf + 1.0)
+                RHO = vsplat(row[r, 1])
+                C0 = vsplat(row[r, 4])
+                C1 = vsplat(row[r, 5])
+                E0 = vsplat(row[r, 6])
+                E1 = vsplat(row[r, 7])
+                both = row[r, 2] == 1.0 and row[r, 3] == 1.0
+                o = r * 8
+                bad = zero
+                for fam in range(2):
+                    if fam == 0:  # p at x + tau: (k, x + rho) or (k + 1, (x - L) + rho)
+                        A = X + RHO
+                        k0 = vselect_lt(A, Lv, K0, K1)
+                        r0 = vselect_lt(A, Lv, A, XmL + RHO)
+                    else:  # q at x - tau: (k + 1, rho - x) or (k, (L - x) + rho)
+                        A = RHO - X
+                        k0 = vselect_ge(A, zero, K1, K0)
+                        r0 = vselect_ge(A, zero, A, LmX + RHO)
+                    plain = both and not vany(
+                        vselect_lt(r0, zero, one, vselect_ge(r0, Lv, one, zero)))
+                    if plain:  # 0 <= r < L in every lane (`_normal` keeps it), blocks kept
+                        kk, rr = k0, r0
+                        okv = one
+                    else:
+                        kk, rr = _normal8(k0, r0, Lv, zero, one)
+                        okv = vselect_eq(kk, K0, vsplat(row[r, 2]),
+                                         vselect_eq(kk, K1, vsplat(row[r, 3]), zero))
+                    G = vfloor(rr * ids)
+                    if 0 <= ik and ik + 1 <= nb1 and xs[ik + 2] > xs[ik]:
+                        below0 = zero  # nodes off the base grid at or below r
+                        for q in range(xs[ik], xs[ik + 1]):
+                            below0 = below0 + vselect_le(vsplat(xz[q]), rr, one, zero)
+                        below1 = zero
+                        for q in range(xs[ik + 1], xs[ik + 2]):
+                            below1 = below1 + vselect_le(vsplat(xz[q]), rr, one, zero)
+                        G = G + vselect_eq(kk, K1, below1, below0)
+                    c0 = vselect_eq(kk, K1, C1, C0)
+                    cell = c0 + G
+                    cell = vselect_lt(cell, c0, c0, cell)
+                    ce = vselect_eq(kk, K1, E1, E0)
+                    cell = vselect_lt(ce, cell, ce, cell)
+                    if not plain:  # lanes of other blocks: to `_exact_cell`
+                        cell = vselect_eq(okv, one, cell, zero)
+                        bad = vselect_eq(okv, one, bad, one)
+                    vstore(fs[2 * fam], o, kk)
+                    vstore(fs[2 * fam + 1], o, rr)
+                    vstore_index(ix[2 * fam], o, vselect_eq(okv, one, cell + kk, zero))
+                    vstore_index(ix[2 * fam + 1], o, cell)
+                vstore(fs[4], o, bad)
+            # ---- ask for the cells' lines not asked for yet: the 8 points' cells over
+            # the group's times, from the first time's first point to the last time's
+            # last one for p (sorted x and t), the other way for q; with x the range
+            # slides up the nodes for p, down for q (first 8 points: the whole range)
+            e = (nr - 1) * 8
+            for fam in range(2):
+                V = P if fam == 0 else Q
+                D = dP if fam == 0 else dQ
+                S = sP if fam == 0 else sQ
+                lo = ix[2 * fam, 0] if fam == 0 else ix[2 * fam, 7]
+                hi = (ix[2 * fam, e + 7] if fam == 0 else ix[2 * fam, e]) + 2
+                lc = ix[2 * fam + 1, 0] if fam == 0 else ix[2 * fam + 1, 7]
+                hc = (ix[2 * fam + 1, e + 7] if fam == 0 else ix[2 * fam + 1, e]) + 1
+                if m0 > 0 and fam == 0:
+                    lo, lc = max(lo, ahead[0]), max(lc, ahead[1])
+                elif m0 > 0:
+                    hi, hc = min(hi, ahead[2]), min(hc, ahead[3])
+                for a in (rn, V):
+                    _prefetch_range(a, lo, hi)
+                _prefetch_range(D, lc, hc)
+                if gam:
+                    _prefetch_range(S, lc, hc)
+                if fam == 0:
+                    ahead[0], ahead[1] = hi, hc
+                else:
+                    ahead[2], ahead[3] = lo, lc
+            # ---- pass 2: the cells' data, the checks, the values
+            UP = vload(upx, m0)
+            GX = vload(gx, m0)
+            for r in range(nr):
+                o = r * 8
+                rp = vload(fs[1], o)
+                rq = vload(fs[3], o)
+                p0, p1, P0, P1, sp = _vgather_cell(rn, P, dP, ix[0], ix[1], o)
+                q0, q1, Q0, Q1, sq = _vgather_cell(rn, Q, dQ, ix[2], ix[3], o)
+                bad = vload(fs[4], o)
+                bad = vselect_le(p0, rp, bad, one)
+                bad = vselect_lt(rp, p1, bad, one)
+                bad = vselect_le(q0, rq, bad, one)
+                bad = vselect_lt(rq, q1, bad, one)
+                redo = vany(bad)
+                if redo:  # every lane's cells as `_locate` finds them, and the offsets
+                    guessed += 1
+                    for fam in range(2):
+                        for lane in range(o, o + 8):
+                            i, b = _exact_cell(fs[2 * fam, lane], fs[2 * fam + 1, lane], L,
+                                               ds, uniform, nlut, s0, cell0, rn, last)
+                            ix[2 * fam, lane] = i + b
+                            ix[2 * fam + 1, lane] = i
+                    for lane in range(8):
+                        b1 = ix[0, o + lane] - ix[1, o + lane]
+                        b2 = ix[2, o + lane] - ix[3, o + lane]
+                        if b1 == b2 + 1:
+                            tmp[0, lane] = delta[min(max(b2, 0), nd)]
+                        elif b2 == b1 + 1:
+                            tmp[0, lane] = -delta[min(max(b1, 0), nd)]
+                        elif b1 == b2:
+                            tmp[0, lane] = 0.0
+                        else:  # |x + tau - (x - tau')| <= L
+                            raise RuntimeError(
+                                "characteristics: p and q cells more than a block apart")
+                    off = vload(tmp[0], 0)
+                    p0, p1, P0, P1, sp = _vgather_cell(rn, P, dP, ix[0], ix[1], o)
+                    q0, q1, Q0, Q1, sq = _vgather_cell(rn, Q, dQ, ix[2], ix[3], o)
+                else:  # blocks k and k + 1: offset +-delta[k] where they differ
+                    db = vload(fs[0], o) - vload(fs[2], o)
+                    D = vsplat(delta[min(max(int(row[r, 0]), 0), nd)])
+                    off = vselect_eq(db, one, D, vselect_eq(db, mone, mone * D, zero))
+                pv = P0 + vdiv(rp - p0, p1 - p0) * (P1 - P0)
+                qv = Q0 + vdiv(rq - q0, q1 - q0) * (Q1 - Q0)
+                if gam:
+                    gp = vgather(sP, ix[1], o)
+                    gq = vgather(sQ, ix[3], o)
+                    pv = pv + qa * gp * (rp - p0) * (rp - p1)
+                    qv = qv + qa * gq * (rq - q0) * (rq - q1)
+                    sp = sp + ha * gp * (rp - half * (p0 + p1))
+                    sq = sq + ha * gq * (rq - half * (q0 + q1))
+                U = pv + qv + off + UP
+                UX = sp - sq + GX
+                at = (n0 + r) * M + m0
+                if m0 + 8 <= M:
+                    vstore(uf, at, U)
+                    vstore(uxf, at, UX)
+                    if want_v:
+                        vstore(utf, at, cv * (sp + sq))
+                else:  # the last points: the lanes past M are not written
+                    vstore(tmp[0], 0, U)
+                    vstore(tmp[1], 0, UX)
+                    vstore(tmp[2], 0, cv * (sp + sq))
+                    for lane in range(M - m0):
+                        uf[at + lane] = tmp[0, lane]
+                        uxf[at + lane] = tmp[1, lane]
+                        if want_v:
+                            utf[at + lane] = tmp[2, lane]
+    return guessed
+
+
+_HOW = {"points": 0, "runs": 1, "sparse": 2}  # `_evaluation` -> `_fields_grid`
+_NO_GUESS = (False, 0, np.empty(0), np.empty(0), np.zeros(1, np.int64),
+             np.zeros(1, np.int64))  # `_sparse_kernel`'s guess data, unused
+
+
+@njit(cache=True)
+def _fields_grid(how, x, tau, L, gam, clamped, u_L, c, ds, lut, uniform, nlut, s0, xz, xs,
+                 cend, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
+                 ut):  # pragma: no cover - compiled
+    """`fields_into`'s kernel `how` (0: `_grid_kernel`, 1: `_run_kernel`, 2:
+    `_sparse_kernel`, `_HOW`) behind one entry: the three are loaded from numba's cache
+    at once, by the first call in a process (a warm-up), whichever kernel later points
+    need (a load is about 10 ms a kernel)."""
+    if how == 1:
+        return _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP,
+                           dQ, sP, sQ, delta, ncells, u, ux, ut)
+    if how == 2:
+        return _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, xs,
+                              cend, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
+                              ut)
+    _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
+                 delta, ncells, u, ux, ut)
+    return 0

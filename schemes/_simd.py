@@ -17,6 +17,14 @@ checked at typing: a C-contiguous float64 array of any dimension, flat index) an
 4 x double type F64x4 (the 4 quadrature points of an element) with v4load, v4bcast (one
 double in the 4 elements: an AVX-512 broadcast memory operand of the arithmetic),
 v4splat, v4hsum (horizontal sum in a fixed order) and +, -, * (IEEE, no fma).
+
+Added for the characteristics solution's sparse kernel (`bench.characteristics`), at the
+end of the module: vselect_lt, vselect_le, vselect_ge, vselect_eq (a op b ? x : y lane by
+lane, ordered comparisons), vany (a lane not 0), vdiv (a / b), vfloor, and, with an index
+array ia (1-D, C-contiguous, int64): vgather(a, ia, i) (the lanes a[ia[i + lane]] as
+doubles), vstore_index(ia, i, v) (ia[i : i + 8] = v as int64); vprefetch(a, i) (a hint:
+the cache line of a[i]). Their codegen helpers (_gather_indices, _gather_lanes,
+_gather_pairs) also build the kernel's own gather of a cell's data.
 """
 
 from __future__ import annotations
@@ -47,11 +55,20 @@ class _F64x8Model(models.PrimitiveModel):
         super().__init__(dmm, fe_type, _V)
 
 
-def _ptr(context, builder, aryty, ary, idx, idxty):
+def _data(context, builder, aryty, ary):
+    """The data pointer of the array ary (of numba type aryty)."""
+    return context.make_array(aryty)(context, builder, ary).data
+
+
+def _elem(context, builder, aryty, ary, idx, idxty):
+    """Address of ary[idx] (flat), idx (of numba type idxty) taken as uint64."""
     arr = context.make_array(aryty)(context, builder, ary)
     i = context.cast(builder, idx, idxty, types.uint64)
-    p = builder.gep(arr.data, [i], inbounds=True)
-    return builder.bitcast(p, _V.as_pointer())
+    return builder.gep(arr.data, [i], inbounds=True)
+
+
+def _ptr(context, builder, aryty, ary, idx, idxty):
+    return builder.bitcast(_elem(context, builder, aryty, ary, idx, idxty), _V.as_pointer())
 
 
 @intrinsic
@@ -233,3 +250,159 @@ def v4hsum(typingctx, v):
 
 _register_arithmetic(f64x4)
 
+
+# ---------------------------------------------------------------------------------------
+# Added for the characteristics solution's sparse kernel (`bench.characteristics`). The
+# operations type only for the arguments they are meant for (F64x8 values, 1-D
+# C-contiguous arrays, int64 index arrays): any other fails to type (no matching
+# definition). Comparisons are ordered (false with a NaN).
+_I64 = ir.IntType(64)
+
+
+def _vectors(*tys: types.Type) -> bool:
+    return all(ty == f64x8 for ty in tys)
+
+
+def _array1(ty: types.Type) -> bool:
+    """Whether ty is a 1-D C-contiguous array."""
+    return isinstance(ty, types.Array) and ty.ndim == 1 and ty.layout == "C"
+
+
+def _index_array(ty: types.Type) -> bool:
+    return _array1(ty) and ty.dtype == types.int64
+
+
+def _float_array(ty: types.Type) -> bool:
+    return _array1(ty) and ty.dtype == types.float64
+
+
+def _select(op: str):
+    @intrinsic
+    def select(typingctx, a, b, x, y):
+        """a op b ? x : y, lane by lane (an ordered comparison: false with a NaN)."""
+        if not _vectors(a, b, x, y):
+            return None
+
+        def codegen(context, builder, sig, args):
+            cond = builder.fcmp_ordered(op, args[0], args[1])
+            return builder.select(cond, args[2], args[3])
+        return f64x8(a, b, x, y), codegen
+    return select
+
+
+vselect_lt, vselect_le, vselect_ge, vselect_eq = (_select(op) for op in ("<", "<=", ">=", "=="))
+
+
+@intrinsic
+def vany(typingctx, a):
+    """Whether a lane of a is not 0 (a NaN lane counts)."""
+    if not _vectors(a):
+        return None
+
+    def codegen(context, builder, sig, args):
+        ne = builder.fcmp_unordered("!=", args[0], ir.Constant(_V, [0.0] * 8))
+        bits = builder.bitcast(ne, ir.IntType(8))
+        return builder.icmp_unsigned("!=", bits, ir.Constant(ir.IntType(8), 0))
+    return types.boolean(a), codegen
+
+
+@intrinsic
+def vdiv(typingctx, a, b):
+    """a / b, lane by lane (IEEE: the scalar quotient in every lane)."""
+    if not _vectors(a, b):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.fdiv(args[0], args[1])
+    return f64x8(a, b), codegen
+
+
+@intrinsic
+def vfloor(typingctx, a):
+    """floor(a), lane by lane."""
+    if not _vectors(a):
+        return None
+
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V, [_V]),
+                                            "llvm.floor.v8f64")
+        return builder.call(fn, [args[0]])
+    return f64x8(a), codegen
+
+
+@intrinsic
+def vstore_index(typingctx, ia, i, v):
+    """ia[i : i + 8] = the lanes of v (whole numbers) as int64."""
+    if not (_index_array(ia) and isinstance(i, types.Integer) and _vectors(v)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        p = builder.bitcast(_elem(context, builder, sig.args[0], args[0], args[1], sig.args[1]),
+                            ir.VectorType(_I64, 8).as_pointer())
+        builder.store(builder.fptosi(args[2], ir.VectorType(_I64, 8)), p, align=8)
+        return context.get_dummy_value()
+    return types.none(ia, i, v), codegen
+
+
+def _gather_indices(context, builder, sig, args, pos: int) -> list:
+    """The 8 int64 indices ia[i : i + 8] (ia = args[pos], i = the last argument)."""
+    data = _data(context, builder, sig.args[pos], args[pos])
+    at = context.cast(builder, args[-1], sig.args[-1], types.uint64)
+    return [builder.load(builder.gep(data, [builder.add(at, ir.Constant(_I64, lane))],
+                                     inbounds=True)) for lane in range(8)]
+
+
+def _gather_lanes(context, builder, aryty, ary, idx: list):
+    """The vector of a[idx[lane]] (one load per lane), as doubles."""
+    data = _data(context, builder, aryty, ary)
+    vec = ir.Constant(_V, ir.Undefined)
+    for lane, j in enumerate(idx):
+        val = context.cast(builder, builder.load(builder.gep(data, [j], inbounds=True)),
+                           aryty.dtype, types.float64)
+        vec = builder.insert_element(vec, val, ir.Constant(_I32, lane))
+    return vec
+
+
+def _gather_pairs(builder, data, idx: list) -> tuple:
+    """The vectors of a[idx[lane]] and a[idx[lane] + 1] (data: a float64 pointer): one
+    16-byte load per lane, then the lanes sorted out."""
+    v2 = ir.VectorType(ir.DoubleType(), 2)
+    two = [builder.load(builder.bitcast(builder.gep(data, [j], inbounds=True),
+                                        v2.as_pointer()), align=8) for j in idx]
+    four = [builder.shuffle_vector(two[2 * q], two[2 * q + 1], _mask(0, 1, 2, 3))
+            for q in range(4)]
+    eight = [builder.shuffle_vector(four[2 * q], four[2 * q + 1], _mask(*range(8)))
+             for q in range(2)]
+    return (builder.shuffle_vector(eight[0], eight[1], _mask(*range(0, 16, 2))),
+            builder.shuffle_vector(eight[0], eight[1], _mask(*range(1, 16, 2))))
+
+
+@intrinsic
+def vgather(typingctx, a, ia, i):
+    """The lanes a[ia[i + lane]] (a any 1-D C-contiguous array of numbers), as doubles."""
+    if not (_array1(a) and isinstance(a.dtype, (types.Integer, types.Float))
+            and _index_array(ia) and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        return _gather_lanes(context, builder, sig.args[0], args[0],
+                             _gather_indices(context, builder, sig, args, 1))
+    return f64x8(a, ia, i), codegen
+
+
+@intrinsic
+def vprefetch(typingctx, a, i):
+    """Ask for the cache line of a[i] (a hint: no load, no fault)."""
+    if not (_array1(a) and isinstance(i, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        i8p = ir.IntType(8).as_pointer()
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.VoidType(), [i8p, _I32, _I32, _I32]),
+            "llvm.prefetch")  # overloaded on the address space: named by LLVM
+        ptr = builder.bitcast(_elem(context, builder, sig.args[0], args[0], args[1],
+                                    sig.args[1]), i8p)
+        builder.call(fn, [ptr, ir.Constant(_I32, 0), ir.Constant(_I32, 3), ir.Constant(_I32, 1)])
+        return context.get_dummy_value()
+    return types.none(a, i), codegen
