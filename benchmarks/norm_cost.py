@@ -33,7 +33,8 @@ def main(argv: list[str]) -> int:
     metrics.clear_cache()
     runs: list[Run] = []
     run_table(names, schemes().names(), [args.nx], [args.dt], keep=runs, keep_samples=False)
-    print(f"{'case':<12} {'scheme':<16} {'nx':>5} {'dt':>9} {'samples':>7} {'wall_s ms':>10} "
+    w = max([len("case"), *(len(str(r.row["case"])) for r in runs)])
+    print(f"{'case':<{w}} {'scheme':<16} {'nx':>5} {'dt':>9} {'samples':>7} {'wall_s ms':>10} "
           f"{'norm_s ms':>10} {'ratio':>7}")
     total_w = total_n = 0.0
     for r in runs:
@@ -41,7 +42,7 @@ def main(argv: list[str]) -> int:
         if w is None or n is None:
             continue
         total_w, total_n = total_w + w, total_n + n
-        print(f"{r.row['case']:<12} {r.row['scheme']:<16} {r.row['nx']:>5} {r.row['dt']:>9.3g} "
+        print(f"{r.row['case']:<{w}} {r.row['scheme']:<16} {r.row['nx']:>5} {r.row['dt']:>9.3g} "
               f"{r.trajectory.t.size:>7} {w * 1e3:>10.2f} {n * 1e3:>10.2f} {n / w:>7.2f}")
     print(f"total: wall_s {total_w:.3f} s, norm_s {total_n:.3f} s")
     return 0

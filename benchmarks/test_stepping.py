@@ -94,13 +94,15 @@ def test_stepping_1e6(benchmark, spec: str) -> None:
 @pytest.mark.parametrize("n", [1_000, 100_000], ids=["n1e3", "n1e5"])
 @pytest.mark.parametrize("spec", ["standard", "redistributed", "redistributed[beta=0]"])
 def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
-    """Times the numba kernel (the benchmark) and the scipy reference (median of 3)."""
+    """Times the numba kernel (the benchmark, median of 11 rounds) and the scipy reference
+    (median of 5): more rounds than the other benchmarks, as the ratio of two medians on
+    this VM moves by 20% from run to run with 5 and 3."""
     scheme, semi, dt, nsteps = _setup(spec, n)
     traj = benchmark.pedantic(scheme.integrate, args=(semi, dt, nsteps, nsteps),
-                              rounds=5, iterations=1, warmup_rounds=1)
+                              rounds=11, iterations=1, warmup_rounds=1)
     ref_steps = max(5, nsteps // 100)
     times = []
-    for _ in range(3):
+    for _ in range(5):
         start = time.perf_counter()
         ref = reference_for(scheme, semi, dt, ref_steps, ref_steps)
         times.append(time.perf_counter() - start)
