@@ -67,7 +67,8 @@ NEEDS = {
     "err_u_linf_l2": "u", "err_u_linf_h1": "u", "err_u_l2_l2": "u", "err_u_l2_h1": "u",
     "err_v_linf_l2": "v", "err_v_l2_l2": "v", "err_stress_l2": "stress",
 }
-_CHUNK_POINTS = 65_536  # quadrature points per block (512 kB per field)
+_CHUNK_POINTS = 131_072  # quadrature points per block (1 MB per field)
+_BLOCK_ELEMENTS = 16_384  # elements per block at most
 _QUAD_ORDER = 7  # 4 Gauss points per element
 #: largest size of what is kept for the next calls on a grid (see the module docstring)
 EXACT_CACHE_BYTES = 96 * 2**20
@@ -297,8 +298,9 @@ def _quadrature() -> tuple[np.ndarray, np.ndarray]:
 
 
 def _blocks(nel: int) -> tuple[int, int]:
-    """Elements and samples per block (about _CHUNK_POINTS quadrature points)."""
-    ec = min(nel, max(1, _CHUNK_POINTS // 4))
+    """Elements and samples per block (about _CHUNK_POINTS quadrature points, at most
+    _BLOCK_ELEMENTS elements: the temporaries of a block's scikit-fem basis)."""
+    ec = min(nel, _BLOCK_ELEMENTS, max(1, _CHUNK_POINTS // 4))
     return ec, max(1, _CHUNK_POINTS // (ec * 4))
 
 
