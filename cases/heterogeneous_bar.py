@@ -121,22 +121,16 @@ def _grid_kernel(nodes, times, U, V, x, t, u, ux, ut):  # pragma: no cover - com
         b1 = 1.0 - b
         U0, U1 = U[k], U[k + 1]
         uj, uxj = u[j], ux[j]
-        if want_v:
-            V0, V1, vj = V[k], V[k + 1], ut[j]
-            for m in range(nx):
-                e, f, a, h = c0[m], c1[m], wa[m], hs[m]
-                a1 = 1.0 - a
-                u0, u1, w0, w1 = U0[e], U0[f], U1[e], U1[f]
-                uj[m] = b1 * (a1 * u0 + a * u1) + b * (a1 * w0 + a * w1)
-                uxj[m] = b1 * ((u1 - u0) / h) + b * ((w1 - w0) / h)
+        V0, V1 = (V[k], V[k + 1]) if want_v else (U0, U1)
+        vj = ut[j] if want_v else uj
+        for m in range(nx):  # the test of want_v is hoisted out of the loop by LLVM
+            e, f, a, h = c0[m], c1[m], wa[m], hs[m]
+            a1 = 1.0 - a
+            u0, u1, w0, w1 = U0[e], U0[f], U1[e], U1[f]
+            uj[m] = b1 * (a1 * u0 + a * u1) + b * (a1 * w0 + a * w1)
+            uxj[m] = b1 * ((u1 - u0) / h) + b * ((w1 - w0) / h)
+            if want_v:
                 vj[m] = b1 * (a1 * V0[e] + a * V0[f]) + b * (a1 * V1[e] + a * V1[f])
-        else:
-            for m in range(nx):
-                e, f, a, h = c0[m], c1[m], wa[m], hs[m]
-                a1 = 1.0 - a
-                u0, u1, w0, w1 = U0[e], U0[f], U1[e], U1[f]
-                uj[m] = b1 * (a1 * u0 + a * u1) + b * (a1 * w0 + a * w1)
-                uxj[m] = b1 * ((u1 - u0) / h) + b * ((w1 - w0) / h)
 
 
 @njit(cache=True)
