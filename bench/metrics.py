@@ -578,15 +578,12 @@ def warm_up_reference(exact: Exact, x: np.ndarray, t: np.ndarray,
     if "u" in provides:
         need_v = "v" in provides
         x = np.asarray(x, float)
-        X = _Geometry.of(x, 0, _blocks(x.size - 1)[0]).X
-        fill = getattr(exact, "fields_into", None)
-        if fill is not None:
-            u, ux, v = (np.empty((1, X.size)) for _ in range(3))
-            fill(X.reshape(-1), t1, u, ux, v if need_v else None)
-        else:
-            _exact_values(exact, X, t1[:, None, None], need_v)
+        g = _Geometry.of(x, 0, _blocks(x.size - 1)[0])
+        into = getattr(exact, "fields_into", None) is not None
+        _evaluate(exact, g, t1, need_v, np.empty((3, 1, *g.X.shape)) if into else None)
     if "stress" in provides:
         exact.stress(t1)
+
 
 def energy_metrics(traj: Trajectory) -> dict[str, float]:
     E = traj.energy
