@@ -516,15 +516,28 @@ def _rel_linf(err2: np.ndarray, norm2: np.ndarray) -> float:
 
 def _rel_l2(t: np.ndarray, pairs: dict[str, tuple[np.ndarray, np.ndarray]]
             ) -> dict[str, float]:
-    """sqrt(int e2 dt / int n2 dt) (trapezoidal rule) for each column's (e2, n2): one
-    np.trapezoid over the stacked series (row by row the same bits as one call each)."""
+    """sqrt(int e2 dt / int n2 dt) (trapezoidal rule) for each column's (e2, n2).
+
+    Each integral is np.trapezoid's own expression, add.reduce(d * (y[1:] + y[:-1]) /
+    2.0) with d = diff(t), in the same order (the same bits), but computed in one
+    buffer of K - 1 doubles reused from series to series: np.trapezoid over the stacked
+    series made five temporaries of the stack's size (190 kB on the default grids),
+    fresh memory at each run (page faults: 0.3-0.4 ms a run, a fifth of the norms)."""
     if t.size < 2 or not pairs:
         return dict.fromkeys(pairs, float("nan"))
-    integrals = np.trapezoid(np.stack([a for pair in pairs.values() for a in pair]), t, axis=1)
+    d = np.diff(t)
+    buf = np.empty_like(d)
+
+    def integral(y: np.ndarray) -> float:
+        np.add(y[1:], y[:-1], out=buf)
+        np.multiply(d, buf, out=buf)
+        np.divide(buf, 2.0, out=buf)
+        return buf.sum()
+
     out = {}
-    for i, col in enumerate(pairs):
-        den = np.sqrt(integrals[2 * i + 1])
-        out[col] = float(np.sqrt(integrals[2 * i]) / den) if den > 0 else float("nan")
+    for col, (e2, n2) in pairs.items():
+        den = np.sqrt(integral(n2))
+        out[col] = float(np.sqrt(integral(e2)) / den) if den > 0 else float("nan")
     return out
 
 
