@@ -58,7 +58,7 @@ def _new_heap_state() -> None:
     del _HEAP[:-64]
 
 
-def _rounds(scheme: Scheme, semi: Semidiscrete, dt: float, nsteps: int
+def _rounds(semi: Semidiscrete, dt: float, nsteps: int
             ) -> tuple[tuple[Any, ...], dict[str, Any]]:
     """pytest-benchmark's per-round setup: a new heap state, then the run's arguments."""
     _new_heap_state()
@@ -96,7 +96,7 @@ def _setup(spec: str, n: int, target_s: float = TARGET_S
 
 def _run(benchmark, spec: str, n: int, target_s: float = TARGET_S) -> None:
     scheme, semi, dt, nsteps = _setup(spec, n, target_s)
-    traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(scheme, semi, dt, nsteps),
+    traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(semi, dt, nsteps),
                               rounds=5, iterations=1, warmup_rounds=1)
     case = make_case(CASE)
     err = error_metrics(semi, traj, case.exact(nsteps * dt), case.provides)["err_u_linf_l2"]
@@ -126,7 +126,7 @@ def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
     the other benchmarks, as the ratio of two medians on this VM moved by 20% from run
     to run with 5 and 3."""
     scheme, semi, dt, nsteps = _setup(spec, n)
-    traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(scheme, semi, dt, nsteps),
+    traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(semi, dt, nsteps),
                               rounds=11, iterations=1, warmup_rounds=1)
     ref_steps = max(5, nsteps // 100)
     times = []
