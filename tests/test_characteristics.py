@@ -676,3 +676,43 @@ def test_clamped_bar_fields_into_matches_numpy():
     np.testing.assert_array_equal(ux2, ux)
     with pytest.raises(ValueError, match="fields_into"):
         ClampedBarExact().fields_into(x, t, u[:, :-1], ux)
+
+
+@pytest.mark.parametrize("points", ["gauss points", "dense", "wide", "repeated"])
+def test_clamped_bar_fields_into_sorted_points_bitwise(points):
+    """On sorted points (the error norms' Gauss points) `fields_into` finds the floors
+    per run of points and evaluates groups of points without selects where they share
+    their pieces; the values are still the numpy closed form's, bitwise: at times on,
+    just before and after the kinks of P (y = 3j, 3j + 2) and of Q (r = 3j, 3j + 1,
+    3j + 2), and on points that cross them inside a row, beyond [0, 1] too."""
+    from skfem.quadrature import get_quadrature
+    from skfem.refdom import RefLine
+
+    from cases.clamped_bar import ClampedBarExact
+
+    rng = np.random.default_rng(9)
+    if points == "gauss points":  # a mesh's Gauss points, as the norms pass them
+        nodes = np.linspace(0.0, 1.0, 81)
+        q = get_quadrature(RefLine, 7)[0][0]
+        x = (nodes[:-1, None] + np.outer(np.diff(nodes), q)).ravel()
+    elif points == "dense":
+        x = np.sort(np.concatenate((rng.uniform(0.0, 1.0, 700), np.linspace(0.0, 1.0, 41))))
+    elif points == "wide":  # several floors of P and of Q in one row
+        x = np.sort(rng.uniform(-7.0, 8.0, 997))
+    else:
+        x = np.repeat(np.linspace(0.0, 1.0, 50), 3)
+    j = np.arange(0, 12)
+    kinks = np.concatenate((3.0 * j, 3.0 * j + 1, 3.0 * j + 2))
+    t = np.concatenate([rng.uniform(0.0, 40.0, 200), kinks, np.nextafter(kinks, -1.0),
+                        np.nextafter(kinks, 99.0), kinks - 0.5, kinks + 0.25])
+    t = t[t >= 0.0]
+    u, ux, ut = (np.full((t.size, x.size), np.nan) for _ in range(3))
+    ClampedBarExact().fields_into(x, t, u, ux, ut)
+    X, T = np.broadcast_arrays(x[None, :], t[:, None])
+    np.testing.assert_array_equal(u, _cb_P(X + T) + _cb_Q(X - T))
+    np.testing.assert_array_equal(ux, _cb_dP(X + T) + _cb_dQ(X - T))
+    np.testing.assert_array_equal(ut, _cb_dP(X + T) - _cb_dQ(X - T))
+    u2, ux2 = np.zeros_like(u), np.zeros_like(u)
+    ClampedBarExact().fields_into(x, t, u2, ux2)  # without the velocity
+    np.testing.assert_array_equal(u2, u)
+    np.testing.assert_array_equal(ux2, ux)
