@@ -3,12 +3,13 @@
     python benchmarks/eval_cost.py                 # the default run's two scenes
     python benchmarks/eval_cost.py pulse --repeats 50
 
-For each case at its defaults (nx, dt, T; one sample per step): the reference's
-`fields_into` at the 4 Gauss points of every element (`bench.metrics`' geometry) for
-every sample time, by the norms' blocks of sample times into one reused block of
-values, as `bench.metrics` calls it. Prints the median and the minimum over `--repeats`
-passes (JIT compilation and the reference's construction outside the timing) in ns per
-quadrature point: the evaluation's part of a run's norm time (`norm_cost.py`).
+For each case at its defaults (nx, dt, T; one sample per step): the reference at the 4
+Gauss points of every element (`bench.metrics`' geometry) for every sample time, by
+the norms' blocks of sample times and the norms' own call (`bench.metrics._evaluate`:
+`fields_into` into one reused block of values, else `fields`). Prints the median and
+the minimum over `--repeats` passes (JIT compilation and the reference's construction
+outside the timing) in ns per quadrature point: the evaluation's part of a run's norm
+time (`norm_cost.py`).
 """
 
 from __future__ import annotations
@@ -29,12 +30,14 @@ from bench.harness import reference  # noqa: E402
 from bench.registry import cases  # noqa: E402
 
 
-def _once(exact: Any, X: np.ndarray, t: np.ndarray, step: int, u: np.ndarray,
-          ux: np.ndarray, ut: np.ndarray | None) -> None:
-    """One pass: every block of `step` sample times into the same arrays."""
+def _once(exact: Any, g: Any, t: np.ndarray, step: int, need_v: bool,
+          block: np.ndarray | None) -> None:
+    """One pass: every block of `step` sample times, by the norms' own call
+    (`bench.metrics._evaluate`: `fields_into` into the reused block, else `fields`)."""
     for a in range(0, t.size, step):
         k = min(step, t.size - a)
-        exact.fields_into(X, t[a:a + k], u[:k], ux[:k], None if ut is None else ut[:k])
+        out = None if block is None else block[:, :k]
+        metrics._evaluate(exact, g, t[a:a + k], need_v, out)
 
 
 def main(argv: list[str]) -> int:
@@ -53,25 +56,23 @@ def main(argv: list[str]) -> int:
     for name in names:
         case = plugins[name]()
         exact = reference(case, case.T) if case.reference else None
-        if exact is None or getattr(exact, "fields_into", None) is None:
-            print(f"{name:<18} (no reference with fields_into)")
+        if exact is None:
+            print(f"{name:<18} (no reference)")
             continue
         x = np.linspace(0.0, case.L, case.nx + 1)
         t = np.linspace(0.0, case.T, int(round(case.T / case.dt)) + 1)
         ec, step = metrics._blocks(case.nx)
         g = metrics._Geometry.of(x, 0, min(ec, case.nx))
-        X = g.X.reshape(-1)
-        kb = min(step, t.size)
-        u, ux, ut = (np.empty((kb, X.size)) for _ in range(3))
-        want_v = "v" in case.provides
-
-        _once(exact, X, t, step, u, ux, ut if want_v else None)  # compiled, pages touched
+        need_v = "v" in case.provides
+        into = getattr(exact, "fields_into", None) is not None
+        block = np.empty((3, min(step, t.size), *g.X.shape)) if into else None
+        _once(exact, g, t, step, need_v, block)  # compiled, pages touched
         times = []
         for _ in range(args.repeats):
             start = time.perf_counter()
-            _once(exact, X, t, step, u, ux, ut if want_v else None)
+            _once(exact, g, t, step, need_v, block)
             times.append(time.perf_counter() - start)
-        n = t.size * X.size
+        n = t.size * g.X.size
         print(f"{name:<18} {n:>9} {statistics.median(times) * 1e9 / n:>13.2f} "
               f"{min(times) * 1e9 / n:>10.2f}")
     return 0

@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
+from bench.characteristics import _scan
 from bench.plugin import Case, flat_points, grid_points
 from schemes._simd import vload, vselect_lt, vsplat, vstore
 
@@ -183,11 +184,7 @@ def _grid_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
     by point."""
     want_v = ut.size > 0
     n = x.size
-    ordered = True
-    for m in range(1, n):
-        if not x[m] >= x[m - 1]:  # unsorted, or NaN: point by point
-            ordered = False
-            break
+    ordered = _scan(x)[2]  # nondecreasing, no NaN (else point by point)
     for k in range(t.size):
         tk = t[k]
         if not ordered:
