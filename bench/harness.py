@@ -169,6 +169,17 @@ class _Plan:
     steps: int = 0
     stride: int = 1
     T_run: float = 0.0
+    #: a later run of the table has the same case, mesh and sample times: the error
+    #: norms keep what they can share with it (`bench.metrics.error_metrics`'s keep)
+    shared: bool = True
+
+    def grid(self) -> tuple | None:
+        """What the error norms of two runs share when it is equal: the case (one
+        object per table), the mesh and the sample times; None for a run without."""
+        if self.semi is None:
+            return None
+        r = self.row
+        return (id(self.case), r["nx"], r["grading"], self.dt, self.steps, self.stride)
 
 
 def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
@@ -272,7 +283,7 @@ def _execute(plan: _Plan) -> Run:
                 metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
                 _warmed_references.add(type(exact))
             start = time.perf_counter()
-            row.update(error_metrics(semi, traj, exact, case.provides))
+            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared))
             norm_s = time.perf_counter() - start
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
             if missing:
@@ -344,6 +355,11 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                         raise
                     except Exception as exc:  # noqa: BLE001 - a broken plugin is a row
                         plans.append(_error_row(case, scheme, nx, dt, T, stride, grading, exc))
+    later: set[tuple] = set()  # the last run on a grid keeps nothing for the next ones
+    for plan in reversed(plans):
+        if isinstance(plan, _Plan) and (grid := plan.grid()) is not None:
+            plan.shared = grid in later
+            later.add(grid)
     kept = 0  # large semi-discrete problems are not all held from the checks on
     for plan in plans:
         if isinstance(plan, _Plan) and plan.semi is not None:

@@ -25,7 +25,9 @@ What depends on the mesh, the sample times and the reference only, not on the sc
 kept for the next calls on the same (reference, mesh, sample times), the most recent
 first, up to `EXACT_CACHE_BYTES` in all: the blocks' quadrature (scikit-fem's), the
 exact norms and the exact contact stress, so that the next schemes of a table on that
-grid compute the errors only. The exact values at the quadrature points are kept too
+grid compute the errors only (unless the caller tells that no later call will need
+them, `error_metrics(keep=False)`: the harness does for a table's last run on a grid,
+so a lone run keeps nothing). The exact values at the quadrature points are kept too
 when the reference is slow to evaluate (longer than `KEEP_VALUES_NS` per point on the
 first block, timed again if so: one interruption does not count): a fine characteristics
 grid evaluated point by point, a numpy reference. A fast one (the closed forms, the
@@ -415,10 +417,11 @@ def _evaluate(exact: Exact, g: _Geometry, t: np.ndarray, need_v: bool,
     return vals
 
 
-def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: bool
-                 ) -> tuple[dict[str, np.ndarray], _Entry | None]:
+def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: bool,
+                 keep: bool = True) -> tuple[dict[str, np.ndarray], _Entry | None]:
     """Squared space norms per sample, accumulated over blocks of elements x samples,
-    and the cache entry used or made (None when it is too large to keep)."""
+    and the cache entry used or made (None when it is too large to keep, or when `keep`
+    is False: no later call will need it)."""
     x, t = semi.x, traj.t
     nel, K = x.size - 1, t.size
     err = {k: np.zeros(K) for k in ("eu", "eux", "ev")}
@@ -456,10 +459,12 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
                 add(g, a, vals, False)
         return {**err, **hit.norms}, hit
 
-    try:
-        ref = weakref.ref(exact)
-    except TypeError:  # not weakly referable: nothing is kept
-        ref = None
+    ref = None
+    if keep:
+        try:
+            ref = weakref.ref(exact)
+        except TypeError:  # not weakly referable: nothing is kept
+            pass
     quadrature = 80 * nel  # bytes of the blocks' X, w (4 per element), g0, g1
     size = 8 * nf * K * nel * 4  # bytes of the values
     keep = ref is not None and quadrature <= EXACT_CACHE_BYTES
@@ -542,14 +547,20 @@ def _rel_l2(t: np.ndarray, pairs: dict[str, tuple[np.ndarray, np.ndarray]]
 
 
 def error_metrics(semi: Semidiscrete, traj: Trajectory, exact: Exact,
-                  provides: frozenset[str]) -> dict[str, float | None]:
-    """The relative error columns that the reference provides (None for the others)."""
+                  provides: frozenset[str], keep: bool = True) -> dict[str, float | None]:
+    """The relative error columns that the reference provides (None for the others).
+
+    `keep`: keep what depends on the grid only (quadrature, exact norms and stress, slow
+    references' values) for the next calls on the same (reference, mesh, sample times);
+    False when no later call will need them (the last run of a table on its grid), so
+    that a lone run holds no more than its own blocks (80 bytes per element of
+    quadrature otherwise: 80 MB at n = 1e6)."""
     row: dict[str, float | None] = dict.fromkeys(ERROR_COLUMNS)
     t = traj.t
     entry = None
     l2: dict[str, tuple[np.ndarray, np.ndarray]] = {}  # column: squared error, norm
     if "u" in provides:
-        n, entry = _space_norms(semi, traj, exact, need_v="v" in provides)
+        n, entry = _space_norms(semi, traj, exact, "v" in provides, keep)
         h1e, h1n = n["eu"] + n["eux"], n["nu"] + n["nux"]
         row["err_u_linf_l2"] = _rel_linf(n["eu"], n["nu"])
         row["err_u_linf_h1"] = _rel_linf(h1e, h1n)
