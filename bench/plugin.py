@@ -8,16 +8,12 @@ only reads these declarations: it never branches on a plugin's name.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from bench.params import Param, check_params, format_spec
-
-#: dofs of the problem `Scheme.warm_up` compiles the kernels on (`Semidiscrete.head`)
-WARM_UP_DOFS = 512
 
 
 class Plugin:
@@ -185,18 +181,6 @@ class Semidiscrete:
     def hmin(self) -> float:
         return float(self.h.min())
 
-    def head(self, m: int) -> Semidiscrete:
-        """The problem on its first m free dofs (the same far-end kind, the same flags
-        and array types), or itself if it has no more: what `Scheme.warm_up` compiles
-        the kernels on, so that warming up a large problem costs neither its memory nor
-        its set-up time (the kernels are compiled for the types, not the size)."""
-        if m >= self.nfree:
-            return self
-        nx = m if self.u_fixed is None else m + 1
-        return dataclasses.replace(self, x=self.x[:nx].copy(), nfree=m, M=self.M.head(m),
-                                   K=self.K.head(m), F=self.F[:m].copy(),
-                                   U0=self.U0[:m].copy(), V0=self.V0[:m].copy())
-
     def full(self, U: np.ndarray, fill_velocity: bool = False) -> np.ndarray:
         """Nodal values on all nodes (appends the clamped node along the last axis)."""
         if self.u_fixed is None:
@@ -269,7 +253,5 @@ class Scheme(Plugin):
         raise NotImplementedError
 
     def warm_up(self, semi: Semidiscrete) -> None:
-        """Compile the kernels outside any timing: a one-step run on the first
-        `WARM_UP_DOFS` dofs of the problem (`Semidiscrete.head`)."""
-        small = semi.head(WARM_UP_DOFS)
-        self.integrate(small, 1e-3 * small.hmin / small.c_max, 1, 1)
+        """Compile the kernels outside any timing (a zero-step run)."""
+        self.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)

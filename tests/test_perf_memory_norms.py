@@ -174,67 +174,6 @@ def test_a_tables_last_run_on_a_grid_keeps_nothing_for_later_runs():
     assert lone["err_u_linf_l2"].iloc[0] > 0
 
 
-_NO_NEW_KERNELS = """
-import sys
-import numpy as np
-from numba.core.registry import CPUDispatcher
-from bench.fem import mesh_nodes
-from bench.plugin import WARM_UP_DOFS
-from bench.problem import discretise
-from bench.registry import make_case, schemes
-
-def overloads():
-    return {(m, k): len(v.overloads) for m, mod in list(sys.modules.items())
-            if m.split(".")[0] in ("bench", "schemes", "cases")
-            for k, v in list(vars(mod).items()) if isinstance(v, CPUDispatcher)}
-
-nx = 4 * WARM_UP_DOFS
-for case_name in ("clamped_bar", "dropped_bar"):
-    case = make_case(case_name)
-    for name, cls in schemes().plugins.items():
-        scheme = cls()
-        if scheme.cannot_run(case) or case.cannot_run(scheme):
-            continue
-        semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
-        scheme.warm_up(semi)
-        before = overloads()
-        limit = scheme.stability_limit(semi.hmin, semi.c_max)
-        traj = scheme.integrate(semi, 0.5 * limit if limit else case.dt, 3, 1)
-        assert traj.U.shape[1] == semi.nfree
-        new = sorted(k for k, n in overloads().items() if n != before.get(k, 0))
-        print(case_name, name, "new:", new)
-"""
-
-
-def test_warm_up_on_the_problems_head_compiles_what_the_whole_problem_runs():
-    """`Scheme.warm_up` compiles on the first WARM_UP_DOFS dofs (`Semidiscrete.head`),
-    so that a large run's warm-up holds none of its memory; in a fresh process, running
-    the whole problem (4x larger) after it loads or compiles no kernel, for every
-    scheme, on a clamped and a free far end."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-c", _NO_NEW_KERNELS], capture_output=True,
-                         text=True, env=env, cwd=ROOT, timeout=600)
-    assert out.returncode == 0, out.stderr
-    lines = out.stdout.splitlines()
-    assert len(lines) >= 2 * 8, out.stdout  # every scheme ran on both scenes
-    assert all(line.endswith("new: []") for line in lines), out.stdout
-
-
-def test_head_is_the_leading_block_with_the_same_far_end_kind():
-    case = make_case("clamped_bar")
-    for name in ("clamped_bar", "dropped_bar"):
-        case = make_case(name)
-        semi = discretise(case, mesh_nodes(case.L, 40), "seed")
-        small = semi.head(10)
-        assert small.nfree == 10 and small.massless and small.u_fixed == semi.u_fixed
-        assert small.x.size == (10 if semi.u_fixed is None else 11)
-        assert np.array_equal(small.x, semi.x[: small.x.size])
-        assert np.array_equal(small.M.diag, semi.M.diag[:10])
-        assert np.array_equal(small.K.off, semi.K.off[:9])
-        assert np.array_equal(small.U0, semi.U0[:10]) and small.F.size == 10
-        assert semi.head(semi.nfree) is semi
-
-
 # ------------------------------------------------------------------------------- norms
 def _direct(semi, traj, exact) -> dict:
     """The error columns by one scikit-fem basis on the whole mesh, sample by sample."""
