@@ -1,0 +1,66 @@
+"""Peak memory of a whole `contact-bench run` process (the issue's n = 1e6 bound).
+
+    python benchmarks/memory.py [--repeat N] [--scheme S ...]   # default: N = 3, standard
+
+Each configuration runs `python -m bench.cli run --case clamped_bar --scheme S --nx N
+--dt 1e-7 --T 1e-4 --stride K --format csv` (1000 steps) in N fresh processes, and
+prints the peak resident set size of each process (its own `ru_maxrss`, from
+os.wait4) as the median and the largest, in MB (2^20 bytes), next to what grows with
+the problem: the stored samples of U and V (16 bytes per dof and sample) and the n
+doubles of one array. The issue's bound: a run at n = 1e6 over 1000 steps with
+`--stride 100` stays under 500 MB peak. The n = 1e5 and stride 50 rows show what grows
+with n and with the number of samples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+STEPS = 1000
+CONFIGS = ((100_000, 100), (1_000_000, 100), (1_000_000, 50))  # (nx, stride)
+
+
+def peak_mb(scheme: str, nx: int, stride: int) -> float:
+    """Peak RSS of one fresh `run` process, in MB; its failure is an error."""
+    cmd = [sys.executable, "-m", "bench.cli", "run", "--case", "clamped_bar", "--scheme",
+           scheme, "--nx", str(nx), "--dt", "1e-7", "--T", f"{STEPS * 1e-7:.12g}",
+           "--stride", str(stride), "--format", "csv"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    err = proc.stderr.read().decode() if proc.stderr else ""
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {err.strip()}")
+    return usage.ru_maxrss / 1024.0  # kB on Linux
+
+
+def main(argv: list[str]) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--repeat", type=int, default=3, help="fresh processes per row (3)")
+    p.add_argument("--scheme", action="append", help="scheme specs (default: standard)")
+    args = p.parse_args(argv)
+    if args.repeat < 1:
+        p.error(f"--repeat must be >= 1, got {args.repeat}")
+    print(f"{'scheme':<16} {'nx':>8} {'stride':>6} {'samples':>7} {'samples MB':>10} "
+          f"{'n doubles MB':>12} {'peak MB median':>14} {'max':>6}")
+    for scheme in args.scheme or ["standard"]:
+        for nx, stride in CONFIGS:
+            peaks = [peak_mb(scheme, nx, stride) for _ in range(args.repeat)]
+            samples = STEPS // stride + 1
+            print(f"{scheme:<16} {nx:>8} {stride:>6} {samples:>7} "
+                  f"{16 * samples * nx / 2**20:>10.1f} {8 * nx / 2**20:>12.1f} "
+                  f"{statistics.median(peaks):>14.1f} {max(peaks):>6.1f}")
+    print(f"peak RSS of each fresh process (os.wait4), {args.repeat} per row; "
+          f"clamped_bar, dt = 1e-7, {STEPS} steps")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
