@@ -2,6 +2,8 @@
 
     python benchmarks/norm_cost.py                 # the default run (both seed scenes)
     python benchmarks/norm_cost.py clamped_bar --nx 80 --dt 0.002 --repeats 3
+    python benchmarks/norm_cost.py --alone         # each scheme in a table of its own
+    python benchmarks/norm_cost.py --cli-memory    # glibc set up as `contact-bench` does
 
 Every registered scheme, the case's default stride; the table is run `--repeats` times
 (5) in the same process and each row reports the medians of its times (the issue's
@@ -12,6 +14,15 @@ sample times) also builds the quadrature and sums the exact norms, which the nex
 reuse (bench.metrics; the reference's values too when it is slow to evaluate), so its
 norm time is the larger one. JIT compilation is outside both times. See also
 benchmarks/test_norms.py (pytest-benchmark).
+
+`--alone`: every scheme runs in a table of its own (what `contact-bench run --scheme S`
+does), so each is the first on its grid and pays the quadrature and the exact norms.
+`--cli-memory`: glibc's mmap threshold is fixed first, as the `contact-bench` command
+fixes it (`bench.environment.return_freed_memory`, for the peak memory of large runs):
+every array over 1 MB is then mapped anew, so the sample buffers of a run (1.5-2.6 MB
+per field on the default scenes) are page-faulted inside its wall_s, as in the
+command's own tables. Without it the buffers come back from the heap, already touched:
+the stepping alone, the stricter comparison.
 """
 
 from __future__ import annotations
@@ -24,6 +35,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import metrics  # noqa: E402
+from bench.environment import return_freed_memory  # noqa: E402
 from bench.harness import Run, run_table  # noqa: E402
 from bench.registry import cases, schemes  # noqa: E402
 
@@ -35,16 +47,23 @@ def main(argv: list[str]) -> int:
     p.add_argument("--dt", type=float, default=None)
     p.add_argument("--repeats", type=int, default=5,
                    help="tables run one after the other (default 5): medians per row")
+    p.add_argument("--alone", action="store_true",
+                   help="each scheme in a table of its own (the first on its grid)")
+    p.add_argument("--cli-memory", action="store_true",
+                   help="fix glibc's mmap threshold first, as the contact-bench command does")
     args = p.parse_args(argv)
     if args.repeats < 1:
         p.error(f"--repeats must be >= 1, got {args.repeats}")
+    if args.cli_memory and not return_freed_memory():
+        p.error("--cli-memory needs glibc (mallopt), not found")
     names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
+    tables = ([[s] for s in schemes().names()] if args.alone else [schemes().names()])
     rows: dict[tuple, dict] = {}  # (case, scheme, nx, dt): samples, wall_s and norm_s lists
     for _ in range(args.repeats):
-        metrics.clear_cache()  # each table's first scheme on a grid pays again
         runs: list[Run] = []
-        run_table(names, schemes().names(), [args.nx], [args.dt], keep=runs,
-                  keep_samples=False)
+        for table in tables:
+            metrics.clear_cache()  # each table's first scheme on a grid pays again
+            run_table(names, table, [args.nx], [args.dt], keep=runs, keep_samples=False)
         for r in runs:
             if r.row["wall_s"] is None or r.norm_s is None:
                 continue
@@ -56,15 +75,17 @@ def main(argv: list[str]) -> int:
     print(f"{'case':<{cw}} {'scheme':<16} {'nx':>5} {'dt':>9} {'samples':>7} {'wall_s ms':>10} "
           f"{'norm_s ms':>10} {'ratio':>7} {'worst':>7}")
     total_w = total_n = 0.0
-    for (case, scheme, nx, dt), got in rows.items():
+    for (case, scheme, nx, dt), got in sorted(rows.items(), key=lambda kv: kv[0][:2]):
         w, n = statistics.median(got["wall"]), statistics.median(got["norm"])
         worst = max(b / a for a, b in zip(got["wall"], got["norm"], strict=True))
         total_w, total_n = total_w + w, total_n + n
         print(f"{case:<{cw}} {scheme:<16} {nx:>5} {dt:>9.3g} {got['samples']:>7} "
               f"{w * 1e3:>10.2f} {n * 1e3:>10.2f} {n / w:>7.2f} {worst:>7.2f}")
-    print(f"medians of {args.repeats} tables; ratio = median norm_s / median wall_s, worst = "
-          f"the largest norm_s / wall_s of one table; total: wall_s {total_w:.3f} s, norm_s "
-          f"{total_n:.3f} s")
+    mode = ("each scheme alone" if args.alone else "all schemes in one table") + (
+        ", mmap threshold fixed as by contact-bench" if args.cli_memory else "")
+    print(f"{mode}; medians of {args.repeats} repeats; ratio = median norm_s / median "
+          f"wall_s, worst = the largest norm_s / wall_s of one repeat; total: wall_s "
+          f"{total_w:.3f} s, norm_s {total_n:.3f} s")
     return 0
 
 

@@ -174,6 +174,51 @@ def test_a_tables_last_run_on_a_grid_keeps_nothing_for_later_runs():
     assert lone["err_u_linf_l2"].iloc[0] > 0
 
 
+_ALLOCATOR = """
+import resource
+import numpy as np
+from bench.environment import MMAP_THRESHOLD, return_freed_memory
+
+def faults():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+def resident():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096
+
+assert return_freed_memory()
+n = MMAP_THRESHOLD // 2 // 8  # under the threshold: kept by the heap for the next one
+a = np.ones(n)
+del a
+f0 = faults()
+b = np.ones(n)
+small = faults() - f0
+del b
+big = 4 * MMAP_THRESHOLD // 8  # over it: mapped, given back when freed (twice, after
+for _ in range(2):  # glibc would have raised its own threshold to this size)
+    c = np.ones(big)
+    r0 = resident()
+    del c
+    freed = r0 - resident()
+print(small, n * 8 // 4096, freed, big * 8)
+"""
+
+
+def test_allocator_keeps_small_freed_arrays_and_gives_back_large_ones():
+    """`contact-bench` sets glibc up so that a freed array under MMAP_THRESHOLD is
+    reused by the next one without page faults (a run's sample buffers, run after run)
+    and one over it goes back to the system at once (n-sized arrays at n = 1e6, the
+    peak-memory bound). Without the set-up the reused array faults its pages in again
+    (glibc's default trim threshold) and the second large one stays on the heap."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = subprocess.run([sys.executable, "-c", _ALLOCATOR], capture_output=True, text=True,
+                         env=env, cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr
+    small, pages, freed, size = map(int, out.stdout.split())
+    assert small < pages // 10, (small, pages)
+    assert freed >= 0.9 * size, (freed, size)
+
+
 # ------------------------------------------------------------------------------- norms
 def _direct(semi, traj, exact) -> dict:
     """The error columns by one scikit-fem basis on the whole mesh, sample by sample."""
