@@ -174,6 +174,32 @@ def test_a_tables_last_run_on_a_grid_keeps_nothing_for_later_runs():
     assert lone["err_u_linf_l2"].iloc[0] > 0
 
 
+@pytest.mark.parametrize("scheme", ["standard", "restitution"])
+def test_lone_run_peak_is_its_samples_plus_a_few_arrays_of_n(scheme):
+    """A lone run (`contact-bench run` with one scheme and one case) at n = 1e5 over 100
+    steps: the traced peak is at most the 2 S arrays of n doubles of its S stored
+    samples (U and V) plus 24 (measured 21.1-21.6: the semi-discrete problem, the
+    kernel's state, the set-up's temporaries; the norms keep nothing). Keeping the
+    quadrature in a lone run made it 26.2. Twice the samples add 2 arrays per sample."""
+    n = 100_000
+    peaks = {}
+    for stride in (10, 5):
+        kw = dict(T=1e-5, stride=stride)
+        run_table(["clamped_bar"], [scheme], [n], [1e-7], **kw)  # compiled, warmed up
+        metrics.clear_cache()  # as in a new process
+        tracemalloc.start()
+        try:
+            table = run_table(["clamped_bar"], [scheme], [n], [1e-7], **kw)
+            peak = tracemalloc.get_traced_memory()[1] / (8 * n)
+        finally:
+            tracemalloc.stop()
+        assert table["status"].iloc[0] == "ok" and table["steps"].iloc[0] == 100
+        samples = 100 // stride + 1
+        assert peak <= 2 * samples + 24, (stride, peak)
+        peaks[samples] = peak
+    assert abs((peaks[21] - peaks[11]) - 20) < 1, peaks
+
+
 _ALLOCATOR = """
 import resource
 import numpy as np
