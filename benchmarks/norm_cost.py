@@ -17,12 +17,13 @@ benchmarks/test_norms.py (pytest-benchmark).
 
 `--alone`: every scheme runs in a table of its own (what `contact-bench run --scheme S`
 does), so each is the first on its grid and pays the quadrature and the exact norms.
-`--cli-memory`: glibc's mmap threshold is fixed first, as the `contact-bench` command
-fixes it (`bench.environment.return_freed_memory`, for the peak memory of large runs):
-every array over 1 MB is then mapped anew, so the sample buffers of a run (1.5-2.6 MB
-per field on the default scenes) are page-faulted inside its wall_s, as in the
-command's own tables. Without it the buffers come back from the heap, already touched:
-the stepping alone, the stricter comparison.
+`--cli-memory`: glibc is set up first as the `contact-bench` command sets it up
+(`bench.environment.return_freed_memory`: mmap threshold 4 MB, trim threshold 64 MB),
+so the times are those of the command's own tables. Since commit 1cb67f6 that gives
+the times of a plain process: a run's sample buffers (1.5-2.6 MB per field on the
+default scenes) come back from the heap already touched. Before it, with a 1 MB mmap
+threshold, they were mapped anew and page-faulted inside every run's wall_s, which
+made the command's ratios look better than the stepping alone deserves.
 """
 
 from __future__ import annotations
