@@ -316,7 +316,9 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
     A pair that cannot run is a 'not applicable' row, or a BenchError when `strict`
-    (the user asked for exactly this combination).
+    (the user asked for exactly this combination). The error norms keep what the next
+    run on the same grid can reuse (`bench.metrics`): a sweep's worker runs its tasks
+    one after the other. `run_table` knows its runs and keeps only for a later one.
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
