@@ -9,7 +9,8 @@ os.wait4) as the median and the largest, in MB (2^20 bytes), next to what grows 
 the problem: the stored samples of U and V (16 bytes per dof and sample) and the n
 doubles of one array. The issue's bound: a run at n = 1e6 over 1000 steps with
 `--stride 100` stays under 500 MB peak. The n = 1e5 and stride 50 rows show what grows
-with n and with the number of samples.
+with n and with the number of samples. `--nx N` (repeatable) runs other meshes instead,
+each at stride 100.
 """
 
 from __future__ import annotations
@@ -45,13 +46,19 @@ def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=3, help="fresh processes per row (3)")
     p.add_argument("--scheme", action="append", help="scheme specs (default: standard)")
+    p.add_argument("--nx", type=int, action="append",
+                   help="meshes, each at stride 100 (default: the rows of CONFIGS)")
     args = p.parse_args(argv)
     if args.repeat < 1:
         p.error(f"--repeat must be >= 1, got {args.repeat}")
+    bad = [n for n in args.nx or [] if n < 1]
+    if bad:
+        p.error(f"--nx must be >= 1, got {bad[0]}")
+    configs = [(n, 100) for n in args.nx] if args.nx else CONFIGS
     print(f"{'scheme':<16} {'nx':>8} {'stride':>6} {'samples':>7} {'samples MB':>10} "
           f"{'n doubles MB':>12} {'peak MB median':>14} {'max':>6}")
     for scheme in args.scheme or ["standard"]:
-        for nx, stride in CONFIGS:
+        for nx, stride in configs:
             peaks = [peak_mb(scheme, nx, stride) for _ in range(args.repeat)]
             samples = STEPS // stride + 1
             print(f"{scheme:<16} {nx:>8} {stride:>6} {samples:>7} "
