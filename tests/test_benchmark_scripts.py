@@ -1,0 +1,69 @@
+"""The measurement scripts of benchmarks/ that README and results/ name still run.
+
+Small inputs only (the real runs are the scripts' own commands): `norm_cost.py` in its
+table and `--alone` modes, `memory.py` on a small mesh in a fresh process, and their
+refusal of bad arguments (one argparse line naming the value, exit 2).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from bench import metrics
+from bench.registry import schemes
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _script(name: str):
+    spec = importlib.util.spec_from_file_location(f"_bench_{name}", ROOT / "benchmarks" /
+                                                  f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _rows(out: str, header: list[str]) -> list[list[str]]:
+    lines = out.strip().splitlines()
+    assert lines[0].split()[: len(header)] == header, lines[0]
+    return [line.split() for line in lines[1:-1]]
+
+
+@pytest.mark.parametrize("alone", [False, True])
+def test_norm_cost_prints_one_row_per_scheme_with_its_ratio(capsys, alone):
+    argv = ["clamped_bar", "--nx", "40", "--dt", "0.01", "--repeats", "1"]
+    assert _script("norm_cost").main(argv + (["--alone"] if alone else [])) == 0
+    out = capsys.readouterr().out
+    rows = _rows(out, ["case", "scheme", "nx"])
+    assert sorted(r[1] for r in rows) == sorted(schemes().names())
+    for r in rows:
+        wall, norm, ratio = float(r[5]), float(r[6]), float(r[7])  # ms, ms (0.01)
+        assert r[0] == "clamped_bar" and r[2] == "40" and wall > 0.01 and norm > 0.01
+        # the printed times are rounded to 0.005 ms, the ratio to 0.005
+        assert (norm - 0.005) / (wall + 0.005) - 0.005 <= ratio
+        assert ratio <= (norm + 0.005) / (wall - 0.005) + 0.005
+    assert ("each scheme alone" if alone else "all schemes in one table") in out
+    metrics.clear_cache()
+
+
+def test_memory_reports_the_peak_of_a_fresh_run_process(capsys):
+    assert _script("memory").main(["--nx", "2000", "--repeat", "1"]) == 0
+    (row,) = _rows(capsys.readouterr().out, ["scheme", "nx", "stride"])
+    assert row[:4] == ["standard", "2000", "100", "11"]
+    peak = float(row[6])
+    assert 50 < peak < 2000  # MB: a whole Python process with numba, not kB nor bytes
+
+
+@pytest.mark.parametrize(("name", "argv", "message"), [
+    ("norm_cost", ["--repeats", "0"], "--repeats must be >= 1, got 0"),
+    ("memory", ["--repeat", "0"], "--repeat must be >= 1, got 0"),
+    ("memory", ["--nx", "-5"], "--nx must be >= 1, got -5"),
+])
+def test_scripts_refuse_bad_arguments_in_one_line(capsys, name, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        _script(name).main(argv)
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].endswith(message)
