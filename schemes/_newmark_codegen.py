@@ -227,7 +227,7 @@ def {name}(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
 {pad}dt, massless, nsteps, stride, offset,
 {pad}t_out, U_out, V_out, cu_out, s_out, E_out):
     \"\"\"{doc}\"\"\"
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
     ub = uint64(j0b) * U16
@@ -312,7 +312,7 @@ def _kernel(e: _Emitter, implicit: bool) -> None:
     e.indent()
     stress = "-mu * sscale" if implicit else "-lam"
     Xs = "z" if implicit else "X"
-    e(f"energy = record_lane_sample(k, step * dt, pos, {Xs}, Vs, {stress}, Md, Me, Kd, Ke,",
+    e(f"energy = record_lane_sample(k, step * dt, nodes, {Xs}, Vs, {stress}, Md, Me, Kd, Ke,",
       "                            F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)",
       "k += 1", "if blown_up(energy, E0):", "    return k, step, min_u0, step")
     if not implicit:

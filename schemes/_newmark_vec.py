@@ -46,7 +46,7 @@ def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
     k1s, k2s, kvs = (gamma + 1/2 - beta) / beta, 1 / beta, gamma / (beta dt); the contact
     stress is -mu sscale, sscale = 1 / (beta dt^2).
     """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
     ub = uint64(j0b) * U16
@@ -676,7 +676,7 @@ def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
                 vstore(z, p + U8, y1)
                 xm0, xm1, xc0, xc1, sm0, sm1 = xc0, xc1, xp0, xp1, sp0, sp1
         else:
-            energy = record_lane_sample(k, step * dt, pos, z, Vs, -mu * sscale, Md, Me, Kd, Ke,
+            energy = record_lane_sample(k, step * dt, nodes, z, Vs, -mu * sscale, Md, Me, Kd, Ke,
                                         F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
@@ -693,7 +693,7 @@ def explicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
 
     k1s, k2s, kvs = gamma + 1/2, 1, gamma / dt.
     """
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
     ub = uint64(j0b) * U16
@@ -1275,7 +1275,7 @@ def explicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
                 vstore(z, p + U8, y1)
                 xm0, xm1, xc0, xc1, sm0, sm1 = xc0, xc1, xp0, xp1, sp0, sp1
         else:
-            energy = record_lane_sample(k, step * dt, pos, X, Vs, -lam, Md, Me, Kd, Ke,
+            energy = record_lane_sample(k, step * dt, nodes, X, Vs, -lam, Md, Me, Kd, Ke,
                                         F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):

@@ -82,12 +82,20 @@ class Spike:
     Hval: np.ndarray  # triplets of its entries, column by column
     w0: float  # (S^-1)[0, 0]: response of x[0] to a unit force on node 0
     hw: np.ndarray  # (2 lanes) (A, B) of the solution of S w = e0
-    pos: np.ndarray  # position of each node 0 .. n-1 in the interleaved layout
+
+    @property
+    def pos(self) -> np.ndarray:
+        """Position of each node 0 .. n-1 in the interleaved layout (`lane_position`),
+        made when asked: the kernels compute it (an n-sized index array, 8 MB at
+        n = 1e6, is not held while they step)."""
+        i = np.arange(self.n)
+        return (i % self.m) * self.lanes + i // self.m
 
     def factors(self) -> tuple:
-        """What the numba kernels take: (lo, invd, a, b, Hrow, Hpos, Hval, ja, jb, m, pos)."""
+        """What the numba kernels take: (lo, invd, a, b, Hrow, Hpos, Hval, ja, jb, m,
+        nodes), nodes = n."""
         return (self.lo, self.invd, self.a, self.b, self.Hrow, self.Hpos, self.Hval,
-                self.ja, self.jb, self.m, self.pos)
+                self.ja, self.jb, self.m, self.n)
 
     def to_lanes(self, x: np.ndarray, pad: float = 0.0) -> np.ndarray:
         """A natural-order vector (length n) in the interleaved layout (padding = pad)."""
@@ -189,12 +197,9 @@ def spike_factor(d: np.ndarray, e: np.ndarray, min_rows: int = 1) -> Spike:
     big_b = np.nonzero((np.abs(b) > SPIKE_CUTOFF * np.abs(b).max(axis=0)).any(axis=1))[0]
     ja = int(big_a[-1]) + 1
     jb = m - int(big_b[0])
-    i = np.arange(n)
-    pos = (i % m) * P + i // m
     return Spike(n=n, lanes=P, m=m, lo=_aligned(lo), invd=_aligned(invd),
                  a=_aligned(a[:ja]), b=_aligned(b[m - jb:]),
-                 ja=ja, jb=jb, Hrow=Hrow, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw,
-                 pos=pos)
+                 ja=ja, jb=jb, Hrow=Hrow, Hpos=Hpos, Hval=np.ascontiguousarray(Hval), w0=w0, hw=hw)
 
 
 # ------------------------------------------------------------------- numba building blocks
@@ -205,6 +210,12 @@ def spike_factor(d: np.ndarray, e: np.ndarray, min_rows: int = 1) -> Spike:
 # row instead pays that check, and its set-up, on every row).
 
 L = LANES
+
+
+@njit(cache=True, inline="always")
+def lane_position(i, m):  # pragma: no cover - compiled
+    """Position of node i in the interleaved layout of m rows per block."""
+    return (i % m) * L + i // m
 
 
 @njit(cache=True, fastmath=_FM)
@@ -313,7 +324,7 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
     """z = S^-1 (G + sign * T X), S factored in fac (`Spike.factors()`), T = (Sd, Slo) a
     tridiagonal in the interleaved layout; returns x[0]. The right-hand side, the
     forward sweep, the backward sweep, the reduced system and the spike correction."""
-    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+    lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     stencil_forward(Sd, Slo, X, G, sign, lo, m, z)
     backward_rows(z, lo, invd, L * m)
     x0 = reduced(z, Hrow, Hpos, Hval, coef)
@@ -322,14 +333,17 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
 
 
 @njit(cache=True, fastmath=_FM)
-def record_lane_sample(k, t, pos, X, V, stress, Md, Me, Kd, Ke, F, offset,
+def record_lane_sample(k, t, nodes, X, V, stress, Md, Me, Kd, Ke, F, offset,
                        t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Sample k from the interleaved X, V (pos = `Spike.pos`): U, V in node order,
-    u(0, t) = X[0], the stress and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset,
-    which is returned."""
-    for i in range(pos.size):
-        U_out[k, i] = X[pos[i]]
-        V_out[k, i] = V[pos[i]]
+    """Sample k from the interleaved X, V of the nodes 0 .. nodes-1 (node c m + j at
+    position j L + c, `lane_position`): U, V in node order, u(0, t) = X[0], the stress
+    and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is returned."""
+    m = X.size // L
+    for c in range(L):
+        i0 = c * m
+        for j in range(min(m, nodes - i0)):
+            U_out[k, i0 + j] = X[j * L + c]
+            V_out[k, i0 + j] = V[j * L + c]
     energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
     t_out[k] = t
     cu_out[k] = X[0]

@@ -50,7 +50,7 @@ from schemes._common import (
     tri_matvec,
 )
 from schemes._newmark import massless_acceleration, newmark_limit
-from schemes._spike import L, record_lane_sample, spike_factor
+from schemes._spike import L, lane_position, record_lane_sample, spike_factor
 
 
 @njit(cache=True)
@@ -118,15 +118,15 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
     next step's half kick and drift are one pass (the same operations, in the same
     order, as the reference kernel's two loops).
     """
-    m, pos = fac[9], fac[10]
+    m, nodes = fac[9], fac[10]
     N = L * m
     h = 0.5 * dt
-    p1 = pos[1]  # node 1's position
+    p1 = lane_position(1, m)  # node 1's position
     r = -(Ke[0] / Kd[0])  # v0 = r v1 while the node is off the obstacle
     lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
     V[0] = r * V[p1] if U[0] > 0.0 else 0.0
     min_u0 = U[0]
-    E0 = record_lane_sample(0, 0.0, pos, U, V, -lam, Md, Me, Kd, Ke, F, offset,
+    E0 = record_lane_sample(0, 0.0, nodes, U, V, -lam, Md, Me, Kd, Ke, F, offset,
                             t_out, U_out, V_out, cu_out, s_out, E_out)
     k = 1
     kicked = False  # V, U already hold this step's half kick and drift
@@ -158,7 +158,7 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
         kicked = not sample
         if sample:
             V[0] = r * V[p1] if u0 > 0.0 else 0.0
-            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
+            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, Md, Me, Kd, Ke, F,
                                         offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):

@@ -128,13 +128,13 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
     closing half kick of a step and the next step's drift and half kick are one pass
     (the same operations, in the same order, as the reference kernel's loops).
     """
-    m, pos = fac[9], fac[10]
+    m, nodes = fac[9], fac[10]
     N = L * m
     h = 0.5 * dt
     h2 = 0.5 * dt * dt
     dt2 = dt * dt
     min_u0 = U[0]
-    E0 = record_lane_sample(0, 0.0, pos, U, V, 0.0, Md, Me, Kd, Ke, F, offset,
+    E0 = record_lane_sample(0, 0.0, nodes, U, V, 0.0, Md, Me, Kd, Ke, F, offset,
                             t_out, U_out, V_out, cu_out, s_out, E_out)
     k = 1
     drifted = False  # U, V already hold this step's drift and half kick
@@ -175,7 +175,7 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
                 V[pu] = v + h * a
         drifted = not sample
         if sample:
-            energy = record_lane_sample(k, step * dt, pos, U, V, -lam, Md, Me, Kd, Ke, F,
+            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, Md, Me, Kd, Ke, F,
                                         offset, t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
             if blown_up(energy, E0):
@@ -224,7 +224,7 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     if fast and np.any(M.off):
         sp = spike_factor(M.diag, M.off)
         fac = sp.factors()
-        lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, pos = fac
+        lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
         w = sp.zeros()  # w = M^-1 e0, interleaved; node 0 is at position 0
         w[0] = 1.0
         spike_solve(lo, invd, sa, sb, Hrow, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
