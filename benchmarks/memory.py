@@ -56,9 +56,19 @@ def main(argv: list[str]) -> int:
     if bad:
         p.error(f"--nx must be >= 1, got {bad[0]}")
     configs = [(n, 100) for n in args.nx] if args.nx else CONFIGS
+    schemes = args.scheme or ["standard"]
+    sys.path.insert(0, str(ROOT))
+    from bench.errors import BenchError
+    from bench.registry import make_scheme
+
+    try:  # the registry's own check, before any process is started
+        for spec in schemes:
+            make_scheme(spec)
+    except BenchError as exc:
+        p.error(str(exc))
     print(f"{'scheme':<16} {'nx':>8} {'stride':>6} {'samples':>7} {'samples MiB':>11} "
           f"{'n doubles MiB':>13} {'peak MiB median':>15} {'max':>6} {'median 1e6 B':>12}")
-    for scheme in args.scheme or ["standard"]:
+    for scheme in schemes:
         for nx, stride in configs:
             peaks = [peak_mb(scheme, nx, stride) for _ in range(args.repeat)]
             samples = STEPS // stride + 1

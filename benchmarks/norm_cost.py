@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import metrics  # noqa: E402
 from bench.environment import return_freed_memory  # noqa: E402
+from bench.errors import BenchError  # noqa: E402
 from bench.harness import Run, run_table  # noqa: E402
 from bench.registry import cases, schemes  # noqa: E402
 
@@ -64,7 +65,10 @@ def main(argv: list[str]) -> int:
         runs: list[Run] = []
         for table in tables:
             metrics.clear_cache()  # each table's first scheme on a grid pays again
-            run_table(names, table, [args.nx], [args.dt], keep=runs, keep_samples=False)
+            try:  # bad cases, nx or dt: the harness's one-line error, before any run
+                run_table(names, table, [args.nx], [args.dt], keep=runs, keep_samples=False)
+            except BenchError as exc:
+                p.error(str(exc))
         for r in runs:
             if r.row["wall_s"] is None or r.norm_s is None:
                 continue

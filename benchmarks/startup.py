@@ -51,9 +51,15 @@ def main(argv: list[str]) -> int:
     if args.repeat < 1:
         p.error(f"--repeat must be >= 1, got {args.repeat}")
     sys.path.insert(0, str(ROOT))
-    from bench.registry import schemes
+    from bench.errors import BenchError
+    from bench.registry import make_scheme, schemes
 
     specs = args.scheme or schemes().names()
+    try:  # the registry's own check, before any process is started
+        for spec in specs:
+            make_scheme(spec)
+    except BenchError as exc:
+        p.error(str(exc))
     print(f"{'scheme':<24} {'first process s':>16} {'cached median s':>16} {'cached max s':>13}")
     for spec in specs:
         first = first_call(spec)

@@ -1,8 +1,9 @@
 """The measurement scripts of benchmarks/ that README and results/ name still run.
 
 Small inputs only (the real runs are the scripts' own commands): `norm_cost.py` in its
-table and `--alone` modes, `memory.py` on a small mesh in a fresh process, and their
-refusal of bad arguments (one argparse line naming the value, exit 2).
+table and `--alone` modes, `memory.py` on a small mesh in a fresh process, and the
+refusal of bad arguments by these and `eval_cost.py`, `startup.py` (one argparse line
+naming the value, exit 2: unknown plugins by the registry's own message).
 """
 
 from __future__ import annotations
@@ -61,6 +62,17 @@ def test_memory_reports_the_peak_of_a_fresh_run_process(capsys):
     ("norm_cost", ["--repeats", "0"], "--repeats must be >= 1, got 0"),
     ("memory", ["--repeat", "0"], "--repeat must be >= 1, got 0"),
     ("memory", ["--nx", "-5"], "--nx must be >= 1, got -5"),
+    ("memory", ["--scheme", "bogus"], "unknown scheme 'bogus'; allowed: hht, moreau_jean, "
+     "nitsche, ode_adaptive, ode_verlet, penalty, redistributed, restitution, standard, "
+     "taylor_flanagan"),
+    ("startup", ["bogus"], "unknown scheme 'bogus'; allowed: hht, moreau_jean, nitsche, "
+     "ode_adaptive, ode_verlet, penalty, redistributed, restitution, standard, "
+     "taylor_flanagan"),
+    ("norm_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
+     "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
+    ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer >= 1, got 0"),
+    ("eval_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
+     "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
 ])
 def test_scripts_refuse_bad_arguments_in_one_line(capsys, name, argv, message):
     with pytest.raises(SystemExit) as exc:
