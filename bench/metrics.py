@@ -591,7 +591,6 @@ def warm_up() -> None:
     _scratch_block(3 * _CHUNK_POINTS)  # the block of values not kept: allocated once
 
 
-
 def warm_up_reference(exact: Exact, x: np.ndarray, t: np.ndarray,
                       provides: frozenset[str]) -> None:
     """Load (or compile) the reference's own compiled code outside any timing: one call
