@@ -29,17 +29,17 @@ grid compute the errors only (unless the caller tells that no later call will ne
 them, `error_metrics(keep=False)`: the harness does for a table's last run on a grid,
 so a lone run keeps nothing). The exact values at the quadrature points are kept too
 when the reference is slow to evaluate (longer than `KEEP_VALUES_NS` per point on the
-first block, timed again if so: one interruption does not count): a fine characteristics
-grid evaluated point by point, a numpy reference. A fast one (the closed forms, the
-characteristics on a grid of runs: about 1-2 ns per point) is evaluated again at each
-call into one block reused from call to call, which costs less than keeping its values:
-24 bytes per point newly touched by the first scheme (page faults, tens of ms for a
-default grid in a fresh process) and read back from memory by the others. Either way the
-errors have the same bits. Entries hold the reference weakly; larger problems are
-evaluated block by block every time (memory bounded by the block). With `fields_into` an
-entry's values are one allocation, carved into the blocks (one array per block would be
-handed back to the system block by block and faulted in again, page by page, at the next
-grid).
+first block, and again on its first few sample times if so: one interruption does not
+count): a fine characteristics grid evaluated point by point, a numerical reference. A
+fast one (the closed forms, the characteristics on a grid of runs: about 1-2 ns per
+point) is evaluated again at each call into one block reused from call to call, which
+costs less than keeping its values: 24 bytes per point newly touched by the first scheme
+(page faults, tens of ms for a default grid in a fresh process) and read back from
+memory by the others. Either way the errors have the same bits. Entries hold the
+reference weakly; larger problems are evaluated block by block every time (memory
+bounded by the block). With `fields_into` an entry's values are one allocation, carved
+into the blocks (one array per block would be handed back to the system block by block
+and faulted in again, page by page, at the next grid).
 """
 
 from __future__ import annotations
@@ -79,6 +79,8 @@ EXACT_CACHE_BYTES = 96 * 2**20
 #: one is evaluated again into one reused block, which costs less than keeping its
 #: values (memory newly touched) and reading them back (see the module docstring)
 KEEP_VALUES_NS = 5.0
+#: a slow first block is timed again on at most this many points (its first sample times)
+_PROBE_POINTS = 16_384
 _clock = time.perf_counter
 
 
@@ -484,10 +486,14 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
             vals = _evaluate(exact, g, t[a : a + kb], need_v, dest)
             if keep_values is None:
                 cost = (_clock() - start) * 1e9 / (kb * ne * 4)
-                if fits and cost > KEEP_VALUES_NS:  # slow, or interrupted: once more
+                if fits and cost > KEEP_VALUES_NS:  # slow, or interrupted: once more,
+                    # on the first few sample times only (at most _PROBE_POINTS points:
+                    # the whole block again doubled a slow reference's first call)
+                    kp = min(kb, max(1, _PROBE_POINTS // (ne * 4)))
+                    probe = out(ne, kp, np.empty(nf * kp * ne * 4)) if into else None
                     start = _clock()
-                    vals = _evaluate(exact, g, t[a : a + kb], need_v, dest)
-                    cost = min(cost, (_clock() - start) * 1e9 / (kb * ne * 4))
+                    _evaluate(exact, g, t[a : a + kp], need_v, probe)
+                    cost = min(cost, (_clock() - start) * 1e9 / (kp * ne * 4))
                 keep_values = fits and cost > KEEP_VALUES_NS
                 if keep_values:
                     _make_room(size + quadrature)

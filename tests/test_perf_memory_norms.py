@@ -489,10 +489,12 @@ class _Timed:
     def __init__(self, clock: _Clock, ns: list[float]) -> None:
         self.exact, self.clock, self.ns, self.calls = make_case("clamped_bar").exact(2.0), \
             clock, list(ns), 0
+        self.times: list[int] = []  # sample times of each call
 
     def fields_into(self, x, t, u, ux, ut=None):
         ns = self.ns[min(self.calls, len(self.ns) - 1)]
         self.calls += 1
+        self.times.append(t.size)
         self.clock.now += ns * 1e-9 * x.size * t.size
         self.exact.fields_into(x, t, u, ux, ut)
 
@@ -525,6 +527,28 @@ def test_values_are_kept_for_slow_references_only(monkeypatch, ns, kept, calls):
     metrics.clear_cache()
     plain = error_metrics(semi, _trajectory(semi, t, seed=1), case.exact(2.0), case.provides)
     assert second == plain
+
+
+def test_a_slow_first_block_is_timed_again_on_its_first_sample_times_only(monkeypatch):
+    """A slow first block is timed once more on at most _PROBE_POINTS points (its first
+    sample times), not the whole block again (which doubled a slow reference's first
+    call); the values kept are those of the whole first evaluation, bit for bit."""
+    clock = _Clock()
+    monkeypatch.setattr(metrics, "_clock", clock)
+    monkeypatch.setattr(metrics, "KEEP_VALUES_NS", 5.0)
+    monkeypatch.setattr(metrics, "_PROBE_POINTS", 250)  # 30 elements x 4: 2 sample times
+    case = make_case("clamped_bar")
+    semi = discretise(case, mesh_nodes(case.L, 30))
+    t = np.linspace(0.0, 1.9, 40)
+    ref = _Timed(clock, [300.0])
+    first = error_metrics(semi, _trajectory(semi, t), ref, case.provides)
+    assert ref.times[:2] == [40, 2] and len(ref.times) == 2
+    (entry,) = metrics._cache
+    assert entry.values is not None
+    again = error_metrics(semi, _trajectory(semi, t), ref, case.provides)
+    assert len(ref.times) == 2 and again == first
+    metrics.clear_cache()
+    assert first == error_metrics(semi, _trajectory(semi, t), case.exact(2.0), case.provides)
 
 
 class _Recording:
