@@ -98,9 +98,16 @@ def test_graded_mesh_errors_decrease_for_a_new_scene(capsys):
 
 
 # -------------------------------------------------------------------- scene claims
+def _grazing_characteristics(case, T):
+    """The characteristics solution of the grazing scene's data (an independent
+    computation: it finds the contact from the data, knowing nothing of the mode)."""
+    return CharacteristicsSolution(L=case.L, E=case.E, rho=case.rho, far_end=case.far_end,
+                                   u0=case.u0, v0=0.0, T=T)
+
+
 def test_grazing_really_grazes():
     case = make_case("grazing")
-    ex = case.exact(case.T)
+    ex = _grazing_characteristics(case, case.T)
     intervals = ex.contact_intervals()
     assert [a for a, _ in intervals] == pytest.approx([1.0, 3.0], abs=1e-12)
     assert all(b - a == 0.0 for a, b in intervals)  # a touch, no contact period
@@ -119,6 +126,42 @@ def test_grazing_really_grazes():
     (a, b), = lower.contact_intervals()
     assert b - a > 0.02
     assert "stress" not in case.provides  # the relative stress error would be 0 / 0
+
+
+def test_grazing_closed_form_is_the_characteristics_solution():
+    """The scene's reference (the free motion, in closed form) against the
+    characteristics solution of its data on the 20000-cell grid: u to its O(ds^2)
+    interpolation error of the cosine, u_x and u_t to O(ds); and it starts from the
+    scene's data, with free ends."""
+    case = make_case("grazing")
+    closed, chars = case.exact(case.T), _grazing_characteristics(case, case.T)
+    rng = np.random.default_rng(3)
+    x = np.sort(rng.uniform(0.0, case.L, 300))
+    t = np.concatenate(([0.0, 1.0, 3.0, case.T], rng.uniform(0.0, case.T, 60)))
+    u, ux, ut = (np.empty((t.size, x.size)) for _ in range(3))
+    closed.fields_into(x, t, u, ux, ut)
+    X, T = np.broadcast_arrays(x[None, :], t[:, None])
+    np.testing.assert_allclose(u, chars.u(X, T), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(ux, chars.ux(X, T), rtol=0, atol=1e-4)
+    np.testing.assert_allclose(ut, chars.ut(X, T), rtol=0, atol=1e-4)
+    assert np.abs(ut).max() > 0.1 and np.abs(ux).max() > 0.1  # not trivially small
+    # fields, u, ux, ut: the values of fields_into
+    for got, want in zip(closed.fields(X, T), (u, ux, ut), strict=True):
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(closed.u(X, T), u)
+    np.testing.assert_array_equal(closed.ux(X, T), ux)
+    np.testing.assert_array_equal(closed.ut(X, T), ut)
+    np.testing.assert_allclose(closed.u(x, 0.0), case.u0(x), rtol=0, atol=1e-16)
+    assert np.all(closed.ut(x, 0.0) == 0.0)
+    tt = np.linspace(0.0, case.T, 801)
+    assert np.abs(closed.ux(np.array([0.0, case.L]), tt[:, None])).max() < 1e-16
+    assert closed.u(0.0, tt).min() >= 0.0 and closed.u(0.0, 1.0) < 1e-17
+    assert np.all(closed.stress(tt) == 0.0)
+    # without u_t: u and u_x unchanged
+    u2, ux2 = np.empty_like(u), np.empty_like(u)
+    closed.fields_into(x, t, u2, ux2)
+    np.testing.assert_array_equal(u2, u)
+    np.testing.assert_array_equal(ux2, ux)
 
 
 def test_fast_impact_mach_range_is_enforced(capsys):
