@@ -22,13 +22,20 @@ BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
 
 @njit(cache=True)
 def tri_matvec(d, e, x, out):
-    """out = A x for the symmetric tridiagonal A = (d, e)."""
+    """out = A x for the symmetric tridiagonal A = (d, e) (out must not be x).
+
+    Row i is (d[i] x[i] + e[i-1] x[i-1]) + e[i] x[i+1], in that order: the sums of the
+    former loop `out[i] += e[i] x[i+1]; out[i + 1] += e[i] x[i]` over out = d x, bit
+    for bit, written as a stencil (each row once: no store-to-load chain through out,
+    and the loop vectorises)."""
     n = d.size
-    for i in range(n):
-        out[i] = d[i] * x[i]
-    for i in range(n - 1):
-        out[i] += e[i] * x[i + 1]
-        out[i + 1] += e[i] * x[i]
+    if n == 1:
+        out[0] = d[0] * x[0]
+        return
+    out[0] = d[0] * x[0] + e[0] * x[1]
+    for i in range(1, n - 1):
+        out[i] = (d[i] * x[i] + e[i - 1] * x[i - 1]) + e[i] * x[i + 1]
+    out[n - 1] = d[n - 1] * x[n - 1] + e[n - 2] * x[n - 2]
 
 
 @njit(cache=True)
@@ -45,12 +52,19 @@ def tri_quad(d, e, x):
 
 @njit(cache=True)
 def pt_solve(df, ef, b):
-    """Solve L D L^T x = b in place (factors from LAPACK dpttrf)."""
+    """Solve L D L^T x = b in place (factors from LAPACK dpttrf).
+
+    Forward: y[i] = b[i] - ef[i-1] y[i-1], carried in a register, and b[i] = y[i] /
+    df[i] stored at once; backward: b[i] -= ef[i] b[i+1]. The operations of three
+    separate sweeps (L, then D, then L^T), bit for bit, in two passes over b."""
     n = df.size
+    if n == 0:
+        return
+    y = b[0]
+    b[0] = y / df[0]
     for i in range(1, n):
-        b[i] -= ef[i - 1] * b[i - 1]
-    for i in range(n):
-        b[i] /= df[i]
+        y = b[i] - ef[i - 1] * y
+        b[i] = y / df[i]
     for i in range(n - 2, -1, -1):
         b[i] -= ef[i] * b[i + 1]
 
