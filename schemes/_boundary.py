@@ -39,6 +39,7 @@ from schemes._common import (
     record_sample,
     trajectory,
     tri_matvec,
+    tri_row,
 )
 
 
@@ -46,7 +47,12 @@ from schemes._common import (
 def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                     U, V, A, dt, beta, gamma, massless, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V, A) in place; returns (samples, steps, min u0, blow-up step)."""
+    """Advance (U, V, A) in place; returns (samples, steps, min u0, blow-up step).
+
+    Implicit: three passes over the nodes per step (up: predictor, right-hand side and
+    forward sweep; down: backward sweep; up: contact force and update), with the
+    operations of the plain algorithm (`tri_matvec`, `pt_solve`) in the same order:
+    the same bits."""
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)
@@ -65,14 +71,21 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
     E_out[0] = E0
     k = 1
     pw = p0 * w[0] + p1 * w[1] if beta > 0.0 else 0.0
+    c2 = (0.5 - beta) * dt * dt
     for step in range(1, nsteps + 1):
         if beta > 0.0:
+            # up: predictor, M U~ + beta dt^2 F row by row, forward sweep of `pt_solve`
+            Ut[0] = U[0] + dt * V[0] + c2 * A[0]
+            y = 0.0
             for i in range(n):
-                Ut[i] = U[i] + dt * V[i] + (0.5 - beta) * dt * dt * A[i]
-            tri_matvec(Md, Me, Ut, rhs)
-            for i in range(n):
-                rhs[i] += bdt2 * F[i]
-            pt_solve(Sd, Se, rhs)
+                if i + 1 < n:
+                    Ut[i + 1] = U[i + 1] + dt * V[i + 1] + c2 * A[i + 1]
+                r = tri_row(Md, Me, Ut, i, n) + bdt2 * F[i]
+                y = r if i == 0 else r - Se[i - 1] * y
+                rhs[i] = y / Sd[i]
+            # down: backward sweep
+            for i in range(n - 2, -1, -1):
+                rhs[i] -= Se[i] * rhs[i + 1]
             P = p0 * rhs[0] + p1 * rhs[1]
             mu = 0.0
             if P < 0.0:
@@ -81,10 +94,17 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                     return k, step, min_u0, step
                 P = P / denom
                 mu = -bdt2 * c * P
+            # up: contact force and Newmark update
             for i in range(n):
-                U1[i] = rhs[i] + mu * w[i]
-            for i in range(n):
-                A1[i] = (U1[i] - Ut[i]) / bdt2
+                u1 = rhs[i] + mu * w[i]
+                a1 = (u1 - Ut[i]) / bdt2
+                v = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * a1)
+                if i == 0 and massless:
+                    v = (u1 - U[0]) / dt
+                    a1 = 0.0
+                V[i] = v
+                U[i] = u1
+                A[i] = a1
         else:
             for i in range(n):
                 U1[i] = U[i] + dt * V[i] + 0.5 * dt * dt * A[i]
@@ -104,14 +124,14 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                 pt_solve(Sd, Se, A1[1:])
             else:
                 pt_solve(Sd, Se, A1)
-        for i in range(n):
-            V[i] = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * A1[i])
-        if massless:
-            V[0] = (U1[0] - U[0]) / dt
-            A1[0] = 0.0
-        for i in range(n):
-            U[i] = U1[i]
-            A[i] = A1[i]
+            for i in range(n):
+                V[i] = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * A1[i])
+            if massless:
+                V[0] = (U1[0] - U[0]) / dt
+                A1[0] = 0.0
+            for i in range(n):
+                U[i] = U1[i]
+                A[i] = A1[i]
         if U[0] < min_u0:
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):

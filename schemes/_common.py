@@ -38,6 +38,17 @@ def tri_matvec(d, e, x, out):
     out[n - 1] = d[n - 1] * x[n - 1] + e[n - 2] * x[n - 2]
 
 
+@njit(cache=True, inline="always")
+def tri_row(d, e, x, i, n):  # pragma: no cover - compiled
+    """Row i of A x for the symmetric tridiagonal A = (d, e) of size n, summed as
+    `tri_matvec` sums it (the same bits): for kernels that fuse it into a sweep."""
+    if i == 0:
+        return d[0] * x[0] + e[0] * x[1] if n > 1 else d[0] * x[0]
+    if i == n - 1:
+        return d[i] * x[i] + e[i - 1] * x[i - 1]
+    return (d[i] * x[i] + e[i - 1] * x[i - 1]) + e[i] * x[i + 1]
+
+
 @njit(cache=True)
 def tri_quad(d, e, x):
     """x^T A x."""

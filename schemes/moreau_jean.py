@@ -48,7 +48,7 @@ from schemes._common import (
     pt_solve,
     record_sample,
     trajectory,
-    tri_matvec,
+    tri_row,
     velocity_scale,
 )
 
@@ -59,12 +59,14 @@ MASSLESS_REASON = ("moreau_jean needs a contact node with mass: a velocity impac
 @njit(cache=True)
 def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps, stride,
                        offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V) in place; returns (samples, steps, min u0, blow-up step)."""
+    """Advance (U, V) in place; returns (samples, steps, min u0, blow-up step).
+
+    Three passes over the nodes per step (up: right-hand side and forward sweep; down:
+    backward sweep; up: impulse and update), with the operations of the plain algorithm
+    (`tri_matvec`, `pt_solve`, then the impulse added to every node) in the same order:
+    the same bits."""
     n = U.size
     rhs = np.empty(n)
-    KU = np.empty(n)
-    KV = np.empty(n)
-    V1 = np.empty(n)
     min_u0 = U[0]
     E0 = energy_of(Md, Me, Kd, Ke, F, U, V, offset)
     t_out[0] = 0.0
@@ -76,24 +78,30 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
     k = 1
     c = theta * (1.0 - theta) * dt * dt
     for step in range(1, nsteps + 1):
-        tri_matvec(Md, Me, V, rhs)
-        tri_matvec(Kd, Ke, U, KU)
-        tri_matvec(Kd, Ke, V, KV)
+        # up: M V + dt (F - K U) - c K V row by row and the forward sweep of `pt_solve`
+        y = 0.0
         for i in range(n):
-            rhs[i] += dt * (F[i] - KU[i]) - c * KV[i]
-        pt_solve(Sd, Se, rhs)
+            r = tri_row(Md, Me, V, i, n)
+            r += dt * (F[i] - tri_row(Kd, Ke, U, i, n)) - c * tri_row(Kd, Ke, V, i, n)
+            y = r if i == 0 else r - Se[i - 1] * y
+            rhs[i] = y / Sd[i]
+        # down: the backward sweep
+        for i in range(n - 2, -1, -1):
+            rhs[i] -= Se[i] * rhs[i + 1]
         P = 0.0
+        active = False
         if U[0] + 0.5 * dt * V[0] <= 0.0:  # contact predicted: Newton law on velocities
             g = rhs[0] + e * V[0]
             if g < 0.0:
                 P = -g / w[0]
-                for i in range(n):
-                    rhs[i] += P * w[i]
-                rhs[0] = -e * V[0]
+                active = True
+        # up: the impulse and the update
         for i in range(n):
-            V1[i] = rhs[i]
-            U[i] += dt * (theta * V1[i] + (1.0 - theta) * V[i])
-            V[i] = V1[i]
+            v1 = rhs[i] + P * w[i] if active else rhs[i]
+            if i == 0 and active:
+                v1 = -e * V[0]
+            U[i] += dt * (theta * v1 + (1.0 - theta) * V[i])
+            V[i] = v1
         if U[0] < min_u0:
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
