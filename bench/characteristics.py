@@ -118,7 +118,7 @@ polynomials are rounded otherwise): a few eps of the data scale (u: max |u| +
 L max |u_x|; u_x, u_t: their maxima plus gam L, c gam L; measured 4e-16,
 tests/test_characteristics_runs.py bounds it by 2e-15). Sorted points sparse in the
 cells (fewer than _RUN_POINTS per cell: the Gauss points of a mesh on the fine grid of a
-smooth scene, pulse or grazing) have no runs: each point needs its own cells. They are
+smooth scene such as pulse) have no runs: each point needs its own cells. They are
 evaluated point by point, with the very values of `fields` (the expressions of the
 pointwise kernel, lane by lane, on the cells it finds), but 8 points at a time in
 vectors and for a group of sample times at once (`_sparse_kernel`, the comment above
