@@ -35,6 +35,7 @@ from schemes._common import (
     energy_of,
     factor_pt,
     is_sample,
+    newmark_update,
     pt_solve,
     record_sample,
     trajectory,
@@ -95,16 +96,7 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                 P = P / denom
                 mu = -bdt2 * c * P
             # up: contact force and Newmark update
-            for i in range(n):
-                u1 = rhs[i] + mu * w[i]
-                a1 = (u1 - Ut[i]) / bdt2
-                v = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * a1)
-                if i == 0 and massless:
-                    v = (u1 - U[0]) / dt
-                    a1 = 0.0
-                V[i] = v
-                U[i] = u1
-                A[i] = a1
+            newmark_update(rhs, mu, w, False, Ut, U, V, A, dt, bdt2, gamma, massless)
         else:
             for i in range(n):
                 U1[i] = U[i] + dt * V[i] + 0.5 * dt * dt * A[i]

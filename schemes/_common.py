@@ -50,6 +50,27 @@ def tri_row(d, e, x, i, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def newmark_update(rhs, mu, w, pin0, Ut, U, V, A, dt, bdt2, gamma, massless
+                   ):  # pragma: no cover - compiled
+    """The end of an implicit Newmark-family step in one pass over the nodes: U1 = rhs +
+    mu w (node 0 set to 0 if pin0: an active exact contact), A1 = (U1 - U~) / (beta
+    dt^2), V += dt ((1 - gamma) A + gamma A1), a massless node 0's velocity the backward
+    difference and its acceleration 0; U, V, A overwritten."""
+    for i in range(U.size):
+        u1 = rhs[i] + mu * w[i]
+        if i == 0 and pin0:
+            u1 = 0.0
+        a1 = (u1 - Ut[i]) / bdt2
+        v = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * a1)
+        if i == 0 and massless:
+            v = (u1 - U[0]) / dt
+            a1 = 0.0
+        V[i] = v
+        U[i] = u1
+        A[i] = a1
+
+
+@njit(cache=True)
 def tri_quad(d, e, x):
     """x^T A x."""
     s = 0.0

@@ -32,6 +32,7 @@ from schemes._common import (
     factor_pt,
     initial_acceleration,
     is_sample,
+    newmark_update,
     pt_solve,
     record_sample,
     trajectory,
@@ -101,18 +102,7 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
         if rhs[0] < 0.0:
             mu = -rhs[0] / w[0]
         lam = mu / bdt2
-        for i in range(n):
-            u1 = rhs[i] + mu * w[i]
-            if i == 0 and mu != 0.0:
-                u1 = 0.0
-            a1 = (u1 - Ut[i]) / bdt2
-            v = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * a1)
-            if i == 0 and massless:
-                v = (u1 - U[0]) / dt
-                a1 = 0.0
-            V[i] = v
-            U[i] = u1
-            A[i] = a1
+        newmark_update(rhs, mu, w, mu != 0.0, Ut, U, V, A, dt, bdt2, gamma, massless)
         if U[0] < min_u0:
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
