@@ -36,6 +36,7 @@ from schemes._common import (
     factor_pt,
     is_sample,
     newmark_update,
+    pt_backward,
     pt_solve,
     record_sample,
     trajectory,
@@ -85,8 +86,7 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                 y = r if i == 0 else r - Se[i - 1] * y
                 rhs[i] = y / Sd[i]
             # down: backward sweep
-            for i in range(n - 2, -1, -1):
-                rhs[i] -= Se[i] * rhs[i + 1]
+            pt_backward(Se, rhs)
             P = p0 * rhs[0] + p1 * rhs[1]
             mu = 0.0
             if P < 0.0:

@@ -29,8 +29,9 @@ def tri_matvec(d, e, x, out):
     for bit, written as a stencil (each row once: no store-to-load chain through out,
     and the loop vectorises)."""
     n = d.size
-    if n == 1:
-        out[0] = d[0] * x[0]
+    if n <= 1:  # 0 rows: nothing, as the loops wrote nothing
+        if n == 1:
+            out[0] = d[0] * x[0]
         return
     out[0] = d[0] * x[0] + e[0] * x[1]
     for i in range(1, n - 1):
@@ -97,7 +98,14 @@ def pt_solve(df, ef, b):
     for i in range(1, n):
         y = b[i] - ef[i - 1] * y
         b[i] = y / df[i]
-    for i in range(n - 2, -1, -1):
+    pt_backward(ef, b)
+
+
+@njit(cache=True)
+def pt_backward(ef, b):
+    """The backward sweep of `pt_solve` in place, b[i] -= ef[i] b[i+1] from the last row
+    up: for kernels that fuse the forward sweep into another pass."""
+    for i in range(b.size - 2, -1, -1):
         b[i] -= ef[i] * b[i + 1]
 
 

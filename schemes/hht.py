@@ -33,6 +33,7 @@ from schemes._common import (
     initial_acceleration,
     is_sample,
     newmark_update,
+    pt_backward,
     pt_solve,
     record_sample,
     trajectory,
@@ -50,7 +51,9 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     up, the predictor, the right-hand side and the forward sweep; down, the backward
     sweep; up, the contact and the Newmark update (formerly eleven passes: 9.0 -> 5.7
     ns per dof-step at n = 1e5). Fusing the update into the next step's first pass was
-    slower (7.6: two divisions per node in the sweep's loop)."""
+    slower (7.6: two divisions per node in the sweep's loop), and so were the rows by
+    `tri_row` in one loop, as `schemes._boundary` has them (6.2: two products per row,
+    each with its end-row tests), hence the first and last rows written apart."""
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)
@@ -95,8 +98,7 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
             y = r - Se[j - 1] * y
             rhs[j] = y / Sd[j]
         # pass 2 (down): the backward sweep
-        for i in range(n - 2, -1, -1):
-            rhs[i] -= Se[i] * rhs[i + 1]
+        pt_backward(Se, rhs)
         # pass 3 (up): contact, Newmark update
         mu = 0.0
         if rhs[0] < 0.0:

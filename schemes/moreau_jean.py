@@ -45,6 +45,7 @@ from schemes._common import (
     energy_of,
     factor_pt,
     is_sample,
+    pt_backward,
     pt_solve,
     record_sample,
     trajectory,
@@ -86,8 +87,7 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
             y = r if i == 0 else r - Se[i - 1] * y
             rhs[i] = y / Sd[i]
         # down: the backward sweep
-        for i in range(n - 2, -1, -1):
-            rhs[i] -= Se[i] * rhs[i + 1]
+        pt_backward(Se, rhs)
         P = 0.0
         active = False
         if U[0] + 0.5 * dt * V[0] <= 0.0:  # contact predicted: Newton law on velocities
