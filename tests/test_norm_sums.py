@@ -11,6 +11,9 @@
   kernel's, bit for bit (what the kept reference values rely on).
 - Their vector loads refuse arrays that are not C-contiguous (a typing error, not
   wrong addresses).
+- The time norms (one compiled call) are numpy's np.max / np.trapezoid of the same
+  series, bit for bit (numpy's pairwise summation walked the same way), and fill the
+  columns of what the reference provides only.
 """
 
 from __future__ import annotations
@@ -22,7 +25,9 @@ import pytest
 from numba.core.errors import TypingError
 
 from bench import metrics
+from bench.harness import reference, run_one
 from bench.metrics import _LEAF, _error_and_exact_sums, _error_sums
+from bench.registry import make_case
 
 K = 7  # rows of the trajectory
 ROW0 = 2  # first sample of the block
@@ -189,22 +194,75 @@ def test_warm_up_compiles_the_signature_used():
     assert (len(_error_sums.signatures), len(_error_and_exact_sums.signatures)) == before
 
 
+@pytest.mark.parametrize("sizes", [range(1, 300), [511, 512, 513, 2400, 3753, 8193, 100_001]])
+def test_pairwise_sum_is_numpys_bit_for_bit(sizes):
+    """`_pairwise` walks numpy's summation tree: 0.0 + it is np.add.reduce exactly, on
+    data spanning six decades (so that a different order shows in the last bits)."""
+    rng = np.random.default_rng(len(sizes))
+    for n in sizes:
+        a = rng.standard_normal(n + 3) * 10.0 ** rng.uniform(-3, 3, n + 3)
+        assert 0.0 + metrics._pairwise(a, 0, n) == np.add.reduce(a[:n]), n
+        assert 0.0 + metrics._pairwise(a, 3, n) == np.add.reduce(a[3:]), n  # offset
+
+
+def _numpy_time_norms(t, n, a, s):
+    """The seven columns the plain numpy way (np.max, np.trapezoid, elementwise sums)."""
+    def linf(e, m):
+        den = np.sqrt(np.max(m))
+        return float(np.sqrt(np.max(e)) / den) if den > 0 else math.nan
+
+    def l2(e, m):
+        if t.size < 2:
+            return math.nan
+        den = np.sqrt(np.trapezoid(m, t))
+        return float(np.sqrt(np.trapezoid(e, t)) / den) if den > 0 else math.nan
+
+    h1e, h1n = n["eu"] + n["eux"], n["nu"] + n["nux"]
+    return [linf(n["eu"], n["nu"]), linf(h1e, h1n), linf(n["ev"], n["nv"]),
+            l2(n["eu"], n["nu"]), l2(h1e, h1n), l2(n["ev"], n["nv"]),
+            l2((a - s) ** 2, s**2)]
+
+
 @pytest.mark.parametrize("K", [1, 2, 3, 17, 129, 2401])
-def test_time_norms_from_one_stacked_trapezoid_equal_one_call_each(K):
-    """The L2(0,T) columns integrate their series in one np.trapezoid over the stack:
-    the same bits as the plain formula, column by column (nan below two samples or for
-    a zero norm)."""
+def test_time_norms_equal_numpy_bit_for_bit(K):
+    """The seven time norms of one compiled call are those of numpy's own functions
+    (the former code), bit for bit; nan below two samples (L2) or for a zero norm."""
     rng = np.random.default_rng(K)
     t = np.cumsum(rng.random(K))
-    pairs = {f"c{i}": (rng.random(K) ** 3 * 10.0 ** -i, rng.random(K) * 10.0**i)
-             for i in range(4)}
-    pairs["zero"] = (rng.random(K), np.zeros(K))
-    got = metrics._rel_l2(t, pairs)
-    assert list(got) == list(pairs)
-    for col, (e, n) in pairs.items():
-        if K < 2 or col == "zero":
-            assert math.isnan(got[col]), col
-        else:
-            want = math.sqrt(float(np.trapezoid(e, t))) / math.sqrt(float(np.trapezoid(n, t)))
-            assert got[col] == want, col
-    assert metrics._rel_l2(t, {}) == {}
+    n = {k: rng.random(K) ** 3 * 10.0 ** rng.uniform(-4, 4) for k in
+         ("eu", "eux", "ev", "nu", "nux", "nv")}
+    a, s = -rng.random(K), -rng.random(K) * (rng.random(K) < 0.5)
+    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
+                              True, True, a, s, True)
+    want = _numpy_time_norms(t, n, a, s)
+    for col, g, w in zip(metrics.ERROR_COLUMNS, got, want, strict=True):
+        assert (math.isnan(g) and math.isnan(w)) or g == w, col
+    assert not math.isnan(got[0]) and (K < 2) == math.isnan(got[3])
+    # a zero norm gives nan, a nan in a series gives nan; columns not asked stay nan
+    n["nv"] = np.zeros(K)
+    n["eu"][K // 2] = math.nan
+    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
+                              True, True, a, s, False)
+    assert math.isnan(got[2]) and math.isnan(got[5])  # zero norm
+    assert math.isnan(got[0]) and math.isnan(got[1])  # nan in the series
+    assert math.isnan(got[6])  # stress not asked
+    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
+                              False, False, a, s, True)
+    assert all(math.isnan(g) for g in got[:6])
+    assert (math.isnan(got[6]) and math.isnan(want[6])) or got[6] == want[6]
+
+
+def test_error_metrics_fill_the_columns_the_reference_provides():
+    """None for a column whose quantity the reference does not provide."""
+    run = run_one("clamped_bar", "redistributed", nx=10, T=1.5)  # impact at t = 1
+    exact = reference(make_case("clamped_bar"), 1.5)
+    for provides, want in [({"u"}, {"err_u_linf_l2", "err_u_linf_h1", "err_u_l2_l2",
+                                    "err_u_l2_h1"}),
+                           ({"u", "v"}, set(metrics.ERROR_COLUMNS) - {"err_stress_l2"}),
+                           ({"stress"}, {"err_stress_l2"}),
+                           ({"u", "v", "stress"}, set(metrics.ERROR_COLUMNS))]:
+        metrics.clear_cache()
+        row = metrics.error_metrics(run.semi, run.trajectory, exact, frozenset(provides))
+        assert {c for c, v in row.items() if v is not None} == want, provides
+        for c in want:  # the harness's values (u, v and stress provided), none nan
+            assert row[c] == run.row[c] and not math.isnan(row[c]), c

@@ -3,9 +3,10 @@
 - The error norms keep to blocks of elements x samples: their memory does not grow like
   the mesh times the samples (tracemalloc peak against a bound the former whole-mesh
   blocks exceeded six-fold); a run's peak does not grow with the number of steps.
-- They equal a direct scikit-fem quadrature of the same errors (written here the
-  obvious way), with and without a clamped node, on a graded mesh, for a reference with
-  and without `fields`; `CharacteristicsSolution.fields` is `u`, `ux`, `ut` exactly.
+- Their quadrature is a scikit-fem Basis's, bit for bit. They equal a direct
+  scikit-fem quadrature of the same errors (written here the obvious way), with and
+  without a clamped node, on a graded mesh, for a reference with and without `fields`;
+  `CharacteristicsSolution.fields` is `u`, `ux`, `ut` exactly.
 - The reference values kept for the next scheme on the same grid give the same numbers
   and are not evaluated again; a table builds each reference once.
 - A table keeps one run's samples at a time when asked, rebuilds semi-discrete problems
@@ -306,6 +307,32 @@ class _Smooth:
 
 
 PROVIDES = frozenset({"u", "v", "stress"})
+
+
+@pytest.mark.parametrize("nodes", [
+    np.linspace(0.0, 1.0, 81),  # a default grid
+    mesh_nodes(10.0, 37, grading=1.6),  # graded
+    np.cumsum(np.r_[0.3, np.random.default_rng(4).random(50) + 0.01]),  # irregular
+])
+@pytest.mark.parametrize("e0,e1", [(0, None), (7, 19), (1, 2)])  # whole mesh, blocks
+def test_geometry_is_scikit_fems_basis_bit_for_bit(nodes, e0, e1):
+    """The norms' quadrature (scikit-fem's mapping and reference basis called one by
+    one) equals what a scikit-fem Basis of the block's nodes computes, bit for bit."""
+    e1 = nodes.size - 1 if e1 is None else e1
+    g = metrics._Geometry.of(nodes, e0, e1)
+    basis = Basis(MeshLine(nodes[e0 : e1 + 1]), ElementLineP1(), intorder=7)
+    assert basis.X.shape[1] == 4  # 4 Gauss points per element
+    np.testing.assert_array_equal(basis.element_dofs, [np.arange(e1 - e0),
+                                                       np.arange(1, e1 - e0 + 1)])
+    assert g.lo == e0
+    np.testing.assert_array_equal(g.X, basis.global_coordinates().value[0], strict=True)
+    np.testing.assert_array_equal(g.w, basis.dx, strict=True)
+    for j, (p, slope) in enumerate([(g.p0, g.g0), (g.p1, g.g1)]):
+        value, grad = basis.basis[j][0].value, basis.basis[j][0].grad[0]
+        np.testing.assert_array_equal(np.broadcast_to(p, value.shape), value)
+        np.testing.assert_array_equal(np.broadcast_to(slope[:, None], grad.shape), grad)
+    for a in (g.X, g.w, g.p0, g.p1, g.g0, g.g1):
+        assert a.flags.c_contiguous and a.dtype == np.float64
 
 
 @pytest.mark.parametrize("case_name", ["clamped_bar", "dropped_bar"])  # clamped / free end
