@@ -264,6 +264,9 @@ def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1,
           eu, eux, ev, nu, nux, nv, True)
 
 
+_P1 = ElementLineP1()  # the element of the norms' quadrature (its reference basis)
+
+
 @dataclass(frozen=True)
 class _Geometry:
     """Quadrature of one block of elements, from scikit-fem: the affine mapping of a
@@ -271,7 +274,8 @@ class _Geometry:
     Gauss points (4 per element).
 
     These are the expressions of scikit-fem's `Basis` (its `global_coordinates`, `dx`
-    and `gbasis`, called one by one: the same arrays, bit for bit, tests/test_metrics.py),
+    and `gbasis`, called one by one: the same arrays, bit for bit,
+    tests/test_perf_memory_norms.py),
     without the rest of what a `Basis` builds (its dofs, its per-point tables): 45 us
     instead of 160 for the 80 elements of a default grid, which a lone run paid inside
     its norm time."""
@@ -307,8 +311,6 @@ class _Geometry:
         return cls(e0, c(mapping.F(Xr)[0]), c(dx), c(p0), c(p1), c(g0[:, 0]), c(g1[:, 0]))
 
 
-_P1 = ElementLineP1()
-
 
 @functools.cache
 def _quadrature() -> tuple[np.ndarray, np.ndarray]:
@@ -319,7 +321,7 @@ def _quadrature() -> tuple[np.ndarray, np.ndarray]:
 
 def _blocks(nel: int) -> tuple[int, int]:
     """Elements and samples per block (about _CHUNK_POINTS quadrature points, at most
-    _BLOCK_ELEMENTS elements: the temporaries of a block's scikit-fem basis)."""
+    _BLOCK_ELEMENTS elements: the temporaries of a block's scikit-fem mapping)."""
     ec = min(nel, _BLOCK_ELEMENTS, max(1, _CHUNK_POINTS // 4))
     return ec, max(1, _CHUNK_POINTS // (ec * 4))
 
@@ -690,7 +692,8 @@ def error_metrics(semi: Semidiscrete, traj: Trajectory, exact: Exact,
     quadrature otherwise: 80 MB at n = 1e6)."""
     row: dict[str, float | None] = dict.fromkeys(ERROR_COLUMNS)
     t = np.ascontiguousarray(traj.t, dtype=float)
-    use_u, use_v, use_s = "u" in provides, "v" in provides, "stress" in provides
+    use_u, use_s = "u" in provides, "stress" in provides
+    use_v = use_u and "v" in provides  # v columns come with the u norms only
     entry = None
     z = np.zeros(1)  # what a kernel argument is when its column is not asked
     n = dict.fromkeys(("eu", "eux", "ev", "nu", "nux", "nv"), z)
@@ -707,8 +710,8 @@ def error_metrics(semi: Semidiscrete, traj: Trajectory, exact: Exact,
                 entry.stress["s"] = s
         a = np.ascontiguousarray(traj.stress, dtype=float)
     out = _time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"], use_u,
-                      use_u and use_v, a, s, use_s)
-    asked = {"u": use_u, "v": use_u and use_v, "stress": use_s}
+                      use_v, a, s, use_s)
+    asked = {"u": use_u, "v": use_v, "stress": use_s}
     for col, value in zip(ERROR_COLUMNS, out, strict=True):
         if asked[NEEDS[col]]:
             row[col] = float(value)
