@@ -2,7 +2,9 @@
 
 L = 1, rho = E = 1 (c = 1), g = 0, clamped at x = 1 (u = 0), T = 8.
 u0 = gap (1 - x) + f(x), v0 = f'(x): a wave f(x + t) travelling towards the obstacle
-on the static state gap (1 - x), gap = 0.1. f = -A b((x - x0) / w) with the C-infinity
+on the uniform strain gap (1 - x), gap = 0.1. That strain is not at rest: the end x = 0
+is stress free, so it moves down at speed c gap from t = 0 (u(0, t) = gap (1 - c t)
+until the pulse arrives at t = 0.3). f = -A b((x - x0) / w) with the C-infinity
 bump b(y) = exp(1 - 1 / (1 - y^2)) (|y| < 1, 0 elsewhere), A = 0.2, x0 = 1/2, w = 0.2.
 The pulse pulls the end down by A > gap: it hits the obstacle (contact [0.340, 0.505]),
 comes back from the clamped end with the opposite sign, lifts the end, returns, and

@@ -257,3 +257,32 @@ def test_list_shows_what_each_scene_provides(capsys):
     assert "provides=energy,u,v (not: stress)" in grazing
     assert "stride=50" in out and "no gravity" in out and "g=10" in out
     assert "reference=numerical" in out
+
+
+def test_pulse_reference_against_dalembert_before_and_at_the_first_impact():
+    """pulse (c = 1): away from the pulse, u = gap (1 - max(x, t)) (the stress-free end
+    relaxes the uniform strain); the first contact starts where the free motion of the
+    end, w(t) = gap (1 - t) - 2 A b((t - x0) / w), reaches 0, and ends where it stops
+    falling, w'(t) = 0 (d'Alembert by hand, roots by scipy: not the characteristics code)."""
+    from scipy.optimize import brentq
+
+    from cases.pulse import AMPLITUDE, CENTER, GAP, WIDTH, _bump
+
+    ref = make_case("pulse").exact(1.0)
+    x, t = np.meshgrid(np.linspace(0.0, 0.29, 30), np.linspace(0.0, 0.29, 30))
+    ahead = x + t < CENTER - WIDTH  # the pulse (moving left) has not reached (x, t)
+    assert np.allclose(ref.u(x[ahead], t[ahead]), GAP * (1.0 - np.maximum(x, t))[ahead],
+                       rtol=0.0, atol=1e-12)
+    assert np.allclose(ref.stress(np.linspace(0.0, 0.29, 30)), 0.0, rtol=0.0, atol=1e-12)
+
+    def w(s: float) -> float:
+        return GAP * (1.0 - s) - 2.0 * AMPLITUDE * float(_bump((s - CENTER) / WIDTH)[0])
+
+    def dw(s: float) -> float:
+        return -GAP - 2.0 * AMPLITUDE / WIDTH * float(_bump((s - CENTER) / WIDTH)[1])
+
+    start = brentq(w, CENTER - WIDTH, CENTER, xtol=1e-14)
+    end = brentq(dw, CENTER, CENTER + WIDTH / 2, xtol=1e-14)
+    (a, b), *_ = ref.contact_intervals()
+    assert abs(a - start) < 1e-6 and abs(b - end) < 1e-4, (a, start, b, end)
+    assert 0.339 < start < 0.341 and 0.504 < end < 0.506  # the docstring's [0.340, 0.505]
