@@ -2,6 +2,7 @@
 
     python benchmarks/eval_cost.py                 # the default run's two scenes
     python benchmarks/eval_cost.py pulse --repeats 50
+    python benchmarks/eval_cost.py pulse --cells-per-length 1000
 
 For each case at its defaults (nx, dt, T; one sample per step): the reference at the 4
 Gauss points of every element (`bench.metrics`' geometry) for every sample time, by
@@ -26,6 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench import metrics  # noqa: E402
+from bench.characteristics import CharacteristicsSolution  # noqa: E402
 from bench.errors import BenchError  # noqa: E402
 from bench.harness import reference  # noqa: E402
 from bench.registry import cases, make_case  # noqa: E402
@@ -45,9 +47,13 @@ def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("case", nargs="*", help="cases (default: those of the default run)")
     p.add_argument("--repeats", type=int, default=20, help="passes timed (default 20)")
+    p.add_argument("--cells-per-length", type=int, default=None,
+                   help="a characteristics reference rebuilt on this many cells per length")
     args = p.parse_args(argv)
     if args.repeats < 1:
         p.error(f"--repeats must be >= 1, got {args.repeats}")
+    if args.cells_per_length is not None and args.cells_per_length < 1:
+        p.error(f"--cells-per-length must be >= 1, got {args.cells_per_length}")
     names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
     try:  # the registry's own check: a one-line error naming the bad case
         objs = [make_case(name) for name in names]
@@ -59,6 +65,14 @@ def main(argv: list[str]) -> int:
         if exact is None:
             print(f"{name:<18} (no reference)")
             continue
+        if args.cells_per_length is not None:
+            if not isinstance(exact, CharacteristicsSolution):
+                p.error(f"--cells-per-length: the reference of {name} is not a "
+                        f"characteristics solution ({type(exact).__name__})")
+            exact = CharacteristicsSolution(
+                L=exact.L, E=exact.E, rho=exact.rho, g=exact.g, far_end=exact.far_end,
+                u_L=exact.u_L, u0=case.u0, v0=case.v0, T=exact.T,
+                cells_per_length=args.cells_per_length)
         x = np.linspace(0.0, case.L, case.nx + 1)
         t = np.linspace(0.0, case.T, int(round(case.T / case.dt)) + 1)
         ec, step = metrics._blocks(case.nx)

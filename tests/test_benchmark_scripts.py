@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from bench import metrics
+from bench.characteristics import CharacteristicsSolution
 from bench.registry import schemes
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,6 +59,26 @@ def test_memory_reports_the_peak_of_a_fresh_run_process(capsys):
     assert 50 < peak < 2000  # MB: a whole Python process with numba, not kB nor bytes
 
 
+def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys,
+                                                                          monkeypatch):
+    script = _script("eval_cost")
+    built = []
+    init = CharacteristicsSolution.__init__
+
+    def spy(self, **kw):
+        built.append(kw)
+        init(self, **kw)
+
+    monkeypatch.setattr(CharacteristicsSolution, "__init__", spy)
+    assert script.main(["pulse", "--cells-per-length", "200", "--repeats", "1"]) == 0
+    head, *rows = capsys.readouterr().out.strip().splitlines()
+    assert head.split()[:2] == ["case", "points"]
+    (row,) = (r.split() for r in rows)
+    assert row[0] == "pulse" and int(row[1]) == 1601 * 80 * 4 and float(row[2]) > 0.0
+    kw = built[-1]  # after the case's own reference (unless the harness kept it)
+    assert kw["cells_per_length"] == 200 and kw["T"] == 8.0 and kw["far_end"] == "clamped"
+
+
 @pytest.mark.parametrize(("name", "argv", "message"), [
     ("norm_cost", ["--repeats", "0"], "--repeats must be >= 1, got 0"),
     ("memory", ["--repeat", "0"], "--repeat must be >= 1, got 0"),
@@ -73,6 +94,9 @@ def test_memory_reports_the_peak_of_a_fresh_run_process(capsys):
     ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer >= 1, got 0"),
     ("eval_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
      "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
+    ("eval_cost", ["--cells-per-length", "0"], "--cells-per-length must be >= 1, got 0"),
+    ("eval_cost", ["clamped_bar", "--cells-per-length", "100"], "--cells-per-length: the "
+     "reference of clamped_bar is not a characteristics solution (ClampedBarExact)"),
 ])
 def test_scripts_refuse_bad_arguments_in_one_line(capsys, name, argv, message):
     with pytest.raises(SystemExit) as exc:
