@@ -59,16 +59,18 @@ def main(argv: list[str]) -> int:
         objs = [make_case(name) for name in names]
     except BenchError as exc:
         p.error(str(exc))
+    exacts = [reference(case, case.T) if case.reference else None for case in objs]
+    if args.cells_per_length is not None:  # refused before anything is printed
+        for name, exact in zip(names, exacts, strict=True):
+            if exact is not None and not isinstance(exact, CharacteristicsSolution):
+                p.error(f"--cells-per-length: the reference of {name} is not a "
+                        f"characteristics solution ({type(exact).__name__})")
     print(f"{'case':<18} {'points':>9} {'median ns/pt':>13} {'min ns/pt':>10}")
-    for name, case in zip(names, objs, strict=True):
-        exact = reference(case, case.T) if case.reference else None
+    for name, case, exact in zip(names, objs, exacts, strict=True):
         if exact is None:
             print(f"{name:<18} (no reference)")
             continue
         if args.cells_per_length is not None:
-            if not isinstance(exact, CharacteristicsSolution):
-                p.error(f"--cells-per-length: the reference of {name} is not a "
-                        f"characteristics solution ({type(exact).__name__})")
             exact = CharacteristicsSolution(
                 L=exact.L, E=exact.E, rho=exact.rho, g=exact.g, far_end=exact.far_end,
                 u_L=exact.u_L, u0=case.u0, v0=case.v0, T=exact.T,
