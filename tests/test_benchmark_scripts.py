@@ -28,10 +28,12 @@ def _script(name: str):
     return module
 
 
-def _rows(out: str, header: list[str]) -> list[list[str]]:
+def _rows(out: str, header: list[str], footer: bool = True) -> list[list[str]]:
+    """The split rows under the header (and above the footer line, if the script prints
+    one)."""
     lines = out.strip().splitlines()
     assert lines[0].split()[: len(header)] == header, lines[0]
-    return [line.split() for line in lines[1:-1]]
+    return [line.split() for line in lines[1 : len(lines) - footer]]
 
 
 @pytest.mark.parametrize("alone", [False, True])
@@ -71,9 +73,7 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
 
     monkeypatch.setattr(CharacteristicsSolution, "__init__", spy)
     assert script.main(["pulse", "--cells-per-length", "200", "--repeats", "1"]) == 0
-    head, *rows = capsys.readouterr().out.strip().splitlines()
-    assert head.split()[:2] == ["case", "points"]
-    (row,) = (r.split() for r in rows)
+    (row,) = _rows(capsys.readouterr().out, ["case", "points"], footer=False)
     assert row[0] == "pulse" and int(row[1]) == 1601 * 80 * 4 and float(row[2]) > 0.0
     kw = built[-1]  # after the case's own reference (unless the harness kept it)
     assert kw["cells_per_length"] == 200 and kw["T"] == 8.0 and kw["far_end"] == "clamped"
