@@ -2,7 +2,7 @@
 
     python benchmarks/eval_cost.py                 # the default run's two scenes
     python benchmarks/eval_cost.py pulse --repeats 50
-    python benchmarks/eval_cost.py pulse --cells-per-length 1000
+    python benchmarks/eval_cost.py rough_data --cells-per-length 1000
 
 For each case at its defaults (nx, dt, T; one sample per step): the reference at the 4
 Gauss points of every element (`bench.metrics`' geometry) for every sample time, by

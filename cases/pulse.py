@@ -13,16 +13,20 @@ in [0, 8].
 
 Stresses: the smooth regime (errors away from impacts are those of a smooth wave, so
 the loss of order comes from the contact only), dispersion of a pulse over several
-reflections, repeated impacts. Reference: the characteristics solution with the data
-sampled on its grid (20000 cells per length: error O(ds^2), below 1e-8 on u). Provides
-u, u_t, the contact stress and the conserved energy.
+reflections, repeated impacts. Reference: d'Alembert's formula with the contact instants
+found by root finding on the closed forms of the data (`bench.dalembert`; errors 7e-13
+on u and 2e-8 on u_x, u_t, those of its table; checked against the characteristics
+solution of the same data, which converges to it, in tests/test_dalembert.py). Until
+2026-11 it was that characteristics solution on 20000 cells per length (5e-8 on u, up to
+4e-3 on the slopes near the pulse: its chord slopes). Provides u, u_t, the contact
+stress and the conserved energy.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from bench.characteristics import CharacteristicsSolution
+from bench.dalembert import DalembertSolution
 from bench.plugin import Case
 
 GAP, AMPLITUDE, CENTER, WIDTH = 0.1, 0.2, 0.5, 0.2
@@ -37,6 +41,20 @@ def _bump(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return b, np.where(inside, b * (-2.0 * y / s**2), 0.0)
 
 
+def _u0(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """u0 and u0' in closed form (for the d'Alembert reference)."""
+    x = np.asarray(x, float)
+    b, db = _bump((x - CENTER) / WIDTH)
+    return GAP * (1.0 - x) - AMPLITUDE * b, -GAP - AMPLITUDE / WIDTH * db
+
+
+def _V(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """V = int_0^x v0 = -A (b((x - x0) / w) - b(-x0 / w)) and v0, in closed form."""
+    b, db = _bump((np.asarray(x, float) - CENTER) / WIDTH)
+    b0 = float(_bump(np.asarray(-CENTER / WIDTH))[0])
+    return -AMPLITUDE * (b - b0), -AMPLITUDE / WIDTH * db
+
+
 class Pulse(Case):
     name = "pulse"
     summary = "smooth compact pulse hitting the obstacle again and again (4 impacts)"
@@ -47,16 +65,14 @@ class Pulse(Case):
     provides = frozenset({"u", "v", "stress", "energy"})
 
     def u0(self, x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, float)
-        return GAP * (1.0 - x) - AMPLITUDE * _bump((x - CENTER) / WIDTH)[0]
+        return _u0(x)[0]
 
     def v0(self, x: np.ndarray) -> np.ndarray:
-        x = np.asarray(x, float)
-        return -AMPLITUDE / WIDTH * _bump((x - CENTER) / WIDTH)[1]
+        return _V(x)[1]
 
-    def exact(self, T: float) -> CharacteristicsSolution:
-        return CharacteristicsSolution(L=self.L, E=self.E, rho=self.rho, far_end=self.far_end,
-                                       u_L=self.u_L, u0=self.u0, v0=self.v0, T=T)
+    def exact(self, T: float) -> DalembertSolution:
+        return DalembertSolution(L=self.L, E=self.E, rho=self.rho, far_end=self.far_end,
+                                 u_L=self.u_L, u0=_u0, V=_V, T=T)
 
     @property
     def exact_energy(self) -> float:

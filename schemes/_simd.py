@@ -25,6 +25,10 @@ array ia (1-D, C-contiguous, int64): vgather(a, ia, i) (the lanes a[ia[i + lane]
 doubles), vstore_index(ia, i, v) (ia[i : i + 8] = v as int64); vprefetch(a, i) (a hint:
 the cache line of a[i]). Their codegen helpers (_gather_indices, _gather_lanes,
 _gather_pairs) also build the kernel's own gather of a cell's data.
+
+Added for the d'Alembert solution's kernel (`bench.dalembert`), at the end of the module:
+vrows4(tab, f), the 4 columns of the rows f[lane] of a (rows, 4) table, one 32-byte load
+per lane and 12 shuffles.
 """
 
 from __future__ import annotations
@@ -406,3 +410,41 @@ def vprefetch(typingctx, a, i):
         builder.call(fn, [ptr, ir.Constant(_I32, 0), ir.Constant(_I32, 3), ir.Constant(_I32, 1)])
         return context.get_dummy_value()
     return types.none(a, i), codegen
+
+
+# Added for the d'Alembert solution's kernel (`bench.dalembert`): the rows of a table.
+
+
+def _rows_table(ty: types.Type) -> bool:
+    """Whether ty is a 2-D C-contiguous float64 array (a table of rows)."""
+    return (isinstance(ty, types.Array) and ty.ndim == 2 and ty.layout == "C"
+            and ty.dtype == types.float64)
+
+
+@intrinsic
+def vrows4(typingctx, tab, f):
+    """(tab[i, 0], tab[i, 1], tab[i, 2], tab[i, 3]) lane by lane, i = f[lane] (whole
+    numbers, valid rows of the (rows, 4) table): one 32-byte load per lane (a row), then
+    12 shuffles."""
+    if not (_rows_table(tab) and _vectors(f)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = _data(context, builder, sig.args[0], args[0])
+        idx = builder.fptosi(args[1], ir.VectorType(_I64, 8))
+        v4 = ir.VectorType(ir.DoubleType(), 4)
+        four = ir.Constant(_I64, 4)
+        r = [builder.load(builder.bitcast(
+            builder.gep(data, [builder.mul(builder.extract_element(idx, ir.Constant(_I32, k)),
+                                           four)], inbounds=True), v4.as_pointer()), align=8)
+             for k in range(8)]
+        s = [builder.shuffle_vector(r[2 * k], r[2 * k + 1], _mask(*range(8))) for k in range(4)]
+        # rows 4q..4q+3 of columns (0, 1) and (2, 3)
+        c01, c23 = _mask(0, 4, 8, 12, 1, 5, 9, 13), _mask(2, 6, 10, 14, 3, 7, 11, 15)
+        t = [builder.shuffle_vector(s[2 * q], s[2 * q + 1], m) for q in (0, 1)
+             for m in (c01, c23)]
+        first, last = _mask(0, 1, 2, 3, 8, 9, 10, 11), _mask(4, 5, 6, 7, 12, 13, 14, 15)
+        cols = [builder.shuffle_vector(t[c // 2], t[2 + c // 2], first if c % 2 == 0 else last)
+                for c in range(4)]
+        return context.make_tuple(builder, sig.return_type, cols)
+    return types.UniTuple(f64x8, 4)(tab, f), codegen

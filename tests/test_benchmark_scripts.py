@@ -72,11 +72,11 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
         init(self, **kw)
 
     monkeypatch.setattr(CharacteristicsSolution, "__init__", spy)
-    assert script.main(["pulse", "--cells-per-length", "200", "--repeats", "1"]) == 0
+    assert script.main(["rough_data", "--cells-per-length", "200", "--repeats", "1"]) == 0
     (row,) = _rows(capsys.readouterr().out, ["case", "points"], footer=False)
-    assert row[0] == "pulse" and int(row[1]) == 1601 * 80 * 4 and float(row[2]) > 0.0
+    assert row[0] == "rough_data" and int(row[1]) == 1201 * 80 * 4 and float(row[2]) > 0.0
     kw = built[-1]  # after the case's own reference (unless the harness kept it)
-    assert kw["cells_per_length"] == 200 and kw["T"] == 8.0 and kw["far_end"] == "clamped"
+    assert kw["cells_per_length"] == 200 and kw["T"] == 6.0 and kw["far_end"] == "clamped"
 
 
 @pytest.mark.parametrize(("name", "argv", "message"), [
