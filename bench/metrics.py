@@ -31,16 +31,20 @@ them, `error_metrics(keep=False)`: the harness does for a table's last run on a 
 so a lone run keeps nothing). The exact values at the quadrature points are kept too
 when the reference is slow to evaluate (longer than `KEEP_VALUES_NS` per point on the
 first block, and again on its first few sample times if so: one interruption does not
-count): a fine characteristics grid evaluated point by point, a numerical reference. A
-fast one (the closed forms, the characteristics on a grid of runs: about 1-2 ns per
-point) is evaluated again at each call into one block reused from call to call, which
-costs less than keeping its values: 24 bytes per point newly touched by the first scheme
-(page faults, tens of ms for a default grid in a fresh process) and read back from
-memory by the others. Either way the errors have the same bits. Entries hold the
-reference weakly; larger problems are evaluated block by block every time (memory
-bounded by the block). With `fields_into` an entry's values are one allocation, carved
-into the blocks (one array per block would be handed back to the system block by block
-and faulted in again, page by page, at the next grid).
+count): a fine characteristics grid evaluated point by point, the d'Alembert solution
+(3-4 ns per point: pulse), a numerical reference. A fast one (the closed forms, the
+characteristics on a grid of runs: about 0.6-1.6 ns per point) is evaluated again at
+each call into one block reused from call to call, which costs less than keeping its
+values: 24 bytes per point newly touched by the first scheme (page faults, tens of ms
+for a default grid in a fresh process) and read back from memory by the others. The
+threshold, 2.5 ns, lies between the two kinds (`python benchmarks/eval_cost.py` with
+every scene); on pulse's default table keeping its values took the later schemes'
+norms from 2.4 ms to 0.5-0.6 ms (`benchmarks/norm_cost.py pulse`, threshold 5 and 2.5).
+Either way the errors have the same bits. Entries hold the reference weakly; larger
+problems are evaluated block by block every time (memory bounded by the block). With
+`fields_into` an entry's values are one allocation, carved into the blocks (one array
+per block would be handed back to the system block by block and faulted in again, page
+by page, at the next grid).
 """
 
 from __future__ import annotations
@@ -80,7 +84,7 @@ EXACT_CACHE_BYTES = 96 * 2**20
 #: quadrature point, all its fields, measured on the first block) to evaluate: a faster
 #: one is evaluated again into one reused block, which costs less than keeping its
 #: values (memory newly touched) and reading them back (see the module docstring)
-KEEP_VALUES_NS = 5.0
+KEEP_VALUES_NS = 2.5
 #: a slow first block is timed again on at most this many points (its first sample times)
 _PROBE_POINTS = 16_384
 _clock = time.perf_counter
