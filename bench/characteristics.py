@@ -152,7 +152,14 @@ from numba import njit, types
 from numba.extending import intrinsic
 from numpy.typing import ArrayLike, NDArray
 
-from bench.plugin import flat_points, grid_points
+from bench.plugin import (
+    INTERVAL_SLACK,
+    check_positive,
+    checked_far_end,
+    checked_interval,
+    flat_points,
+    grid_points,
+)
 from schemes._simd import (
     _data,
     _float_array,
@@ -189,7 +196,7 @@ DEFAULT_MAX_NODES = 10_000_000  # default grid: at most this many nodes in all b
 _MIN_DEFAULT_CELLS = 20  # floor of the default cells per length (memory ~ T beyond)
 _ROUND = 64 * np.finfo(float).eps  # relative round-off of the marched (bounded) values
 _SNAP = 1e-9  # a crossing closer than this (in cells) after a node is put on the node
-_T_SLACK = 1e-12  # relative slack on t in [0, T] and x in [0, L]
+_T_SLACK = INTERVAL_SLACK  # relative slack on t in [0, T] and x in [0, L]
 _GAUSS = np.array([-1.0, 1.0]) / math.sqrt(3.0)  # 2-point Gauss-Legendre on [-1, 1]
 _RUN_POINTS = 6.0  # `fields_into` by runs from this many points per cell (estimated)
 
@@ -237,11 +244,6 @@ def _data_function(name: str, data: Any, L: float) -> tuple[Fn, FloatArray, Fn |
 
         return fcall, np.empty(0), None
     raise ValueError(f"{name} must be a callable, a number or a tuple (x_samples, values)")
-
-
-def _within(a: FloatArray, lo: float, hi: float) -> bool:
-    """All of a in [lo, hi] (False for NaN): two reductions, not five passes."""
-    return a.size == 0 or bool(np.min(a) >= lo and np.max(a) <= hi)
 
 
 def _merge_nodes(base: FloatArray, extra: FloatArray, tol: float) -> FloatArray:
@@ -313,13 +315,6 @@ class _Block:
         self.h = np.diff(self.R)
 
 
-def _check_positive(name: str, value: float) -> float:
-    value = float(value)
-    if not (value > 0.0 and math.isfinite(value)):
-        raise ValueError(f"{name} must be positive and finite, got {value!r}")
-    return value
-
-
 class CharacteristicsSolution:
     """Exact solution by characteristics; see the module docstring.
 
@@ -334,20 +329,15 @@ class CharacteristicsSolution:
                  far_end: str = "clamped", u_L: float = 0.0,
                  u0: Data, v0: Data, T: float, ds: float | None = None,
                  cells_per_length: int | None = None) -> None:
-        self.L = L = _check_positive("L", L)
-        self.E = E = _check_positive("E", E)
-        self.rho = rho = _check_positive("rho", rho)
-        self.T = T = _check_positive("T", T)
+        self.L = L = check_positive("L", L)
+        self.E = E = check_positive("E", E)
+        self.rho = rho = check_positive("rho", rho)
+        self.T = T = check_positive("T", T)
         g = float(g)
         if not (g >= 0.0 and math.isfinite(g)):
             raise ValueError(f"g must be >= 0 and finite, got {g!r}")
         self.g = g
-        if far_end not in ("clamped", "free"):
-            raise ValueError(f"far_end must be 'clamped' or 'free', got {far_end!r}")
-        self.far_end = far_end
-        u_L = float(u_L)
-        if not math.isfinite(u_L):
-            raise ValueError(f"u_L must be finite, got {u_L!r}")
+        self.far_end, u_L = checked_far_end(far_end, u_L)
         self.u_L = u_L
         self.c = c = math.sqrt(E / rho)
         self.gam = gam = g / c**2
@@ -355,7 +345,7 @@ class CharacteristicsSolution:
         if ds is not None and cells_per_length is not None:
             raise ValueError("give ds or cells_per_length, not both")
         if ds is not None:
-            ds = _check_positive("ds", ds)
+            ds = check_positive("ds", ds)
             n = round(L / ds)
             if n < 1 or abs(n * ds - L) > 1e-9 * L:
                 raise ValueError(f"L/ds must be an integer, got L/ds = {L / ds!r}")
@@ -598,21 +588,11 @@ class CharacteristicsSolution:
 
     # ------------------------------------------------------------------ helpers
     def _times(self, t: ArrayLike) -> FloatArray:
-        t = np.asarray(t, dtype=float)
-        slack = _T_SLACK * self.T
-        if not _within(t, -slack, self.T + slack):
-            bad = t[~((t >= -slack) & (t <= self.T + slack))].ravel()[0]
-            raise ValueError(f"t = {bad!r} outside the stored interval [0, T={self.T!r}]")
-        return np.clip(t, 0.0, self.T)
+        return checked_interval("t", t, self.T, f"the stored interval [0, T={self.T!r}]")
 
     def _points(self, x: ArrayLike, t: ArrayLike) -> tuple[FloatArray, FloatArray]:
         """x and t checked (in the bar, in [0, T]) and clipped, not yet broadcast."""
-        x = np.asarray(x, dtype=float)
-        slack = _T_SLACK * self.L
-        if not _within(x, -slack, self.L + slack):
-            bad = x[~((x >= -slack) & (x <= self.L + slack))].ravel()[0]
-            raise ValueError(f"x = {bad!r} outside the bar [0, L={self.L!r}]")
-        return np.clip(x, 0.0, self.L), self._times(t)
+        return checked_interval("x", x, self.L, f"the bar [0, L={self.L!r}]"), self._times(t)
 
     def _lookup_table(self) -> NDArray[np.integer]:
         """Per uniform bin of width ds, the last cell starting at or before the bin's

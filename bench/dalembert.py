@@ -56,7 +56,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from bench.plugin import flat_points, grid_points
+from bench.plugin import (
+    INTERVAL_SLACK,
+    check_positive,
+    checked_far_end,
+    checked_interval,
+    flat_points,
+    grid_points,
+)
 from schemes._simd import vfloor, vfma, vload, vrows4, vselect_lt, vsplat, vstore
 
 __all__ = ["DalembertSolution"]
@@ -66,16 +73,8 @@ FloatArray = NDArray[np.float64]
 Smooth = Callable[[FloatArray], tuple[FloatArray, FloatArray]]
 
 DEFAULT_CELLS_PER_LENGTH = 10000
-_T_SLACK = 1e-12  # relative slack on t in [0, T] and x in [0, L]
 _VALUE_TOL = 1e-13  # a value this close (relative to max |B|) to the threshold reaches it
 _SLOPE_TOL = 1e-12  # a slope this close (relative to max |B'|) to 0 is 0
-
-
-def _check_positive(name: str, value: float) -> float:
-    value = float(value)
-    if not (value > 0.0 and math.isfinite(value)):
-        raise ValueError(f"{name} must be > 0 and finite, got {value!r}")
-    return value
 
 
 class DalembertSolution:
@@ -89,16 +88,11 @@ class DalembertSolution:
     def __init__(self, *, L: float, E: float, rho: float, far_end: str = "clamped",
                  u_L: float = 0.0, u0: Smooth, V: Smooth, T: float,
                  cells_per_length: int = DEFAULT_CELLS_PER_LENGTH) -> None:
-        self.L = L = _check_positive("L", L)
-        self.E = _check_positive("E", E)
-        self.rho = _check_positive("rho", rho)
-        self.T = T = _check_positive("T", T)
-        if far_end not in ("clamped", "free"):
-            raise ValueError(f"far_end must be 'clamped' or 'free', got {far_end!r}")
-        self.far_end = far_end
-        u_L = float(u_L)
-        if not math.isfinite(u_L):
-            raise ValueError(f"u_L must be finite, got {u_L!r}")
+        self.L = L = check_positive("L", L)
+        self.E = check_positive("E", E)
+        self.rho = check_positive("rho", rho)
+        self.T = T = check_positive("T", T)
+        self.far_end, u_L = checked_far_end(far_end, u_L)
         n = int(cells_per_length)
         if n != cells_per_length or n < 1:
             raise ValueError(f"cells_per_length must be a positive integer, got "
@@ -146,29 +140,17 @@ class DalembertSolution:
         self._h = h
         self._table = _cubic_table(Bn, h * Dr[:-1], h * Dl[1:])  # a cell's own limits
         self._runs, pseg, qseg = _march(base, nodes, L, h, -u_p, f0, D, clamped,
-                                        self.c * T * (1.0 + _T_SLACK))
+                                        self.c * T * (1.0 + INTERVAL_SLACK))
         self._p = tuple(np.ascontiguousarray(a, dtype=float) for a in pseg)
         self._q = tuple(np.ascontiguousarray(a, dtype=float) for a in qseg)
         self._energy: float | None = None
 
     # ------------------------------------------------------------------ evaluation
     def _times(self, t: ArrayLike) -> FloatArray:
-        t = np.asarray(t, dtype=float)
-        slack = _T_SLACK * self.T
-        ok = (t >= -slack) & (t <= self.T + slack)
-        if not np.all(ok):
-            bad = float(t[~ok].ravel()[0])
-            raise ValueError(f"t = {bad!r} outside the stored interval [0, T={self.T!r}]")
-        return np.clip(t, 0.0, self.T)
+        return checked_interval("t", t, self.T, f"the stored interval [0, T={self.T!r}]")
 
     def _points(self, x: ArrayLike, t: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        x = np.asarray(x, dtype=float)
-        slack = _T_SLACK * self.L
-        ok = (x >= -slack) & (x <= self.L + slack)
-        if not np.all(ok):
-            bad = float(x[~ok].ravel()[0])
-            raise ValueError(f"x = {bad!r} outside the bar [0, L={self.L!r}]")
-        return np.clip(x, 0.0, self.L), self._times(t)
+        return checked_interval("x", x, self.L, f"the bar [0, L={self.L!r}]"), self._times(t)
 
     def _args(self) -> tuple:
         return (*self._p, *self._q, self._table, 1.0 / self._h, self.c, self.u_p)

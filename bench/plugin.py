@@ -81,6 +81,42 @@ def grid_points(x: Any, t: Any, *out: np.ndarray | None) -> tuple[np.ndarray, np
     return x, t
 
 
+#: relative slack of `checked_interval`: a value this far (relative) out is clipped back
+INTERVAL_SLACK = 1e-12
+
+
+def check_positive(name: str, value: float) -> float:
+    """value as a float, or a one-line ValueError naming it unless it is > 0 and finite
+    (an exact solution's L, E, rho, T)."""
+    value = float(value)
+    if not (value > 0.0 and np.isfinite(value)):
+        raise ValueError(f"{name} must be > 0 and finite, got {value!r}")
+    return value
+
+
+def checked_far_end(far_end: str, u_L: float) -> tuple[str, float]:
+    """(far_end, u_L as a float), or a one-line ValueError naming the bad one: far_end
+    "clamped" or "free", u_L finite (an exact solution's far end)."""
+    if far_end not in ("clamped", "free"):
+        raise ValueError(f"far_end must be 'clamped' or 'free', got {far_end!r}")
+    u_L = float(u_L)
+    if not np.isfinite(u_L):
+        raise ValueError(f"u_L must be finite, got {u_L!r}")
+    return far_end, u_L
+
+
+def checked_interval(name: str, a: Any, hi: float, where: str) -> np.ndarray:
+    """a as a float array clipped to [0, hi], or a one-line ValueError naming its first
+    value outside [0, hi] by more than INTERVAL_SLACK * hi (NaN included): "{name} =
+    {value} outside {where}" (an exact solution's x in the bar, t in [0, T])."""
+    a = np.asarray(a, dtype=float)
+    slack = INTERVAL_SLACK * hi
+    if a.size and not (np.min(a) >= -slack and np.max(a) <= hi + slack):
+        bad = float(a[~((a >= -slack) & (a <= hi + slack))].ravel()[0])
+        raise ValueError(f"{name} = {bad!r} outside {where}")
+    return np.clip(a, 0.0, hi)
+
+
 class Exact(Protocol):
     """An exact (or reference) solution; arrays broadcast against each other.
 
