@@ -39,7 +39,8 @@ values: 24 bytes per point newly touched by the first scheme (page faults, tens 
 for a default grid in a fresh process) and read back from memory by the others. The
 threshold, 2.5 ns, lies between the two kinds (`python benchmarks/eval_cost.py` with
 every scene); on pulse's default table keeping its values took the later schemes'
-norms from 2.4 ms to 0.5-0.6 ms (`benchmarks/norm_cost.py pulse`, threshold 5 and 2.5).
+norms from 2.4 ms to 0.5-0.6 ms (`benchmarks/norm_cost.py pulse` at commits 595cc02 and
+0554b37).
 Either way the errors have the same bits. Entries hold the reference weakly; larger
 problems are evaluated block by block every time (memory bounded by the block). With
 `fields_into` an entry's values are one allocation, carved into the blocks (one array

@@ -18,8 +18,8 @@ found by root finding on the closed forms of the data (`bench.dalembert`; errors
 on u and 2e-8 on u_x, u_t, those of its table; checked against the characteristics
 solution of the same data, which converges to it, in tests/test_dalembert.py). Until
 2026-11 it was that characteristics solution on 20000 cells per length (5e-8 on u, up to
-4e-3 on the slopes near the pulse: its chord slopes). Provides u, u_t, the contact
-stress and the conserved energy.
+4e-3 on the slopes near the pulse: its chord slopes; `benchmarks/pulse_reference.py`).
+Provides u, u_t, the contact stress and the conserved energy.
 """
 
 from __future__ import annotations

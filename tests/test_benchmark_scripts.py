@@ -97,9 +97,22 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
     ("eval_cost", ["--cells-per-length", "0"], "--cells-per-length must be >= 1, got 0"),
     ("eval_cost", ["clamped_bar", "--cells-per-length", "100"], "--cells-per-length: the "
      "reference of clamped_bar is not a characteristics solution (ClampedBarExact)"),
+    ("pulse_reference", ["--cells", "0"], "--cells and --points must be >= 1, got 0 and "
+     "200000"),
 ])
 def test_scripts_refuse_bad_arguments_in_one_line(capsys, name, argv, message):
     with pytest.raises(SystemExit) as exc:
         _script(name).main(argv)
     assert exc.value.code == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].endswith(message)
+
+
+def test_pulse_reference_shows_the_characteristics_solution_converging_to_it(capsys):
+    """The former reference's distance to the d'Alembert one falls with its cells: like
+    ds^2 on u, like ds on the slopes (a factor 4 of cells: about 16 and 4)."""
+    assert _script("pulse_reference").main(["--cells", "250", "--cells", "1000",
+                                            "--points", "5000"]) == 0
+    coarse, fine = _rows(capsys.readouterr().out, ["cells", "max"])
+    assert coarse[0] == "250" and fine[0] == "1000"
+    du, dux = [float(coarse[k]) / float(fine[k]) for k in (1, 2)]
+    assert 8.0 < du < 32.0 and 2.0 < dux < 8.0, (coarse, fine)
