@@ -118,7 +118,7 @@ class DalembertSolution:
         if clamped and abs(fL) > 1e-9 * max(abs(fL + u_p), abs(u_L), 1e-300):
             raise ValueError(f"clamped end: u0(L) = {fL + u_p!r} must equal u_L = {u_L!r}")
         s = 1.0 if clamped else -1.0  # B on [L, 2L]: -q(2L - y) clamped, q(2L - y) + D free
-        D = 0.0 if clamped else 0.5 * fL + vL / (2 * c) - (0.5 * fL - vL / (2 * c))
+        D = 0.0 if clamped else vL / c  # free: p(L) - q(L)
 
         def base(y: ArrayLike, right: bool = False) -> tuple[FloatArray, FloatArray]:
             """B and B' at y in [0, 2L] (closed forms; at y = L, where B' may jump, the
@@ -131,7 +131,7 @@ class DalembertSolution:
             return np.where(first, p, -s * q + D), np.where(first, dp, s * dq)
 
         self._base = base
-        h = 2 * L / (2 * n)
+        h = L / n
         nodes = np.linspace(0.0, 2 * L, 2 * n + 1)
         Bn, Dl = base(nodes)
         Dr = base(nodes, right=True)[1]
