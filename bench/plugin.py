@@ -90,7 +90,7 @@ def check_positive(name: str, value: float) -> float:
     (an exact solution's L, E, rho, T)."""
     value = float(value)
     if not (value > 0.0 and np.isfinite(value)):
-        raise ValueError(f"{name} must be > 0 and finite, got {value!r}")
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
     return value
 
 

@@ -156,8 +156,8 @@ def test_every_path_gives_the_same_bits():
 
 
 @pytest.mark.parametrize(("kw", "message"), [
-    ({"L": 0.0}, "L must be > 0 and finite, got 0.0"),
-    ({"T": -1.0}, "T must be > 0 and finite, got -1.0"),
+    ({"L": 0.0}, "L must be positive and finite, got 0.0"),
+    ({"T": -1.0}, "T must be positive and finite, got -1.0"),
     ({"far_end": "fixed"}, "far_end must be 'clamped' or 'free', got 'fixed'"),
     ({"cells_per_length": 0}, "cells_per_length must be a positive integer, got 0"),
     ({"u_L": 0.3}, "clamped end: u0(L) = 0.0 must equal u_L = 0.3"),
