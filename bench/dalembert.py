@@ -223,8 +223,11 @@ class DalembertSolution:
         random points of [0, 2L]: the interpolation error (value, slope)."""
         r = np.random.default_rng(seed).uniform(0.0, 2 * self.L, samples)
         B, dB = self._base(r)
-        v, d = np.empty(samples), np.empty(samples)
-        _table_values(r, self._table, 1.0 / self._h, v, d)
+        # the kernel with one segment of p (sigma 1, kappa 0, no shift) at x = r, tau = 0
+        # and q's part zero (sigma 0, kappa 0): u = B(r), u_x = B'(r)
+        zero, v, d = np.zeros(1), np.empty(samples), np.empty(samples)
+        _points_kernel(r, np.zeros(samples), zero, zero, np.ones(1), zero, zero, zero, zero,
+                       zero, self._table, 1.0 / self._h, 1.0, 0.0, v, d, np.empty(samples))
         return float(np.max(np.abs(v - B))), float(np.max(np.abs(d - dB)))
 
 
@@ -335,8 +338,8 @@ def _cubic_table(f: FloatArray, d0: FloatArray, d1: FloatArray) -> FloatArray:
 # at a kink the smaller z, the later tau), r = qA[k] - z; row i = floor(r / h) clipped to
 # the table, theta = r / h - i; u = (sp P(theta) + kp) + (sq Q(theta) + kq) + u_p,
 # u_x = (sp P' - sq Q') / h and u_t = c (sp P' + sq Q') / h, Horner's rule with fused
-# multiply-adds. Every point goes through the one 8-lane function `_eval8` (a lone point
-# in all 8 lanes, a run's last few points padded): the same bits whatever the path.
+# multiply-adds. Every point goes through the one 8-lane function `_lanes` (a lone point
+# in all 8 lanes, x's last few points padded): the same bits whatever the path.
 
 
 @njit(cache=True, inline="always")
@@ -389,16 +392,6 @@ def _points_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, 
 
 
 @njit(cache=True)
-def _table_values(r, tab, ih, v, d):  # pragma: no cover - compiled
-    """B and B' from the table at r in [0, 2L] (p with one segment, sigma 1, kappa 0,
-    no shift, at x = r, tau = 0; q's part is taken off)."""
-    zero = np.zeros(1)
-    for m in range(r.size):
-        _points_kernel(r[m: m + 1], zero, zero, zero, np.ones(1), zero, zero, zero, zero,
-                       zero, tab, ih, 1.0, 0.0, v[m: m + 1], d[m: m + 1], d[m: m + 1])
-
-
-@njit(cache=True)
 def _run_end(x, m, n, tk, jp, jq, pS, qS):  # pragma: no cover - compiled
     """The first index e > m such that x[e] (sorted) is not in segments (jp, jq), by the
     same comparisons as `_seg_p` and `_seg_q` (bisection: they are monotone in x)."""
@@ -429,11 +422,11 @@ def _grid_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux
             ordered = False
             break
     if not ordered:
-        one = np.empty(n)
+        one, spare = np.empty(n), np.empty(0 if want_v else n)
         for k in range(tau.size):
             one[:] = tau[k]
             _points_kernel(x, one, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up,
-                           u[k], ux[k], ut[k] if want_v else np.empty(n))
+                           u[k], ux[k], ut[k] if want_v else spare)
         return
     pad, buf = np.empty(8), np.empty((3, 8))
     UP, C = vsplat(up), vsplat(c)
