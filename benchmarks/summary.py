@@ -2,11 +2,18 @@
 
     python -m pytest benchmarks --benchmark-autosave            # or --benchmark-json=FILE
     python benchmarks/summary.py [FILE]        # default: the newest file under .benchmarks/
+    python benchmarks/summary.py --speedups FILE FILE ...   # the speedup over scipy, run by run
+
+`--speedups`: one row per (scheme, n) of `test_speedup_over_scipy`, its speedup in each
+file (a run of the suite, or of `benchmarks/test_stepping.py -k speedup`), and the
+smallest, median and largest of them. One run does not tell a speedup near its target:
+it moves by a few units from run to run.
 """
 
 from __future__ import annotations
 
 import json
+import statistics
 import sys
 from pathlib import Path
 
@@ -44,7 +51,41 @@ def table(path: Path) -> str:
     return "\n".join(lines)
 
 
+def speedups(paths: list[Path]) -> str:
+    """The speedup over scipy of each (scheme, n) in each run, then min, median, max."""
+    runs: dict[tuple[str, int], list[float | None]] = {}
+    for i, path in enumerate(paths):
+        for b in json.loads(path.read_text())["benchmarks"]:
+            x = b["extra_info"]
+            if x.get("speedup") is None:
+                continue
+            key = (x["scheme"], int(x["nfree"]))
+            runs.setdefault(key, [None] * len(paths))[i] = float(x["speedup"])
+    if not runs:
+        raise ValueError("no speedup benchmark (test_speedup_over_scipy) in "
+                         + ", ".join(str(p) for p in paths))
+    head = " | ".join(f"run {i + 1}" for i in range(len(paths)))
+    lines = [f"| scheme | n | {head} | min | median | max |",
+             "|---|---:|" + "---:|" * (len(paths) + 3)]
+    for (scheme, n), vals in sorted(runs.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+        got = [v for v in vals if v is not None]
+        cells = " | ".join("" if v is None else f"{v:.1f}" for v in vals)
+        lines.append(f"| {scheme} | {n} | {cells} | {min(got):.1f} "
+                     f"| {statistics.median(got):.1f} | {max(got):.1f} |")
+    return "\n".join(["runs: " + ", ".join(str(p) for p in paths), "", *lines])
+
+
 def main(argv: list[str]) -> int:
+    if argv[:1] == ["--speedups"]:
+        if len(argv) < 2:
+            print("summary.py: error: --speedups needs at least one JSON file", file=sys.stderr)
+            return 2
+        try:
+            print(speedups([Path(a) for a in argv[1:]]))
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"summary.py: error: {exc}", file=sys.stderr)
+            return 2
+        return 0
     if argv:
         path = Path(argv[0])
     else:

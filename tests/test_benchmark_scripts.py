@@ -116,3 +116,45 @@ def test_pulse_reference_shows_the_characteristics_solution_converging_to_it(cap
     assert coarse[0] == "250" and fine[0] == "1000"
     du, dux = [float(coarse[k]) / float(fine[k]) for k in (1, 2)]
     assert 8.0 < du < 32.0 and 2.0 < dux < 8.0, (coarse, fine)
+
+
+def _speedup_file(path: Path, speedups: dict[tuple[str, int], float]) -> Path:
+    """A pytest-benchmark JSON file holding speedup benchmarks and one without a speedup."""
+    import json
+
+    benches = [{"name": f"test_speedup_over_scipy[{s}-{n}]",
+                "extra_info": {"scheme": s, "nfree": n, "speedup": v}}
+               for (s, n), v in speedups.items()]
+    benches.append({"name": "test_stepping[standard-n1e3]",
+                    "extra_info": {"scheme": "standard", "nfree": 1000, "speedup": None}})
+    path.write_text(json.dumps({"benchmarks": benches}))
+    return path
+
+
+def test_summary_speedups_gives_each_run_and_the_min_median_max(tmp_path, capsys):
+    """`summary.py --speedups`: one column per file, an empty cell where a file lacks the
+    benchmark, min / median / max over the files that have it, rows by n then scheme."""
+    a = _speedup_file(tmp_path / "a.json", {("standard", 1000): 54.0,
+                                            ("redistributed", 1000): 49.5,
+                                            ("standard", 100000): 120.0})
+    b = _speedup_file(tmp_path / "b.json", {("standard", 1000): 56.0,
+                                            ("redistributed", 1000): 51.5})
+    c = _speedup_file(tmp_path / "c.json", {("standard", 1000): 50.0,
+                                            ("redistributed", 1000): 50.0})
+    assert _script("summary").main(["--speedups", str(a), str(b), str(c)]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in lines[4:]]
+    assert rows == [
+        ["redistributed", "1000", "49.5", "51.5", "50.0", "49.5", "50.0", "51.5"],
+        ["standard", "1000", "54.0", "56.0", "50.0", "50.0", "54.0", "56.0"],
+        ["standard", "100000", "120.0", "", "", "120.0", "120.0", "120.0"],
+    ]
+
+
+def test_summary_speedups_refuses_files_without_speedups_in_one_line(tmp_path, capsys):
+    empty = _speedup_file(tmp_path / "empty.json", {})
+    assert _script("summary").main(["--speedups", str(empty)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"summary.py: error: no speedup benchmark (test_speedup_over_scipy) in {empty}")
+    assert _script("summary").main(["--speedups"]) == 2
+    assert "needs at least one JSON file" in capsys.readouterr().err
