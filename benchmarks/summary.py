@@ -55,12 +55,16 @@ def speedups(paths: list[Path]) -> str:
     """The speedup over scipy of each (scheme, n) in each run, then min, median, max."""
     runs: dict[tuple[str, int], list[float | None]] = {}
     for i, path in enumerate(paths):
-        for b in json.loads(path.read_text())["benchmarks"]:
-            x = b["extra_info"]
-            if x.get("speedup") is None:
-                continue
-            key = (x["scheme"], int(x["nfree"]))
-            runs.setdefault(key, [None] * len(paths))[i] = float(x["speedup"])
+        try:
+            found = [(b["extra_info"]["scheme"], int(b["extra_info"]["nfree"]),
+                      float(b["extra_info"]["speedup"]))
+                     for b in json.loads(path.read_text())["benchmarks"]
+                     if b["extra_info"].get("speedup") is not None]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{path} is not a pytest-benchmark JSON file of "
+                             f"benchmarks/ ({type(exc).__name__}: {exc})") from None
+        for scheme, n, speedup in found:
+            runs.setdefault((scheme, n), [None] * len(paths))[i] = speedup
     if not runs:
         raise ValueError("no speedup benchmark (test_speedup_over_scipy) in "
                          + ", ".join(str(p) for p in paths))
@@ -82,7 +86,7 @@ def main(argv: list[str]) -> int:
             return 2
         try:
             print(speedups([Path(a) for a in argv[1:]]))
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError) as exc:
             print(f"summary.py: error: {exc}", file=sys.stderr)
             return 2
         return 0

@@ -158,3 +158,9 @@ def test_summary_speedups_refuses_files_without_speedups_in_one_line(tmp_path, c
         f"summary.py: error: no speedup benchmark (test_speedup_over_scipy) in {empty}")
     assert _script("summary").main(["--speedups"]) == 2
     assert "needs at least one JSON file" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"machine_info": {}}')
+    assert _script("summary").main(["--speedups", str(empty), str(bad)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"summary.py: error: {bad} is not a pytest-benchmark JSON file of benchmarks/ "
+        "(KeyError: 'benchmarks')")
