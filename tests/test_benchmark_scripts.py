@@ -9,6 +9,7 @@ naming the value, exit 2: unknown plugins by the registry's own message).
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import pytest
@@ -120,8 +121,6 @@ def test_pulse_reference_shows_the_characteristics_solution_converging_to_it(cap
 
 def _speedup_file(path: Path, speedups: dict[tuple[str, int], float]) -> Path:
     """A pytest-benchmark JSON file holding speedup benchmarks and one without a speedup."""
-    import json
-
     benches = [{"name": f"test_speedup_over_scipy[{s}-{n}]",
                 "extra_info": {"scheme": s, "nfree": n, "speedup": v}}
                for (s, n), v in speedups.items()]
