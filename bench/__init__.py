@@ -1,0 +1,24 @@
+"""contact-bench: a benchmark suite for numerical schemes of elastodynamic impact.
+
+The package's layers, bottom to top (each imports only the ones below it):
+
+- `contact_bench.core`: compiled machinery shared by kernels and norms (SIMD vectors,
+  tridiagonal and SPIKE solves, sampling, energy, the blow-up rule); imports nothing of
+  the project.
+- `contact_bench.api`: the plugin contract (`Case`, `Scheme`, `Semidiscrete`,
+  `Trajectory`, `Traits`, `Param`), the registry and the scikit-fem assembly.
+- `contact_bench.kernels` (stepping kernels shared by schemes) and
+  `contact_bench.exact` (exact solutions and their fast evaluators).
+- `contact_bench.harness` (runs and metrics), `contact_bench.sweeps` (sweeps, cache,
+  study, analysis), `contact_bench.output` (reports and figures), `contact_bench.cli`.
+
+Plugins live in `contact_bench.schemes` and `contact_bench.cases` (the repository's
+`schemes/` and `cases/` folders) and use only public names of the layers below.
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("contact-bench")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0+unknown"

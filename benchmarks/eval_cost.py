@@ -5,8 +5,9 @@
     python benchmarks/eval_cost.py rough_data --cells-per-length 1000
 
 For each case at its defaults (nx, dt, T; one sample per step): the reference at the 4
-Gauss points of every element (`bench.metrics`' geometry) for every sample time, by
-the norms' blocks of sample times and the norms' own call (`bench.metrics._evaluate`:
+Gauss points of every element (`contact_bench.harness.metrics`' geometry) for every sample time, by
+the norms' blocks of sample times and the norms' own call
+(`contact_bench.harness.metrics._evaluate`:
 `fields_into` into one reused block of values, else `fields`). Prints the median and
 the minimum over `--repeats` passes (JIT compilation and the reference's construction
 outside the timing) in ns per quadrature point: the evaluation's part of a run's norm
@@ -26,17 +27,18 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import metrics  # noqa: E402
-from bench.characteristics import CharacteristicsSolution  # noqa: E402
-from bench.errors import BenchError  # noqa: E402
-from bench.harness import reference  # noqa: E402
-from bench.registry import cases, make_case  # noqa: E402
+from contact_bench.api.registry import cases, make_case  # noqa: E402
+from contact_bench.core.errors import BenchError  # noqa: E402
+from contact_bench.exact.characteristics import CharacteristicsSolution  # noqa: E402
+from contact_bench.harness import metrics  # noqa: E402
+from contact_bench.harness.runner import reference  # noqa: E402
 
 
 def _once(exact: Any, g: Any, t: np.ndarray, step: int, need_v: bool,
           block: np.ndarray | None) -> None:
     """One pass: every block of `step` sample times, by the norms' own call
-    (`bench.metrics._evaluate`: `fields_into` into the reused block, else `fields`)."""
+    (`contact_bench.harness.metrics._evaluate`: `fields_into` into the reused block, else
+    `fields`)."""
     for a in range(0, t.size, step):
         k = min(step, t.size - a)
         out = None if block is None else block[:, :k]

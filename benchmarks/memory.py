@@ -2,7 +2,7 @@
 
     python benchmarks/memory.py [--repeat N] [--scheme S ...]   # default: N = 3, standard
 
-Each configuration runs `python -m bench.cli run --case clamped_bar --scheme S --nx N
+Each configuration runs `python -m contact_bench run --case clamped_bar --scheme S --nx N
 --dt 1e-7 --T 1e-4 --stride K --format csv` (1000 steps) in N fresh processes, and
 prints the peak resident set size of each process (its own `ru_maxrss`, from
 os.wait4) as the median and the largest, in MiB (2^20 bytes), next to what grows with
@@ -30,7 +30,7 @@ CONFIGS = ((100_000, 100), (1_000_000, 100), (1_000_000, 50))  # (nx, stride)
 
 def peak_mb(scheme: str, nx: int, stride: int) -> float:
     """Peak RSS of one fresh `run` process, in MiB; its failure is an error."""
-    cmd = [sys.executable, "-m", "bench.cli", "run", "--case", "clamped_bar", "--scheme",
+    cmd = [sys.executable, "-m", "contact_bench", "run", "--case", "clamped_bar", "--scheme",
            scheme, "--nx", str(nx), "--dt", "1e-7", "--T", f"{STEPS * 1e-7:.12g}",
            "--stride", str(stride), "--format", "csv"]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
@@ -58,8 +58,8 @@ def main(argv: list[str]) -> int:
     configs = [(n, 100) for n in args.nx] if args.nx else CONFIGS
     schemes = args.scheme or ["standard"]
     sys.path.insert(0, str(ROOT))
-    from bench.errors import BenchError
-    from bench.registry import make_scheme
+    from contact_bench.api.registry import make_scheme
+    from contact_bench.core.errors import BenchError
 
     try:  # the registry's own check, before any process is started
         for spec in schemes:

@@ -11,14 +11,16 @@ targets are on medians: a 2 ms time on this VM moves by 20-30% from table to tab
 and its worst table. Between tables the metrics cache is cleared: every table's first
 scheme on a grid pays its full norm cost again. The first scheme on a (case, mesh,
 sample times) also builds the quadrature and sums the exact norms, which the next ones
-reuse (bench.metrics; the reference's values too when it is slow to evaluate), so its
+reuse (contact_bench.harness.metrics; the reference's values too when it is slow to evaluate), so
+its
 norm time is the larger one. JIT compilation is outside both times. See also
 benchmarks/test_norms.py (pytest-benchmark).
 
 `--alone`: every scheme runs in a table of its own (what `contact-bench run --scheme S`
 does), so each is the first on its grid and pays the quadrature and the exact norms.
 `--cli-memory`: glibc is set up first as the `contact-bench` command sets it up
-(`bench.environment.return_freed_memory`: mmap threshold 4 MB, trim threshold 64 MB),
+(`contact_bench.harness.environment.return_freed_memory`: mmap threshold 4 MB, trim threshold 64
+MB),
 so the times are those of the command's own tables. Since commit 1cb67f6 that gives
 the times of a plain process: a run's sample buffers (1.5-2.6 MB per field on the
 default scenes) come back from the heap already touched. Before it, with a 1 MB mmap
@@ -35,11 +37,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench import metrics  # noqa: E402
-from bench.environment import return_freed_memory  # noqa: E402
-from bench.errors import BenchError  # noqa: E402
-from bench.harness import Run, run_table  # noqa: E402
-from bench.registry import cases, schemes  # noqa: E402
+from contact_bench.api.registry import cases, schemes  # noqa: E402
+from contact_bench.core.errors import BenchError  # noqa: E402
+from contact_bench.harness import metrics  # noqa: E402
+from contact_bench.harness.environment import return_freed_memory  # noqa: E402
+from contact_bench.harness.runner import Run, run_table  # noqa: E402
 
 
 def main(argv: list[str]) -> int:

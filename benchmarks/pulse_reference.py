@@ -20,8 +20,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.characteristics import CharacteristicsSolution  # noqa: E402
-from bench.registry import make_case  # noqa: E402
+from contact_bench.api.registry import make_case  # noqa: E402
+from contact_bench.exact.characteristics import CharacteristicsSolution  # noqa: E402
 
 
 def main(argv: list[str]) -> int:

@@ -17,10 +17,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.harness import reference, run_one  # noqa: E402
-from bench.metrics import error_metrics  # noqa: E402
-from bench.reference import reference_for  # noqa: E402
-from bench.registry import cases, make_case, make_scheme  # noqa: E402
+from contact_bench.api.registry import cases, make_case, make_scheme  # noqa: E402
+from contact_bench.harness.metrics import error_metrics  # noqa: E402
+from contact_bench.harness.runner import reference, run_one  # noqa: E402
+from contact_bench.harness.scipy_reference import reference_for  # noqa: E402
 
 COLUMNS = ("err_u_linf_l2", "err_v_linf_l2", "err_stress_l2")
 

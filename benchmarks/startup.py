@@ -22,9 +22,9 @@ ROOT = Path(__file__).resolve().parents[1]
 _CHILD = """
 import sys, time
 sys.path.insert(0, {root!r})
-from bench.fem import mesh_nodes
-from bench.problem import discretise
-from bench.registry import make_case, make_scheme
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
 case, scheme = make_case("clamped_bar"), make_scheme({spec!r})
 semi = discretise(case, mesh_nodes(case.L, 100), scheme.mass_kind())
 dt = 0.5 * semi.hmin / semi.c_max
@@ -51,8 +51,8 @@ def main(argv: list[str]) -> int:
     if args.repeat < 1:
         p.error(f"--repeat must be >= 1, got {args.repeat}")
     sys.path.insert(0, str(ROOT))
-    from bench.errors import BenchError
-    from bench.registry import make_scheme, schemes
+    from contact_bench.api.registry import make_scheme, schemes
+    from contact_bench.core.errors import BenchError
 
     specs = args.scheme or schemes().names()
     try:  # the registry's own check, before any process is started

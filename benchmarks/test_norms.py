@@ -2,7 +2,8 @@
 
 Issue #6: "error norms against exact solutions are computed vectorised and at the
 default sampling cost no more than the stepping itself". Each benchmark times
-`bench.metrics.error_metrics` on one run (the case's default stride, which is 1 for the
+`contact_bench.harness.metrics.error_metrics` on one run (the case's default stride, which is 1 for
+the
 default-run cases: every step is a sample) in two modes:
 
 - cold: the first scheme on a (case, mesh, sample times): the quadrature is built, the
@@ -10,7 +11,7 @@ default-run cases: every step is a sample) in two modes:
   (`metrics.clear_cache()` before each round);
 - warm: the next schemes on the same grid (the default run and `run_table` run every
   scheme of a case on the same grid), which reuse the quadrature and the exact norms
-  and evaluate these fast references again (bench.metrics keeps the values of slow
+  and evaluate these fast references again (contact_bench.harness.metrics keeps the values of slow
   references only).
 
 `extra_info` holds the stepping time of every registered scheme on the same
@@ -29,9 +30,9 @@ import time
 
 import pytest
 
-from bench import metrics
-from bench.harness import reference, run_one
-from bench.registry import make_case, make_scheme, schemes
+from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.harness import metrics
+from contact_bench.harness.runner import reference, run_one
 
 #: (case, nx, dt): the default run's two scenes at their defaults, and the clamped bar
 #: at nx = 80, dt = 0.002 (6000 steps)

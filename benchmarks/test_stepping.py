@@ -1,7 +1,8 @@
 """Stepping cost of every registered scheme, in ns per dof-step, and the speedup over scipy.
 
 Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped bar:
-assembly (`bench.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen before
+assembly (`contact_bench.api.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen
+before
 the timing, the stride is the whole run (two samples), nsteps is chosen for ~0.1 s per
 round (0.5 s at n = 1e6) from the marginal cost of a step in two short probe runs, so
 the per-run set-up (factors, layout: ~0.1 s at 1e6) stays a small part of the median.
@@ -27,12 +28,12 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bench.fem import mesh_nodes
-from bench.metrics import error_metrics
-from bench.plugin import Scheme, Semidiscrete
-from bench.problem import discretise
-from bench.reference import reference_for
-from bench.registry import make_case, make_scheme, schemes
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Scheme, Semidiscrete
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.harness.metrics import error_metrics
+from contact_bench.harness.scipy_reference import reference_for
 
 CASE = "clamped_bar"
 MAIN = ["standard", "redistributed", "redistributed[beta=0]"]

@@ -1,1 +1,1 @@
-"""Scenes (cases), one module each (see `bench.registry`)."""
+"""Scenes (cases), one module each (see `contact_bench.api.registry`)."""

@@ -7,12 +7,12 @@ intervals [1, 5/3], [11/3, 13/3], [19/3, 7]; stress on the first contact from -3
 -500; energy (with gravity) rho g L u0 = 500. Stresses: gravity, free ends, a
 nearly grazing second impact (speed 10/3).
 
-Reference used by the harness: the characteristics solution (`bench.characteristics`),
+Reference used by the harness: the characteristics solution (`contact_bench.exact.characteristics`),
 exact to round-off. Up to T = 32 L/c (two periods) on a grid of one cell per length L
 (`EXACT_CELLS`): u0 is constant and v0 = 0 (piecewise linear data, no kinks), every
 impact and take-off falls on a multiple of L/c (t = 1 = 3 L/c, 5/3, 11/3, ...: tau = c t
 a multiple of L, a node of any grid, so no crossing is inserted), and with gravity the
-stored pieces are the exact quadratics ("Accuracy" in `bench.characteristics`). It
+stored pieces are the exact quadratics ("Accuracy" in `contact_bench.exact.characteristics`). It
 agrees with the default grid (20000 cells per length) to round-off in u, u_x, u_t, the
 contact times and the energy (tests/test_characteristics_runs.py), builds in 1.5 ms
 instead of 20-40, and evaluates the error norms' grids by long runs of points per cell
@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.characteristics import CharacteristicsSolution, coarse_solution
-from bench.plugin import Case
+from contact_bench.api.plugin import Case
+from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)

@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.characteristics import CharacteristicsSolution, coarse_solution
-from bench.params import Param
-from bench.plugin import Case
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case
+from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 GAP_FRACTION = 0.01  # initial gap / L
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data

@@ -14,7 +14,7 @@ in [0, 8].
 Stresses: the smooth regime (errors away from impacts are those of a smooth wave, so
 the loss of order comes from the contact only), dispersion of a pulse over several
 reflections, repeated impacts. Reference: d'Alembert's formula with the contact instants
-found by root finding on the closed forms of the data (`bench.dalembert`; errors 7e-13
+found by root finding on the closed forms of the data (`contact_bench.exact.dalembert`; errors 7e-13
 on u and 2e-8 on u_x, u_t, those of its table; checked against the characteristics
 solution of the same data, which converges to it, in tests/test_dalembert.py). Until
 2026-11 it was that characteristics solution on 20000 cells per length (5e-8 on u, up to
@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.dalembert import DalembertSolution
-from bench.plugin import Case
+from contact_bench.api.plugin import Case
+from contact_bench.exact.dalembert import DalembertSolution
 
 GAP, AMPLITUDE, CENTER, WIDTH = 0.1, 0.2, 0.5, 0.2
 

@@ -10,7 +10,7 @@ characteristics for all times. Three contact periods in [0, 6]: [0.5, 1.7], [3.5
 
 Stresses: convergence at minimal regularity (fronts smeared by the mesh, order below 1),
 repeated impacts of a discontinuous wave. Reference: the characteristics solution
-(`bench.characteristics`) with the data as tuples, so the kink and the jump lie on its
+(`contact_bench.exact.characteristics`) with the data as tuples, so the kink and the jump lie on its
 grid and the reference is exact to round-off, on any grid: it uses one cell per length L
 (`EXACT_CELLS`; the kinks 0.3, 0.5 and 0.7 are nodes of their own), which agrees with
 the default grid to round-off (tests/test_characteristics_runs.py) and builds and
@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.characteristics import CharacteristicsSolution, coarse_solution
-from bench.plugin import Case
+from contact_bench.api.plugin import Case
+from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
 V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))

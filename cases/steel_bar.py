@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bench.characteristics import CharacteristicsSolution, coarse_solution
-from bench.plugin import Case
+from contact_bench.api.plugin import Case
+from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 GAP = 5e-5  # m
 SPEED = 0.1  # m/s, towards the obstacle

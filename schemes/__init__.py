@@ -1,1 +1,1 @@
-"""Time-integration / contact schemes, one module each (see `bench.registry`)."""
+"""Time-integration / contact schemes, one module each (see `contact_bench.api.registry`)."""

@@ -6,7 +6,7 @@
 with alpha in [-1/3, 0], beta = (1 - alpha)^2 / 4, gamma = 1/2 - alpha (alpha = 0 is
 Crank-Nicolson, the `standard` scheme). Displacement form: S U1 = M U~ +
 beta dt^2 (F + alpha K U0 + lambda e0), S = M + (1 + alpha) beta dt^2 K factored once;
-the contact uses the precomputed w = S^-1 e0 as in `schemes._newmark`. The multiplier
+the contact uses the precomputed w = S^-1 e0 as in `contact_bench.kernels.newmark`. The multiplier
 is not alpha-weighted (a constraint force at t_{n+1}); the sampled stress is -lambda.
 Unconditionally stable for the linear problem; numerical damping of the high
 frequencies grows with |alpha|.
@@ -22,23 +22,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._common import (
+from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
+from contact_bench.core.tridiag import factor_pt, newmark_update, pt_backward, pt_solve
+from contact_bench.kernels.common import (
     allocate,
-    blown_up,
-    energy_of,
-    factor_pt,
     initial_acceleration,
-    is_sample,
-    newmark_update,
-    pt_backward,
-    pt_solve,
-    record_sample,
+    massless_drift_bound,
     trajectory,
 )
-from schemes.redistributed import massless_drift_bound
 
 
 @njit(cache=True)
@@ -52,7 +46,7 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     sweep; up, the contact and the Newmark update (formerly eleven passes: 9.0 -> 5.7
     ns per dof-step at n = 1e5). Fusing the update into the next step's first pass was
     slower (7.6: two divisions per node in the sweep's loop), and so were the rows by
-    `tri_row` in one loop, as `schemes._boundary` has them (6.2: two products per row,
+    `tri_row` in one loop, as `contact_bench.kernels.boundary` has them (6.2: two products per row,
     each with its end-row tests), hence the first and last rows written apart."""
     n = U.size
     Ut = np.empty(n)
@@ -123,7 +117,7 @@ class HHT(Scheme):
     params = {
         "alpha": Param(-0.1, "HHT alpha: beta = (1-alpha)^2/4, gamma = 1/2 - alpha",
                        low=-1.0 / 3.0, high=0.0),
-        "mass": Param("seed", "mass matrix (bench.fem); seed: the paper's M^mod",
+        "mass": Param("seed", "mass matrix (contact_bench.api.fem); seed: the paper's M^mod",
                       choices=MASS_KINDS),
     }
 

@@ -35,21 +35,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.fem import MASS_KINDS
-from bench.params import Param
-from bench.plugin import Semidiscrete, Traits, Trajectory
-from schemes._common import (
+from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
+from contact_bench.core.tridiag import factor_pt, pt_backward, pt_solve, tri_row
+from contact_bench.kernels.common import (
     MassiveContactNodeScheme,
     allocate,
-    blown_up,
-    energy_of,
-    factor_pt,
-    is_sample,
-    pt_backward,
-    pt_solve,
-    record_sample,
     trajectory,
-    tri_row,
     velocity_scale,
 )
 

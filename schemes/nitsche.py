@@ -35,7 +35,7 @@ accumulates in MV[0] and enters the next right-hand side B[0] amplified by
 1 / (beta dt^2) until it overflows. Evidence: `replicate_getfem_demo` below is a
 line-by-line numpy transcription of that branch (the same matrices, Dirichlet rows,
 M2, tests and updates; scipy.sparse, NX = 20, dt = 0.002, T = 12, gamma0 = 5,
-beta = 1/4). Run ``python -m schemes.nitsche``; it prints (nonfinite: first time E is
+beta = 1/4). Run ``python -m contact_bench.schemes.nitsche``; it prints (nonfinite: first time E is
 not finite; that time depends on round-off, since the growth is exponential):
 
     mass=standard       theta=+1: demo: nonfinite=None  E(T)=0.1268   fixed: E(T)=0.1237
@@ -58,12 +58,12 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._boundary import element_limit, energy_budget, run_boundary
-from schemes._newmark import BETA, GAMMA
-from schemes.redistributed import massless_drift_bound
+from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
+from contact_bench.kernels.common import massless_drift_bound
+from contact_bench.kernels.newmark import BETA, GAMMA
 
 
 class Nitsche(Scheme):
@@ -74,7 +74,7 @@ class Nitsche(Scheme):
                        choices=(-1, 0, 1)),
         "gamma0": Param(5.0, "Nitsche parameter: gam = gamma0 E / h", low=1.0, low_open=True,
                         high=1e8),
-        "mass": Param("consistent", "mass matrix (bench.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
         "beta": BETA,
         "gamma": GAMMA,
     }

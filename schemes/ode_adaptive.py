@@ -29,16 +29,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._common import (
-    BLOWUP_FACTOR,
-    factor_pt,
-    n_samples,
-    pt_solve,
-    tri_matvec,
-    velocity_scale,
-)
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import velocity_scale
 
 
 @njit(cache=True)

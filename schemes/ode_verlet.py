@@ -9,7 +9,7 @@ a Lipschitz right-hand side, so any ODE integrator applies (Hairer, Lubich, Wann
 Geometric Numerical Integration, for Stormer-Verlet). Here: velocity Verlet with a
 fixed step, V += dt/2 A(U); U += dt V; V += dt/2 A(U), one solve with M_bar per step
 (factored once, lane-parallel: `verlet_spike_kernel` on the SPIKE factors of
-`schemes._spike`, with node 0 decoupled as an identity row; `verlet_kernel` is the
+`contact_bench.core.spike`, with node 0 decoupled as an identity row; `verlet_kernel` is the
 natural-order reference it is tested against in tests/test_spike_ports.py). The
 contact node is not a state: u0 = u0(u1) at every step, and its velocity is the exact
 derivative of that function, v0 = -(K01 / K00) v1 while u0 > 0, else 0. The initial
@@ -35,22 +35,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._common import (
-    allocate,
-    blown_up,
-    eliminate_contact_node,
-    energy_of,
-    factor_pt,
-    is_sample,
-    pt_solve,
-    record_sample,
-    trajectory,
-    tri_matvec,
-)
-from schemes._newmark import massless_acceleration, newmark_limit
-from schemes._spike import L, lane_position, record_lane_sample, spike_factor
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
+from contact_bench.core.spike import L, lane_position, record_lane_sample, spike_factor
+from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.kernels.newmark import massless_acceleration, newmark_limit
 
 
 @njit(cache=True)
@@ -111,7 +102,7 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
 @njit(cache=True, fastmath={"contract"})
 def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
                         stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """`verlet_kernel` in the lane-interleaved layout of `schemes._spike` (U, V, A, z:
+    """`verlet_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V, A, z:
     interleaved, A and z scratch). Same update, samples, stress, min u0 and blow-up step.
 
     Between samples V holds the half-step velocity: the closing half kick of a step, the

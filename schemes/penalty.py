@@ -7,17 +7,17 @@ kappa/2 min(0, u0)^2 is part of the sampled energy.
 
 Time integration: Newmark(beta, gamma). Implicit (beta > 0): each step is piecewise
 linear in u0 and solved exactly with the precomputed w = S^-1 e0 (see
-`schemes._boundary`). Explicit (beta = 0): central differences with any mass the
+`contact_bench.kernels.boundary`). Explicit (beta = 0): central differences with any mass the
 kernel can invert once (consistent, lumped; a massless contact node is solved from
 its own row). With beta = 1/4, gamma = 1/2 the energy is conserved between contact
 switches; at a switch the step is not energy-exact, so no conservation is claimed
 for a massive contact node ("may grow"). With a massless node the node and its
 spring are static (a softer first element): energy as `redistributed`, the first
 step releasing the first element's strain and the drift bound
-`schemes.redistributed.massless_drift_bound` (checked by the property test).
+`contact_bench.schemes.redistributed.massless_drift_bound` (checked by the property test).
 
 Stability (explicit): the spring stiffens the first element; the limit uses the
-first element's local eigenvalue with the spring (`schemes._boundary.element_limit`),
+first element's local eigenvalue with the spring (`contact_bench.kernels.boundary.element_limit`),
 e.g. lumped mass: dt <= 2 / omega, omega^2 = (c/h)^2 2 (2 + a + sqrt(a^2 + 4)) / 2,
 a = gamma_p.
 
@@ -32,12 +32,12 @@ import math
 
 import numpy as np
 
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._boundary import element_limit, energy_budget, run_boundary
-from schemes._newmark import BETA, GAMMA
-from schemes.redistributed import massless_drift_bound
+from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
+from contact_bench.kernels.common import massless_drift_bound
+from contact_bench.kernels.newmark import BETA, GAMMA
 
 
 class Penalty(Scheme):
@@ -46,7 +46,7 @@ class Penalty(Scheme):
     params = {
         "gamma_p": Param(1.0, "penalty parameter: kappa = gamma_p E / h", low=0.0, low_open=True,
                          high=1e8),
-        "mass": Param("consistent", "mass matrix (bench.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
         "beta": BETA,
         "gamma": GAMMA,
     }

@@ -4,7 +4,7 @@ The contact node carries no inertia, so the semi-discrete problem is the Lipschi
 ODE (P_U^mod): u0 = max(0, (F0 - K01 u1) / K00) and no impact law is needed. Time
 integration is Newmark(beta, gamma); beta = 0 is the explicit central difference.
 
-Variants of the mass (`variant`, see `bench.fem`): `seed` (the paper's M^mod, the
+Variants of the mass (`variant`, see `contact_bench.api.fem`): `seed` (the paper's M^mod, the
 first element has no mass), `getfem` (GetFEM's demo: M11 += M00 + M01) and
 `conservative` (M11 += M00 + 2 M01, total mass kept).
 
@@ -21,35 +21,10 @@ nx = 40 ... 320 (tests/test_foundation.py checks CFL 0.08).
 
 from __future__ import annotations
 
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._common import central_difference_excess
-from schemes._newmark import BETA, GAMMA, newmark_limit, run_newmark
-
-
-def massless_drift_bound(semi: Semidiscrete, dt: float, limit: float | None = None) -> float:
-    """Declared bound on max |E(t) - E(0)| / |E(0)| with a massless contact node.
-
-    Three parts. (1) The first step moves the massless node to equilibrium with node 1
-    and releases the first element's initial strain energy (computed exactly here),
-    up to a factor 1 + O(CFL^2). (2) At each switch of the contact status the
-    Crank-Nicolson balance is off by (u0^{n+1} lam^n - u0^n lam^{n+1}) / 2. Measured
-    on clamped_bar (T = 12) and dropped_bar (T = 6.5), nx = 20 ... 80, CFL = c dt / h
-    in 0.1 ... 2, the three variants, beta in {0, 1/4}: part (2) stayed below
-    0.8 c dt / L (largest 9.8e-2 at nx = 20, CFL 2, getfem variant; 8e-3 at nx = 80,
-    CFL 1; 1.5e-4 at nx = 80, CFL 0.1); random piecewise-linear data on coarse meshes
-    (tests/test_properties.py) needed more. Declared: 4 c dt / L, an empirical
-    bound that grows with the number of impacts in the run. (3) For the explicit
-    variant (`limit` given), the central difference's own excess r^2 / (1 - r^2),
-    r = dt / limit (`schemes._common.central_difference_excess`).
-    """
-    U0, V0 = semi.U0, semi.V0
-    e0 = abs(0.5 * semi.M.quad(V0) + 0.5 * semi.K.quad(U0) - semi.F @ U0 + semi.energy_offset)
-    release = 0.5 * (-semi.K.off[0]) * (U0[1] - U0[0]) ** 2 / max(e0, 1e-300)
-    cfl = semi.c_max * dt / semi.hmin
-    length = float(semi.x[-1] - semi.x[0])
-    return float(release * (1.0 + cfl**2) + 4.0 * semi.c_max * dt / length
-                 + central_difference_excess(dt, limit))
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.kernels.common import massless_drift_bound
+from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
 
 
 class Redistributed(Scheme):

@@ -14,7 +14,7 @@ e is Newton's restitution coefficient of the contact node: e = 0 a fully inelast
 impact (u0^{n+1} >= 0 exactly), e = 1 an elastic one. With S = M + beta dt^2 K the
 contact force only adds dt^2 r S^{-1} e0, so one step is one solve with S (a diagonal
 one for the lumped mass and beta = 0: fully explicit, one fused stencil pass per step in
-`schemes._lumped.ps_lumped_kernel`) plus a scalar complementarity.
+`contact_bench.kernels.lumped.ps_lumped_kernel`) plus a scalar complementarity.
 The literature uses a lumped mass (finite differences): `mass=lumped` is the default;
 `consistent` is allowed (then each step solves with M).
 
@@ -53,8 +53,10 @@ Paoli-Schatzman impulse (a bug: it should stay 0), but the scheme written above,
 implemented without that bug (`run_paoli_schatzman`, which skips the guard), blows up
 on the same data too, while lumped and consistent masses run fine:
 
-    python -c "from bench.fem import mesh_nodes; from bench.problem import discretise
-    from cases.clamped_bar import ClampedBar; from schemes.restitution import run_paoli_schatzman
+    python -c "from contact_bench.api.fem import mesh_nodes; from contact_bench.api.problem import
+    discretise
+    from contact_bench.cases.clamped_bar import ClampedBar; from contact_bench.schemes.restitution
+    import run_paoli_schatzman
     for m in ('lumped', 'consistent', 'getfem', 'seed'):
         for e in (0.0, 1.0):
             s = discretise(ClampedBar(), mesh_nodes(1.0, 20), m)
@@ -90,26 +92,21 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bench.errors import BenchError
-from bench.fem import MASS_KINDS
-from bench.params import Param
-from bench.plugin import Semidiscrete, Traits, Trajectory
-from schemes._common import (
+from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.core.errors import BenchError
+from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
+from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import (
     MassiveContactNodeScheme,
     allocate,
-    blown_up,
-    energy_of,
-    factor_pt,
     initial_acceleration,
-    is_sample,
-    pt_solve,
-    record_sample,
     trajectory,
-    tri_matvec,
     velocity_scale,
 )
-from schemes._lumped import ps_lumped_kernel
-from schemes._newmark import newmark_limit
+from contact_bench.kernels.lumped import ps_lumped_kernel
+from contact_bench.kernels.newmark import newmark_limit
 
 MASSLESS_REASON = (
     "restitution (Paoli-Schatzman) needs a contact node with mass: with M00 = 0 the "
@@ -179,7 +176,7 @@ def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
                         e: float, beta: float, fast: bool = True) -> Trajectory:
     """The scheme on any mass (no massless guard: used to show what a massless node does).
 
-    A diagonal S (lumped mass, beta = 0) takes the fused kernel of `schemes._lumped`
+    A diagonal S (lumped mass, beta = 0) takes the fused kernel of `contact_bench.kernels.lumped`
     unless `fast` is False (then the generic `ps_kernel`, its reference in the tests).
     """
     M, K = semi.M, semi.K
@@ -198,7 +195,7 @@ def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     out = allocate(semi, nsteps, stride)
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     if fast and beta == 0.0 and not np.any(M.off):
-        # S = M diagonal: one fused stencil pass per step, no solve (schemes._lumped)
+        # S = M diagonal: one fused stencil pass per step, no solve (contact_bench.kernels.lumped)
         k, done, min_u0, blow = ps_lumped_kernel(
             M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), Um, U, semi.V0.copy(),
             float(dt), float(e), int(nsteps), int(stride), semi.energy_offset, *bufs)

@@ -5,7 +5,7 @@ node the impact is treated as an instantaneous inelastic shock of that node, so 
 energy jumps at impacts (it grows, Fig. 5.3 left) and the contact stress oscillates
 (Fig. 5.1-5.2 left).
 
-`mass` picks the mass matrix (`bench.fem`); the default is the consistent one. With
+`mass` picks the mass matrix (`contact_bench.api.fem`); the default is the consistent one. With
 a massless contact node (seed, getfem, conservative, singular) this is the
 `redistributed` scheme, with its energy behaviour and drift bound.
 
@@ -17,11 +17,11 @@ energy grows 10 to 60 fold; the runs are sensitive to round-off.
 
 from __future__ import annotations
 
-from bench.fem import MASS_KINDS, MASSLESS_KINDS
-from bench.params import Param
-from bench.plugin import Scheme, Semidiscrete, Traits, Trajectory
-from schemes._newmark import GAMMA, newmark_limit, run_newmark
-from schemes.redistributed import massless_drift_bound
+from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.kernels.common import massless_drift_bound
+from contact_bench.kernels.newmark import GAMMA, newmark_limit, run_newmark
 
 
 class Standard(Scheme):
@@ -30,7 +30,7 @@ class Standard(Scheme):
     params = {
         "beta": Param(0.25, "Newmark beta (> 0: implicit)", low=0.0, high=0.5, low_open=True),
         "gamma": GAMMA,
-        "mass": Param("consistent", "mass matrix (bench.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
     }
 
     def mass_kind(self) -> str:

@@ -16,8 +16,8 @@ dt^2 lam w0 = -dt V_half[0] puts the node back at U[0] >= 0: no penetration ever
 (u0 never below 0, by induction), the node is stopped where it was.
 
 Declared: explicit (lumped mass: no solve, one fused pass per step in
-`schemes._lumped.tf_lumped_kernel`; consistent: one solve with M per step, factored
-once, lane-parallel in `tf_spike_kernel` on the SPIKE factors of `schemes._spike`;
+`contact_bench.kernels.lumped.tf_lumped_kernel`; consistent: one solve with M per step, factored
+once, lane-parallel in `tf_spike_kernel` on the SPIKE factors of `contact_bench.core.spike`;
 `taylor_flanagan_kernel` is the natural-order reference of both fast paths);
 stability limit of the central difference, h/c (lumped) and h/(c sqrt 3)
 (consistent); contact exact (penetration bound 0, see above); energy
@@ -39,26 +39,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
-from bench.fem import MASS_KINDS
-from bench.params import Param
-from bench.plugin import Semidiscrete, Traits, Trajectory
-from schemes._common import (
-    MassiveContactNodeScheme,
-    allocate,
-    blown_up,
-    central_difference_excess,
-    energy_of,
-    factor_pt,
-    initial_acceleration,
-    is_sample,
-    pt_solve,
-    record_sample,
-    trajectory,
-    tri_matvec,
-)
-from schemes._lumped import tf_lumped_kernel
-from schemes._newmark import newmark_limit
-from schemes._spike import (
+from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
+from contact_bench.core.spike import (
     SPIKE_CUTOFF,
     L,
     record_lane_sample,
@@ -66,6 +51,16 @@ from schemes._spike import (
     spike_solve,
     stencil_solve,
 )
+from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import (
+    MassiveContactNodeScheme,
+    allocate,
+    central_difference_excess,
+    initial_acceleration,
+    trajectory,
+)
+from contact_bench.kernels.lumped import tf_lumped_kernel
+from contact_bench.kernels.newmark import newmark_limit
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
@@ -119,7 +114,7 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
 @njit(cache=True, fastmath={"contract"})
 def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, A, z, coef,
                     dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """`taylor_flanagan_kernel` in the lane-interleaved layout of `schemes._spike` (U, V,
+    """`taylor_flanagan_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V,
     A, z interleaved; fac = `Spike.factors()` of M). Same update, samples, stress, min
     u0 and blow-up step.
 
@@ -213,7 +208,7 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     """The scheme on a massive contact node.
 
     With `fast` (the default) a diagonal M (lumped) takes the fused kernel of
-    `schemes._lumped`, any other M `tf_spike_kernel` on the SPIKE factors of M; with
+    `contact_bench.kernels.lumped`, any other M `tf_spike_kernel` on the SPIKE factors of M; with
     `fast` False the natural-order `taylor_flanagan_kernel`, their reference in the tests.
     """
     M, K = semi.M, semi.K

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from bench import metrics
-from bench.characteristics import CharacteristicsSolution
-from bench.registry import schemes
+from contact_bench.api.registry import schemes
+from contact_bench.exact.characteristics import CharacteristicsSolution
+from contact_bench.harness import metrics
 
 ROOT = Path(__file__).resolve().parents[1]
 

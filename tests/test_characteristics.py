@@ -1,4 +1,4 @@
-"""Tests of bench.characteristics against independent computations.
+"""Tests of contact_bench.exact.characteristics against independent computations.
 
 Closed forms are re-derived here (not imported from cases/), the seed's series (5.5,
 corrected) is re-implemented here, and for random data the solution is checked against
@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from bench.characteristics import CharacteristicsSolution
+from contact_bench.exact.characteristics import CharacteristicsSolution
 
 # --------------------------------------------------------------------------------------
 # 1. The clamped bar (L = 1, rho = E = 1, g = 0, u0 = 1/2 - x/2, v0 = 0, u(1) = 0)
@@ -476,7 +476,7 @@ def test_random_data_gravity_long_time(seed, far_end):
 
 
 def test_default_grid_is_capped(monkeypatch):
-    import bench.characteristics as ch
+    import contact_bench.exact.characteristics as ch
 
     monkeypatch.setattr(ch, "DEFAULT_MAX_NODES", 200_000)
     sol = CharacteristicsSolution(L=1.0, E=1.0, rho=1.0, u0=((0.0, 1.0), (0.5, 0.0)),
@@ -497,10 +497,11 @@ def test_default_grid_is_capped(monkeypatch):
 
 
 def test_clamped_bar_compiled_closed_form_matches_numpy():
-    """cases.clamped_bar evaluates the closed form in compiled code, with its own y mod 3
+    """contact_bench.cases.clamped_bar evaluates the closed form in compiled code, with its own y
+    mod 3
     (no libm fmod); it must give np.mod's values everywhere, also a rounding away from
     the multiples of 3, where y / 3 rounds up to an integer."""
-    from cases.clamped_bar import ClampedBarExact
+    from contact_bench.cases.clamped_bar import ClampedBarExact
 
     rng = np.random.default_rng(7)
     k = 3.0 * np.arange(1, 3001)
@@ -522,7 +523,7 @@ def test_cell_search_fast_path_agrees_with_the_general_search():
     """`_locate` takes the table's guess where it checks out and the lexicographic search
     `_cell_of` elsewhere; on a solution with inserted nodes (impacts inside cells) and at
     nodes exactly, both give the same cells."""
-    from bench.characteristics import _cell_of, _locate
+    from contact_bench.exact.characteristics import _cell_of, _locate
 
     sol = CharacteristicsSolution(L=1.0, E=1.0, rho=1.0, g=9.81, far_end="free",
                                   u0=0.05, v0=0.0, T=3.0, cells_per_length=50)
@@ -633,7 +634,7 @@ def test_fields_into_checks_its_arguments():
 def test_cell_search_without_table_on_a_uniform_grid():
     """On a uniform grid `_locate` guesses the bin itself (empty table); the cells are
     those of an independent binary search in each block's nodes, at every node too."""
-    from bench.characteristics import _NO_TABLE, _locate
+    from contact_bench.exact.characteristics import _NO_TABLE, _locate
 
     sol = _clamped(12.0, cells_per_length=40)
     assert sol._uniform and sol.inserted_nodes == 0
@@ -656,9 +657,10 @@ def test_cell_search_without_table_on_a_uniform_grid():
 
 def _clamped_bar_fields_into_is_numpy(x: np.ndarray, t: np.ndarray
                                       ) -> tuple[np.ndarray, np.ndarray]:
-    """Check that cases.clamped_bar's `fields_into` at the points (x[m], t[k]) gives the
+    """Check that contact_bench.cases.clamped_bar's `fields_into` at the points (x[m], t[k]) gives
+    the
     numpy closed form's values bitwise, with and without the velocity; return u, u_x."""
-    from cases.clamped_bar import ClampedBarExact
+    from contact_bench.cases.clamped_bar import ClampedBarExact
 
     u, ux, ut = (np.full((t.size, x.size), np.nan) for _ in range(3))
     ClampedBarExact().fields_into(x, t, u, ux, ut)
@@ -674,9 +676,9 @@ def _clamped_bar_fields_into_is_numpy(x: np.ndarray, t: np.ndarray
 
 
 def test_clamped_bar_fields_into_matches_numpy():
-    """cases.clamped_bar's `fields_into` (every point against every time) gives the
+    """contact_bench.cases.clamped_bar's `fields_into` (every point against every time) gives the
     numpy closed form's values bitwise, also a rounding away from multiples of 3."""
-    from cases.clamped_bar import ClampedBarExact
+    from contact_bench.cases.clamped_bar import ClampedBarExact
 
     rng = np.random.default_rng(8)
     k = 3.0 * np.arange(1, 401)

@@ -1,6 +1,6 @@
 """`fields_into` by runs of points per cell, and the coarse grids of the scenes.
 
-bench.characteristics evaluates sorted points dense in the cells by runs (module
+contact_bench.exact.characteristics evaluates sorted points dense in the cells by runs (module
 docstring, "Evaluation on a grid"): the cells must be those of the pointwise search
 (`_grid_kernel`, the kernel `fields_into` used before, and `fields`), and the values may
 differ from the pointwise ones by round-off only. Checked here on many solutions, with
@@ -16,13 +16,13 @@ import math
 import numpy as np
 import pytest
 
-from bench.characteristics import (
+from contact_bench.api.registry import make_case
+from contact_bench.exact.characteristics import (
     CharacteristicsSolution,
     _grid_kernel,
     _run_kernel,
     coarse_solution,
 )
-from bench.registry import make_case
 
 #: |by runs - pointwise| <= TOL * data scale (u: max |u| + L max |u_x|; u_x: max |u_x| +
 #: gam L; u_t: max |u_t| + c gam L). Measured at most 4e-16 (a couple of eps).
@@ -325,7 +325,7 @@ def _compare_grids(coarse, fine, tol_u, tol_d):
 
 
 def test_dropped_bar_reference_on_one_cell_per_length():
-    from cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
+    from contact_bench.cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
 
     case = DroppedBar()
     ex = case.exact(6.5)
@@ -390,8 +390,8 @@ def test_fast_impact_reference_on_one_cell_per_length(mach):
 
 
 def test_steel_bar_and_rough_data_references_on_one_cell_per_length():
-    from cases.rough_data import U0_DATA, V0_DATA
-    from cases.steel_bar import GAP, SPEED
+    from contact_bench.cases.rough_data import U0_DATA, V0_DATA
+    from contact_bench.cases.steel_bar import GAP, SPEED
 
     steel = make_case("steel_bar")
     ex = steel.exact(steel.T)
@@ -413,7 +413,7 @@ def test_steel_bar_and_rough_data_references_on_one_cell_per_length():
 def test_coarse_solution_falls_back_to_the_default_grid_at_the_node_cap():
     """A smooth pulse on two cells per length: crossings left out at the node cap (a
     coarse grid would smear them over a cell): the default grid instead."""
-    from cases.pulse import Pulse
+    from contact_bench.cases.pulse import Pulse
 
     case = Pulse()
     kw = {"L": 1.0, "E": 1.0, "rho": 1.0, "far_end": "clamped", "u0": case.u0,

@@ -1,6 +1,7 @@
 """`fields_into` on sorted points sparse in the cells (`_sparse_kernel`).
 
-bench.characteristics evaluates the Gauss points of a mesh against the sample times on a
+contact_bench.exact.characteristics evaluates the Gauss points of a mesh against the sample times
+on a
 fine grid (one or two points per cell: the smooth scenes pulse and grazing) 8 points at
 a time, guessing each point's cell from its block's nodes off the base grid and checking
 the guess (module docstring, "Evaluation on a grid"). The values must be those of the
@@ -17,7 +18,8 @@ import math
 import numpy as np
 import pytest
 
-from bench.characteristics import (
+from contact_bench.cases.pulse import Pulse
+from contact_bench.exact.characteristics import (
     CharacteristicsSolution,
     _exact_cell,
     _first_guess,
@@ -25,7 +27,6 @@ from bench.characteristics import (
     _locate,
     _sparse_kernel,
 )
-from cases.pulse import Pulse
 
 _GAUSS = np.polynomial.legendre.leggauss(4)[0]
 
@@ -312,7 +313,7 @@ def test_dispatch_sparse_for_sorted_sparse_points_only(monkeypatch):
     """`_evaluation`: sorted points sparse in the cells -> the sparse kernel; unsorted ->
     the pointwise kernel; dense -> runs; and `fields_into` calls what it says. The sparse
     and the pointwise ways give the same bits."""
-    import bench.characteristics as ch
+    import contact_bench.exact.characteristics as ch
 
     sol = SOLUTIONS["pulse, clamped"]
     x = _gauss_points(sol.L, 20)

@@ -1,4 +1,4 @@
-"""The d'Alembert solution (`bench.dalembert`, pulse's reference) against independent
+"""The d'Alembert solution (`contact_bench.exact.dalembert`, pulse's reference) against independent
 computations: the characteristics solution of the same data (which converges to it:
 O(ds^2) on u, O(ds) on the slopes), the energy of the data (conserved by the exact
 solution), the Signorini conditions, and its own compiled paths (the same bits)."""
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from numba import njit
 
-from bench.characteristics import CharacteristicsSolution
-from bench.dalembert import DalembertSolution
-from cases.pulse import _V, _u0
-from schemes._simd import vload, vrows4, vstore
+from contact_bench.cases.pulse import _V, _u0
+from contact_bench.core.simd import vload, vrows4, vstore
+from contact_bench.exact.characteristics import CharacteristicsSolution
+from contact_bench.exact.dalembert import DalembertSolution
 
 SHIFT = 0.05  # a clamped variant with u_L != 0: the data shifted by a constant
 

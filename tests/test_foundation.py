@@ -8,10 +8,10 @@ import scipy.sparse as sp
 from skfem import Basis, ElementLineP1, MeshLine
 from skfem.models import laplace, mass
 
-from bench.errors import BenchError
-from bench.fem import Tridiag, assemble, mass_variant, mesh_nodes
-from bench.harness import run_one
-from cases.clamped_bar import ClampedBarExact
+from contact_bench.api.fem import Tridiag, assemble, mass_variant, mesh_nodes
+from contact_bench.cases.clamped_bar import ClampedBarExact
+from contact_bench.core.errors import BenchError
+from contact_bench.harness.runner import run_one
 
 
 # ------------------------------------------------------------------------- assembly
@@ -99,7 +99,7 @@ def test_clamped_bar_exact_solution_properties():
 
 
 def test_dropped_bar_series_agrees_with_characteristics():
-    from cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
+    from contact_bench.cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
 
     case = DroppedBar()
     ex = case.exact(6.5)
@@ -191,7 +191,7 @@ def test_bad_inputs_are_one_line_errors():
 
 
 def test_blocked_assembly_equals_one_assembly(monkeypatch):
-    import bench.fem as fem
+    import contact_bench.api.fem as fem
 
     x = mesh_nodes(2.0, 1234, 1.7)
     whole = fem.assemble(x, 1.3, lambda s: 1 + s)
@@ -203,7 +203,7 @@ def test_blocked_assembly_equals_one_assembly(monkeypatch):
 
 
 def test_flat_points_broadcasts_and_keeps_the_shape():
-    from bench.plugin import flat_points
+    from contact_bench.api.plugin import flat_points
 
     x, t = np.arange(8.0).reshape(2, 4), np.array([[[0.5]], [[1.5]], [[2.5]]])
     xf, tf, shape = flat_points(x, t)

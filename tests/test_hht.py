@@ -1,7 +1,8 @@
 """The hht kernel (three passes per step, schemes/hht.py) against a plain scipy HHT-alpha
 step written here from the scheme's equations: sparse LU factorised once, one solve per
 step in Python, the contact folded in with w = S^-1 e0. Relative 1e-12, as the Newmark
-kernels against bench.reference (tests/test_reference.py); also the smallest systems
+kernels against contact_bench.harness.scipy_reference (tests/test_reference.py); also the smallest
+systems
 (1 to 4 unknowns: the kernel's first and last rows are written apart from the loop)."""
 
 from __future__ import annotations
@@ -12,10 +13,10 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from bench.fem import mesh_nodes
-from bench.plugin import Semidiscrete
-from bench.problem import discretise
-from bench.registry import make_case, make_scheme
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Semidiscrete
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
 
 TOL = 1e-12
 

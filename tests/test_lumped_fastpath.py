@@ -1,4 +1,5 @@
-"""The fused lumped-mass kernels (schemes._lumped) against the generic tridiagonal kernels.
+"""The fused lumped-mass kernels (contact_bench.kernels.lumped) against the generic tridiagonal
+kernels.
 
 Same inputs through both paths of `restitution` (lumped, beta = 0) and `taylor_flanagan`
 (lumped): the sampled U, V, stress, energy, u(0, t), min u0, steps and blow-up must
@@ -23,12 +24,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-import schemes.restitution as restitution
-import schemes.taylor_flanagan as taylor_flanagan
-from bench.fem import mesh_nodes
-from bench.plugin import Semidiscrete, Trajectory
-from bench.problem import discretise
-from bench.registry import make_case, make_scheme
+import contact_bench.schemes.restitution as restitution
+import contact_bench.schemes.taylor_flanagan as taylor_flanagan
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
 
 TOL = 2e-13  # relative to max|U|, every quantity in displacement units (see above)
 

@@ -1,4 +1,5 @@
-"""The compiled error-norm kernels of `bench.metrics` (explicit SIMD, `schemes._simd`).
+"""The compiled error-norm kernels of `contact_bench.harness.metrics` (explicit SIMD,
+`contact_bench.core.simd`).
 
 - Both kernels equal an independent computation: numpy terms of the same expressions,
   summed exactly (math.fsum) sample by sample, to 1e-14 relative (the kernels' partial
@@ -24,10 +25,10 @@ import numpy as np
 import pytest
 from numba.core.errors import TypingError
 
-from bench import metrics
-from bench.harness import reference, run_one
-from bench.metrics import _LEAF, _error_and_exact_sums, _error_sums
-from bench.registry import make_case
+from contact_bench.api.registry import make_case
+from contact_bench.harness import metrics
+from contact_bench.harness.metrics import _LEAF, _error_and_exact_sums, _error_sums
+from contact_bench.harness.runner import reference, run_one
 
 K = 7  # rows of the trajectory
 ROW0 = 2  # first sample of the block

@@ -1,4 +1,5 @@
-"""cases.heterogeneous_bar's `NumericalReference`: the compiled `fields` and `fields_into`
+"""contact_bench.cases.heterogeneous_bar's `NumericalReference`: the compiled `fields` and
+`fields_into`
 (what the error norms use) against an independent interpolation (to round-off) and
 against the class's numpy `u`, `ux`, `ut` (bitwise), on a small random trajectory."""
 
@@ -9,7 +10,7 @@ import bisect
 import numpy as np
 import pytest
 
-from cases.heterogeneous_bar import NumericalReference
+from contact_bench.cases.heterogeneous_bar import NumericalReference
 
 
 def _random_reference(seed: int = 0, nodes: int = 13, samples: int = 9) -> NumericalReference:
@@ -188,8 +189,8 @@ def test_inconsistent_trajectories_are_refused():
 def test_heterogeneous_bar_reference_fields_into_at_quadrature_points():
     """The real reference (a fine run, about half a second) at the default mesh's Gauss
     points, a few sample times of the default run: bitwise the numpy evaluation."""
-    from bench.fem import mesh_nodes
-    from bench.registry import make_case
+    from contact_bench.api.fem import mesh_nodes
+    from contact_bench.api.registry import make_case
 
     case = make_case("heterogeneous_bar")
     ref = case.exact(case.T)

@@ -26,14 +26,15 @@ import numpy as np
 import pytest
 from skfem import Basis, ElementLineP1, MeshLine
 
-from bench import harness, metrics
-from bench.characteristics import CharacteristicsSolution
-from bench.fem import mesh_nodes
-from bench.harness import run_one, run_table
-from bench.metrics import ERROR_COLUMNS, error_metrics
-from bench.plugin import Trajectory
-from bench.problem import discretise
-from bench.registry import make_case
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case
+from contact_bench.exact.characteristics import CharacteristicsSolution
+from contact_bench.harness import metrics
+from contact_bench.harness import runner as harness
+from contact_bench.harness.metrics import ERROR_COLUMNS, error_metrics
+from contact_bench.harness.runner import run_one, run_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -148,7 +149,7 @@ def test_semi_not_kept_from_the_checks_is_rebuilt_identically(monkeypatch):
 
 def test_runs_step_without_pandas_loaded():
     """pandas (60 MB) is imported for the table, after the runs: not in a run's peak."""
-    code = ("import sys; from bench.harness import run_one; "
+    code = ("import sys; from contact_bench.harness.runner import run_one; "
             "run_one('clamped_bar', 'standard', nx=10, T=0.1); "
             "print('pandas' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -204,7 +205,7 @@ def test_lone_run_peak_is_its_samples_plus_a_few_arrays_of_n(scheme):
 _ALLOCATOR = """
 import resource
 import numpy as np
-from bench.environment import MMAP_THRESHOLD, return_freed_memory
+from contact_bench.harness.environment import MMAP_THRESHOLD, return_freed_memory
 
 def faults():
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
@@ -490,7 +491,7 @@ def test_norms_through_fields_into_equal_direct_quadrature(monkeypatch, case_nam
     metrics.clear_cache()
     pointwise = error_metrics(semi, traj, _Pointwise(exact), case.provides)
     # the characteristics solution's `fields_into` evaluates sorted points dense in its
-    # cells by runs: equal to `fields` up to round-off only (bench.characteristics,
+    # cells by runs: equal to `fields` up to round-off only (contact_bench.exact.characteristics,
     # "Evaluation on a grid"); the clamped bar's closed form is bitwise the same
     if case_name == "clamped_bar":
         assert pointwise == got

@@ -19,13 +19,13 @@ import pytest
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
-from bench.characteristics import CharacteristicsSolution
-from bench.fem import mesh_nodes
-from bench.harness import run_one
-from bench.plugin import Case, Scheme
-from bench.problem import discretise
-from bench.registry import make_scheme, schemes
-from cases.clamped_bar import ClampedBarExact
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Case, Scheme
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_scheme, schemes
+from contact_bench.cases.clamped_bar import ClampedBarExact
+from contact_bench.exact.characteristics import CharacteristicsSolution
+from contact_bench.harness.runner import run_one
 
 # Derandomized: the same examples on every run, so a failure is reproducible and the
 # suite is not flaky; CONTACT_BENCH_HYPOTHESIS_RANDOM=1 explores new random data.
@@ -99,7 +99,7 @@ def _run(case: RandomBar, scheme: Scheme, nx: int, cfl: float):
 
 
 def _probe(scheme: Scheme) -> tuple[Case, int]:
-    from cases.clamped_bar import ClampedBar
+    from contact_bench.cases.clamped_bar import ClampedBar
 
     return ClampedBar(), 20
 
@@ -200,7 +200,7 @@ def test_characteristics_complementarity(case: RandomBar, seed: int):
     scale = (np.abs(case.u0s).max() + np.abs(case.v0s).max() * case.L / c
              + ex.gam * (c * case.T) ** 2)
     # g = 0: exact to round-off; gravity: quadratic pieces interpolated linearly,
-    # O(gam ds^2) on u and O(rho g ds) on the stress (bench.characteristics)
+    # O(gam ds^2) on u and O(rho g ds) on the stress (contact_bench.exact.characteristics)
     tol_u = 1e-12 * scale + ex.gam * ex.ds**2
     tol_s = 1e-12 * case.E * scale / case.L + case.rho * case.g * ex.ds
     assert u.min() >= -tol_u
@@ -212,7 +212,7 @@ def test_characteristics_complementarity(case: RandomBar, seed: int):
 
 
 def test_random_bar_is_not_registered():
-    from bench.registry import cases
+    from contact_bench.api.registry import cases
 
     assert "random_bar" not in cases().plugins
     assert math.isfinite(RandomBar(xs=np.array([0.0, 1.0]), u0s=np.array([0.5, 0.0]),

@@ -1,4 +1,5 @@
-"""The numba Newmark kernels agree with the plain scipy reference (bench.reference).
+"""The numba Newmark kernels agree with the plain scipy reference
+(contact_bench.harness.scipy_reference).
 
 Two kinds of check, both at 1e-12 relative. U, u(0, t) and the energy are compared with
 their largest value (on the larger grids the energy is compared as a function of the
@@ -28,11 +29,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bench.fem import mesh_nodes
-from bench.plugin import Semidiscrete, Trajectory
-from bench.problem import discretise
-from bench.reference import _energy, reference_for
-from bench.registry import make_case, make_scheme
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.harness.scipy_reference import _energy, reference_for
 
 TOL = 1e-12
 

@@ -17,15 +17,15 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from bench.bad_inputs import BadInput, bad_inputs, demo_plugins
-from bench.cli import INTERRUPTED, main
-from bench.errors import BenchError
-from bench.fem import mesh_nodes
-from bench.harness import run_one, run_table
-from bench.io import atomic_write, write_text
-from bench.problem import discretise
-from bench.registry import make_scheme, schemes
-from schemes.standard import Standard
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_scheme, schemes
+from contact_bench.cli.bad_inputs import BadInput, bad_inputs, demo_plugins
+from contact_bench.cli.main import INTERRUPTED, main
+from contact_bench.core.errors import BenchError
+from contact_bench.harness.io import atomic_write, write_text
+from contact_bench.harness.runner import run_one, run_table
+from contact_bench.schemes.standard import Standard
 
 ROOT = Path(__file__).resolve().parents[1]
 BAD = bad_inputs()
@@ -34,7 +34,7 @@ BAD = bad_inputs()
 def _cli() -> list[str]:
     """The installed console script, else the same entry point through python -m."""
     exe = shutil.which("contact-bench")
-    return [exe] if exe else [sys.executable, "-m", "bench.cli"]
+    return [exe] if exe else [sys.executable, "-m", "contact_bench"]
 
 
 def _env() -> dict[str, str]:
@@ -61,7 +61,7 @@ def _one_line(err: str) -> str:
 
 
 def _explicit_limit(nx: int = 20) -> float:
-    from cases.clamped_bar import ClampedBar
+    from contact_bench.cases.clamped_bar import ClampedBar
 
     scheme = make_scheme("redistributed[beta=0]")
     semi = discretise(ClampedBar(), mesh_nodes(1.0, nx), scheme.mass_kind())
@@ -129,7 +129,7 @@ def test_not_applicable_pair_in_a_product_is_a_row(capsys):
 
 
 def test_api_strictness_of_a_single_pair():
-    from bench.bad_inputs import DemoFreeOnly
+    from contact_bench.cli.bad_inputs import DemoFreeOnly
 
     with demo_plugins():
         run = run_one("clamped_bar", DemoFreeOnly(), nx=10, T=0.2)
@@ -230,8 +230,8 @@ def test_run_table_identical_serial_and_in_two_worker_processes():
 
 
 def test_sweep_identical_with_1_and_2_workers():
-    sweep = pytest.importorskip("bench.sweep")
-    from bench.cache import Cache
+    sweep = pytest.importorskip("contact_bench.sweeps.sweep")
+    from contact_bench.sweeps.cache import Cache
 
     tasks = sweep.plan(["clamped_bar", "dropped_bar"], ["standard", "redistributed[beta=0]"],
                        [16], T=1.0, timed=False)
@@ -257,7 +257,7 @@ def test_atomic_write_interrupted_leaves_old_file_and_no_temporary(tmp_path):
         atomic_write(target, half)
     assert target.read_text() == "old\n"
     assert _files(tmp_path) == ["runs.csv"]
-    from bench.io import _UMASK
+    from contact_bench.harness.io import _UMASK
 
     assert target.stat().st_mode & 0o777 == 0o666 & ~_UMASK  # not mkstemp's 0600
 
@@ -305,13 +305,14 @@ def test_ctrl_c_while_writing_results_leaves_no_partial_file(tmp_path, monkeypat
 
 def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
     out = tmp_path / "out"
-    # the console script is `from bench.cli import main; sys.exit(main())`; "ready" marks
+    # the console script is `from contact_bench.cli.main import main; sys.exit(main())`; "ready"
+    # marks
     # the end of the imports so that SIGINT lands in main (a long job: 8 runs of ~1.5 s)
     argv = ["run", "--case", "clamped_bar", "--scheme", "standard", "--nx", "4000",
             "--T", "48", "--stride", "2000", "--out", str(out)]
     for dt in ("1e-4", "1.01e-4", "1.02e-4", "1.03e-4", "1.04e-4", "1.05e-4", "1.06e-4"):
         argv += ["--dt", dt]
-    code = ("import sys; from bench.cli import main; print('ready', flush=True); "
+    code = ("import sys; from contact_bench.cli.main import main; print('ready', flush=True); "
             f"sys.exit(main({argv!r}))")
     proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=_env(), cwd=tmp_path)
@@ -332,7 +333,7 @@ def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
 @pytest.mark.parametrize("bad, shown", [("--nx=0", "0"), ("--dt=-1", "-1"), ("--cfl=nan", "nan"),
                                         ("--T=0", "0")])
 def test_sweep_rejects_bad_numbers_before_running(tmp_path, capsys, bad, shown):
-    from bench.cli import main
+    from contact_bench.cli.main import main
 
     out = tmp_path / "sweep"
     code = main(["sweep", "--case", "clamped_bar", "--scheme", "standard", bad,

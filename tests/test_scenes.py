@@ -9,13 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench.characteristics import CharacteristicsSolution
-from bench.cli import main
-from bench.errors import BenchError
-from bench.fem import mesh_nodes
-from bench.harness import run_one
-from bench.problem import discretise
-from bench.registry import cases, make_case
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import cases, make_case
+from contact_bench.cli.main import main
+from contact_bench.core.errors import BenchError
+from contact_bench.exact.characteristics import CharacteristicsSolution
+from contact_bench.harness.runner import run_one
 
 NEW_SCENES = ["rough_data", "pulse", "grazing", "long_time", "fast_impact", "steel_bar",
               "heterogeneous_bar"]
@@ -267,7 +267,7 @@ def test_pulse_reference_against_dalembert_before_and_at_the_first_impact():
     which works on the reflected and shifted copies of its table)."""
     from scipy.optimize import brentq
 
-    from cases.pulse import AMPLITUDE, CENTER, GAP, WIDTH, _bump
+    from contact_bench.cases.pulse import AMPLITUDE, CENTER, GAP, WIDTH, _bump
 
     ref = make_case("pulse").exact(1.0)
     x, t = np.meshgrid(np.linspace(0.0, 0.29, 30), np.linspace(0.0, 0.29, 30))

@@ -25,10 +25,10 @@ import math
 import numpy as np
 import pytest
 
-from bench.fem import mesh_nodes
-from bench.harness import run_one
-from bench.problem import discretise
-from bench.registry import make_case, make_scheme, schemes
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.harness.runner import run_one
 
 CASES = ("clamped_bar", "dropped_bar")
 NXS = (20, 40, 80)

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.errors import BenchError
-from bench.fem import mesh_nodes
-from bench.harness import run_one
-from bench.problem import discretise
-from cases.clamped_bar import ClampedBar, ClampedBarExact
-from schemes.restitution import run_paoli_schatzman
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
+from contact_bench.cases.clamped_bar import ClampedBar, ClampedBarExact
+from contact_bench.core.errors import BenchError
+from contact_bench.harness.runner import run_one
+from contact_bench.schemes.restitution import run_paoli_schatzman
 
 E0 = 0.125  # clamped_bar's exact energy
 

@@ -1,4 +1,5 @@
-"""The partitioned tridiagonal solver (`schemes._spike`) against LAPACK's banded solver."""
+"""The partitioned tridiagonal solver (`contact_bench.core.spike`) against LAPACK's banded
+solver."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-from schemes._spike import LANES, spike_factor, spike_solve
+from contact_bench.core.spike import LANES, spike_factor, spike_solve
 
 
 def _system(kind: str, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

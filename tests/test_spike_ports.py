@@ -21,12 +21,12 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
-import schemes.ode_verlet as ode_verlet
-import schemes.taylor_flanagan as taylor_flanagan
-from bench.fem import mesh_nodes
-from bench.plugin import Semidiscrete, Trajectory
-from bench.problem import discretise
-from bench.registry import make_case, make_scheme
+import contact_bench.schemes.ode_verlet as ode_verlet
+import contact_bench.schemes.taylor_flanagan as taylor_flanagan
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
 
 TOL = 1e-12  # relative to max|U|, every quantity in displacement units (see above)
 

@@ -13,11 +13,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bench.analysis import convergence_table, fit_order, pareto_mask
-from bench.cache import Cache
-from bench.cli import main
-from bench.study import plan_study
-from bench.sweep import VOLATILE_COLUMNS, classify, load_table, plan, run_sweep, save_table
+from contact_bench.cli.main import main
+from contact_bench.sweeps.analysis import convergence_table, fit_order, pareto_mask
+from contact_bench.sweeps.cache import Cache
+from contact_bench.sweeps.study import plan_study
+from contact_bench.sweeps.sweep import (
+    VOLATILE_COLUMNS,
+    classify,
+    load_table,
+    plan,
+    run_sweep,
+    save_table,
+)
 
 # 12 runs of a fraction of a second: two schemes (one explicit, blowing up at CFL 1)
 GRID = dict(cases=["clamped_bar"], schemes=["standard", "redistributed[beta=[0.25,0]]"],
@@ -67,7 +74,7 @@ def test_killed_sweep_resumes(tmp_path):
             "--scheme", "redistributed", "--nx", "20,40,60,80,100,120,140,160", "--cfl", "0.5",
             "--T", "6", "--repeats", "0", "-j", "1", "--quiet",
             "--cache", str(cache_dir), "--out", str(out)]
-    proc = subprocess.Popen([sys.executable, "-m", "bench.cli", *args], start_new_session=True,
+    proc = subprocess.Popen([sys.executable, "-m", "contact_bench", *args], start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 60

@@ -1,0 +1,151 @@
+"""Declared plugin parameters and the `name[key=value,...]` spec syntax.
+
+A spec names a plugin and some of its parameters: ``redistributed[variant=getfem,beta=0.25]``.
+A value may be a list, ``penalty[gamma_p=[1,10,100]]``; `expand_spec` turns such a spec
+into one spec per combination (benchopt style).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from contact_bench.core.errors import BenchError, unknown
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter: its default, type, allowed values or range, and a short doc."""
+
+    default: Any
+    doc: str = ""
+    choices: tuple[Any, ...] | None = None
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+
+    @property
+    def kind(self) -> type:
+        return type(self.default)
+
+    def allowed(self) -> str:
+        if self.choices is not None:
+            return "one of " + ", ".join(str(c) for c in self.choices)
+        lo = "-inf" if self.low is None else f"{self.low:g}"
+        hi = "inf" if self.high is None else f"{self.high:g}"
+        left = "(" if self.low_open or self.low is None else "["
+        right = ")" if self.high_open or self.high is None else "]"
+        return f"{self.kind.__name__} in {left}{lo}, {hi}{right}"
+
+    def convert(self, owner: str, name: str, raw: Any) -> Any:
+        """Parse and check a value; raise a one-line BenchError naming it."""
+        where = f"{owner}[{name}={raw}]"
+        try:
+            if self.kind is bool:
+                if isinstance(raw, str):
+                    if raw.lower() not in {"true", "false", "1", "0"}:
+                        raise ValueError
+                    value: Any = raw.lower() in {"true", "1"}
+                else:
+                    value = bool(raw)
+            elif self.kind is int:
+                value = int(float(raw)) if isinstance(raw, str) else raw
+                if float(value) != float(raw) or isinstance(value, bool):
+                    raise ValueError
+                value = int(value)
+            elif self.kind is float:
+                value = float(raw)
+            else:
+                value = str(raw)
+        except (TypeError, ValueError):
+            raise BenchError(f"{where}: not a valid {self.kind.__name__}; "
+                             f"allowed: {self.allowed()}") from None
+        if self.choices is not None:
+            if value not in self.choices:
+                raise BenchError(f"{where}: not allowed; allowed: {self.allowed()}")
+            return value
+        if isinstance(value, float) and not math.isfinite(value):
+            raise BenchError(f"{where}: must be finite; allowed: {self.allowed()}")
+        if self.low is not None and (value < self.low or (self.low_open and value == self.low)):
+            raise BenchError(f"{where}: out of range; allowed: {self.allowed()}")
+        if self.high is not None and (value > self.high or (self.high_open and value == self.high)):
+            raise BenchError(f"{where}: out of range; allowed: {self.allowed()}")
+        return value
+
+
+def _split_top(text: str) -> list[str]:
+    """Split on commas that are not inside brackets."""
+    parts, depth, cur = [], 0, []
+    for ch in text:
+        if ch == "[":
+            depth += 1
+        elif ch == "]":
+            depth -= 1
+        if ch == "," and depth == 0:
+            parts.append("".join(cur))
+            cur = []
+        else:
+            cur.append(ch)
+    parts.append("".join(cur))
+    return [p.strip() for p in parts if p.strip()]
+
+
+def parse_spec(spec: str) -> tuple[str, dict[str, str | list[str]]]:
+    """``'name[a=1,b=[2,3]]'`` -> ``('name', {'a': '1', 'b': ['2', '3']})`` (values unchecked)."""
+    spec = spec.strip()
+    if not spec:
+        raise BenchError("empty spec: expected name or name[key=value,...]")
+    if "[" not in spec:
+        return spec, {}
+    if not spec.endswith("]") or spec.count("[") != spec.count("]"):
+        raise BenchError(f"malformed spec {spec!r}: expected name[key=value,...]")
+    name, inner = spec[: spec.index("[")].strip(), spec[spec.index("[") + 1 : -1]
+    params: dict[str, str | list[str]] = {}
+    for item in _split_top(inner):
+        if "=" not in item:
+            raise BenchError(f"malformed parameter {item!r} in {spec!r}: expected key=value")
+        key, value = (s.strip() for s in item.split("=", 1))
+        if key in params:
+            raise BenchError(f"parameter {key!r} given twice in {spec!r}")
+        if value.startswith("[") and value.endswith("]"):
+            params[key] = _split_top(value[1:-1])
+        else:
+            params[key] = value
+    return name, params
+
+
+def expand_spec(spec: str) -> list[str]:
+    """One spec per combination of the list-valued parameters, in the given order."""
+    name, params = parse_spec(spec)
+    if not params:
+        return [name]
+    keys = list(params)
+    grids = [v if isinstance(v, list) else [v] for v in params.values()]
+    return [
+        f"{name}[{','.join(f'{k}={v}' for k, v in zip(keys, combo, strict=True))}]"
+        for combo in itertools.product(*grids)
+    ]
+
+
+def check_params(owner: str, declared: dict[str, Param], given: dict[str, Any]) -> dict[str, Any]:
+    """Defaults overlaid with the given values, each converted and checked."""
+    values = {k: p.default for k, p in declared.items()}
+    for key, raw in given.items():
+        if key not in declared:
+            if not declared:
+                raise BenchError(f"{owner} takes no parameters; got {key!r}")
+            raise unknown(f"parameter of {owner}", key, declared)
+        if isinstance(raw, list):
+            raise BenchError(f"{owner}[{key}=[...]]: a list of values is only allowed in a sweep")
+        values[key] = declared[key].convert(owner, key, raw)
+    return values
+
+
+def format_spec(name: str, declared: dict[str, Param], values: dict[str, Any]) -> str:
+    """Canonical spec: the name and the non-default parameters in declaration order."""
+    changed = [f"{k}={values[k]:g}" if isinstance(values[k], float) else f"{k}={values[k]}"
+               for k, p in declared.items() if values[k] != p.default]
+    return f"{name}[{','.join(changed)}]" if changed else name

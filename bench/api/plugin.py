@@ -1,0 +1,293 @@
+"""The two plugin kinds, schemes and cases (scenes), and what passes between them.
+
+A *case* describes a bar, its data and (if known) its exact solution; it declares what
+exists for it (`Case.quantities`). A *scheme* declares how it integrates in time
+(`Scheme.traits`) and turns a `Semidiscrete` problem into a `Trajectory`. The harness
+only reads these declarations: it never branches on a plugin's name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Protocol
+
+import numpy as np
+
+from contact_bench.api.params import Param, check_params, format_spec
+
+
+class Plugin:
+    """Base of schemes and cases: declared parameters, checked at construction."""
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    params: ClassVar[dict[str, Param]] = {}
+
+    def __init__(self, **given: Any) -> None:
+        self.values = check_params(self.name, self.params, given)
+        for key, value in self.values.items():
+            setattr(self, key, value)
+        self.validate()
+
+    def validate(self) -> None:
+        """Cross-parameter checks; raise BenchError. Default: nothing to check."""
+
+    @property
+    def spec(self) -> str:
+        return format_spec(self.name, self.params, self.values)
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.spec}>"
+
+
+# ----------------------------------------------------------------------------- cases
+
+
+def flat_points(x: Any, t: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """x and t broadcast against each other, as contiguous 1-D arrays (for a compiled
+    evaluation of an exact solution at the points (x, t)), and the broadcast shape.
+
+    Contiguous copies on purpose: a compiled loop over broadcast (strided) views runs
+    several times slower than the copy costs.
+    """
+    x, t = np.asarray(x, float), np.asarray(t, float)
+    shape = np.broadcast_shapes(x.shape, t.shape)
+
+    def flat(a: np.ndarray) -> np.ndarray:
+        # an expanded operand is copied from a read-only broadcast view (a writeable
+        # one is deprecated: numpy warns when numba reads its flags)
+        return (np.ascontiguousarray(a) if a.shape == shape
+                else np.broadcast_to(a, shape).copy()).ravel()
+
+    return flat(x), flat(t), shape
+
+
+def grid_points(x: Any, t: Any, *out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """x and t as contiguous 1-D float arrays, after checking that every output given
+    (None skipped) is a writeable C-contiguous float64 array of shape (t.size, x.size):
+    the arguments of an exact solution's `fields_into` (whose compiled kernels write
+    there without bounds checks)."""
+    x = np.ascontiguousarray(x, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    if x.ndim != 1 or t.ndim != 1:
+        raise ValueError(f"fields_into: x and t must be 1-D, got {x.shape} and {t.shape}")
+    for arr in out:
+        if arr is not None and not (
+                isinstance(arr, np.ndarray) and arr.dtype == np.float64
+                and arr.shape == (t.size, x.size) and arr.flags.c_contiguous
+                and arr.flags.writeable):
+            raise ValueError("fields_into: outputs must be writeable C-contiguous float64 "
+                             f"arrays of shape {(t.size, x.size)}")
+    return x, t
+
+
+#: relative slack of `checked_interval`: a value this far (relative) out is clipped back
+INTERVAL_SLACK = 1e-12
+
+
+def check_positive(name: str, value: float) -> float:
+    """value as a float, or a one-line ValueError naming it unless it is > 0 and finite
+    (an exact solution's L, E, rho, T)."""
+    value = float(value)
+    if not (value > 0.0 and np.isfinite(value)):
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return value
+
+
+def checked_far_end(far_end: str, u_L: float) -> tuple[str, float]:
+    """(far_end, u_L as a float), or a one-line ValueError naming the bad one: far_end
+    "clamped" or "free", u_L finite (an exact solution's far end)."""
+    if far_end not in ("clamped", "free"):
+        raise ValueError(f"far_end must be 'clamped' or 'free', got {far_end!r}")
+    u_L = float(u_L)
+    if not np.isfinite(u_L):
+        raise ValueError(f"u_L must be finite, got {u_L!r}")
+    return far_end, u_L
+
+
+def checked_interval(name: str, a: Any, hi: float, where: str) -> np.ndarray:
+    """a as a float array clipped to [0, hi], or a one-line ValueError naming its first
+    value outside [0, hi] by more than INTERVAL_SLACK * hi (NaN included): "{name} =
+    {value} outside {where}" (an exact solution's x in the bar, t in [0, T])."""
+    a = np.asarray(a, dtype=float)
+    slack = INTERVAL_SLACK * hi
+    if a.size and not (np.min(a) >= -slack and np.max(a) <= hi + slack):
+        bad = float(a[~((a >= -slack) & (a <= hi + slack))].ravel()[0])
+        raise ValueError(f"{name} = {bad!r} outside {where}")
+    return np.clip(a, 0.0, hi)
+
+
+class Exact(Protocol):
+    """An exact (or reference) solution; arrays broadcast against each other.
+
+    Optional, for the error norms (`contact_bench.harness.metrics`): `fields(x, t, velocity)` giving
+    (u, u_x, u_t or None) at once, and `fields_into(x, t, u, ux, ut=None)` writing the
+    same values at the points (x[m], t[k]) into given (t.size, x.size) arrays
+    (`grid_points`), so that the norms keep them without temporaries.
+    """
+
+    def u(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def ut(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def ux(self, x: np.ndarray, t: np.ndarray) -> np.ndarray: ...
+    def stress(self, t: np.ndarray) -> np.ndarray: ...
+
+
+class Case(Plugin):
+    """A scene: a bar, its data, a default resolution and its exact solution if any.
+
+    Subclasses set the class attributes (or properties, when they depend on params)
+    and implement `u0`, `v0` and, when there is one, `exact`.
+    """
+
+    L: float = 1.0
+    rho: float = 1.0
+    E: float = 1.0
+    g: float = 0.0
+    far_end: str = "clamped"  # "clamped" (u(L) = u_L) or "free" (u_x(L) = 0)
+    u_L: float = 0.0
+    T: float = 1.0
+    nx: int = 40
+    dt: float = 0.01
+    #: default sampling stride (keep a sample every `stride` steps) when the user gives
+    #: none; long runs set it so that the samples stay few
+    stride: int = 1
+    #: "exact" (closed form or characteristics), "numerical" (a fine run) or None
+    reference: ClassVar[str | None] = None
+    #: quantities the reference provides: subset of {"u", "v", "stress", "energy"}
+    provides: ClassVar[frozenset[str]] = frozenset()
+    #: part of the default `contact-bench run` (the seed's two scenes)
+    in_default_run: ClassVar[bool] = False
+    #: a stiff scene (physical units, short time scale): the study's stability part runs it
+    stiff: ClassVar[bool] = False
+
+    def u0(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def v0(self, x: np.ndarray) -> np.ndarray:
+        return np.zeros_like(np.asarray(x, dtype=float))
+
+    def exact(self, T: float) -> Exact | None:
+        """The reference solution on [0, T], or None."""
+        return None
+
+    @property
+    def exact_energy(self) -> float | None:
+        """The conserved energy of the continuous problem, if known."""
+        return None
+
+    @property
+    def wave_speed(self) -> float:
+        return float(np.sqrt(self.E / self.rho))
+
+    def cannot_run(self, scheme: Scheme) -> str | None:
+        """A reason why this scene cannot be run by the scheme, or None."""
+        return None
+
+
+# --------------------------------------------------------------------------- schemes
+
+
+@dataclass(frozen=True)
+class Semidiscrete:
+    """The space-discrete problem on the free dofs 0..nfree-1 (node 0 = contact node).
+
+    A clamped far end is eliminated: its value sits in `u_fixed` and its coupling in F.
+    The energy of a state is 1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset, which equals
+    kinetic + strain + gravity potential of the full nodal vector.
+    """
+
+    x: np.ndarray
+    nfree: int
+    M: Any  # contact_bench.api.fem.Tridiag over the free dofs
+    K: Any
+    F: np.ndarray
+    U0: np.ndarray
+    V0: np.ndarray
+    u_fixed: float | None
+    energy_offset: float
+    massless: bool
+    E_contact: float  # Young modulus in the first element (contact stress = E u_x(0))
+    c_max: float  # largest wave speed
+
+    @property
+    def h(self) -> np.ndarray:
+        return np.diff(self.x)
+
+    @property
+    def hmin(self) -> float:
+        return float(self.h.min())
+
+    def full(self, U: np.ndarray, fill_velocity: bool = False) -> np.ndarray:
+        """Nodal values on all nodes (appends the clamped node along the last axis)."""
+        if self.u_fixed is None:
+            return U
+        pad = np.full(U.shape[:-1] + (1,), 0.0 if fill_velocity else self.u_fixed)
+        return np.concatenate([U, pad], axis=-1)
+
+
+@dataclass
+class Trajectory:
+    """What a scheme returns: samples every `stride` steps (and the last step)."""
+
+    t: np.ndarray  # (K,)
+    U: np.ndarray  # (K, nfree) displacement samples
+    V: np.ndarray  # (K, nfree) velocity samples
+    contact_u: np.ndarray  # (K,) u(0, t)
+    stress: np.ndarray  # (K,) numerical contact stress (<= 0 for compression)
+    energy: np.ndarray  # (K,) the scheme's discrete energy (incl. penalty/Nitsche terms)
+    min_contact_u: float  # min over *all* steps of u(0, t_n)
+    steps_done: int
+    blowup_time: float | None = None  # first time NaN/inf or energy > 1e3 E(0)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Traits:
+    """What a scheme declares about itself."""
+
+    implicit: bool
+    massless_contact_node: bool
+    contact: str  # "exact" or e.g. "penalty O(1/kappa)"
+    energy: str  # "conserved", "dissipated" or "may grow"
+    order: int | None = None  # expected time order away from impacts
+
+
+class Scheme(Plugin):
+    """A time-integration / contact scheme. Subclasses implement `traits` and `integrate`."""
+
+    def traits(self) -> Traits:
+        raise NotImplementedError
+
+    def mass_kind(self) -> str:
+        """Which `contact_bench.api.fem` mass variant the scheme uses."""
+        return "consistent"
+
+    def stability_limit(self, h: float, c: float) -> float | None:
+        """Largest stable dt on a mesh with smallest element h and wave speed c (None: none)."""
+        return None
+
+    def cannot_run(self, case: Case) -> str | None:
+        """A reason why the scheme cannot run this scene, or None."""
+        return None
+
+    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
+        """Largest penetration max_t -u(0, t) the scheme admits (exact contact: 0).
+
+        Round-off comes on top: callers compare with bound + 1e-12 * max|U0|.
+        """
+        return 0.0
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        """Bound on max |E(t) - E(0)| / |E(0)| the scheme claims (None: no claim).
+
+        Meaningful for traits().energy == "conserved" (and "dissipated": no growth
+        beyond this bound).
+        """
+        return None
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        raise NotImplementedError
+
+    def warm_up(self, semi: Semidiscrete) -> None:
+        """Compile the kernels outside any timing (a zero-step run)."""
+        self.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)

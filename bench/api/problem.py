@@ -1,0 +1,99 @@
+"""From a case and a mesh to the space-discrete problem a scheme integrates."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from contact_bench.api.fem import MASSLESS_KINDS, assemble, mass_variant
+from contact_bench.api.plugin import Case, Semidiscrete
+from contact_bench.core.errors import BenchError
+
+
+def _number(case: Case, name: str, value: object, allowed: str, ok) -> None:
+    try:
+        v = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise BenchError(f"case {case.spec}: {name} = {value!r}; allowed: {allowed}") from None
+    if not (math.isfinite(v) and ok(v)):
+        raise BenchError(f"case {case.spec}: {name} = {value!r}; allowed: {allowed}")
+
+
+def check_case(case: Case) -> None:
+    """The bar's constants: L, E, rho > 0, g >= 0, u_L finite, a known far end.
+
+    A case with declared parameters checks their ranges itself (`Param`); this is
+    the last line for values a case computes. x-dependent E and rho (callables) are
+    checked at the quadrature points by `contact_bench.api.fem.assemble`.
+    """
+    _number(case, "L", case.L, "a finite number > 0", lambda v: v > 0)
+    for name in ("E", "rho"):
+        value = getattr(case, name)
+        if not callable(value):
+            _number(case, name, value, "a finite number > 0", lambda v: v > 0)
+    _number(case, "g", case.g, "a finite number >= 0", lambda v: v >= 0)
+    _number(case, "u_L", case.u_L, "a finite number", lambda v: True)
+    if case.far_end not in ("clamped", "free"):
+        raise BenchError(f"case {case.spec}: far_end = {case.far_end!r}; "
+                         f"allowed: 'clamped' or 'free'")
+
+
+def discretise(case: Case, x: np.ndarray, mass_kind: str = "consistent") -> Semidiscrete:
+    """Assemble with scikit-fem, pick the mass variant, eliminate a clamped far end.
+
+    Gravity is a body acceleration: the load is F = -g M 1 with the scheme's own mass
+    M, so a massless contact node feels no gravity and a rigid free fall is exact for
+    every mass variant. Initial data are nodal interpolants of the case's u0 and v0.
+    """
+    check_case(case)
+    try:
+        asm = assemble(x, case.rho, case.E)
+    except ValueError as exc:  # x-dependent rho or E not > 0 somewhere
+        raise BenchError(f"case {case.spec}: {exc}") from None
+    M = mass_variant(asm, mass_kind)
+    K = asm.K
+    n_nodes = x.size
+    U = np.asarray(case.u0(x), dtype=float) * np.ones(n_nodes)
+    V = np.asarray(case.v0(x), dtype=float) * np.ones(n_nodes)
+    for name, values in (("u0", U), ("v0", V)):
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise BenchError(f"case {case.spec}: {name}(x={x[i]:g}) = {float(values[i])!r}; "
+                             f"initial data must be finite")
+    if U[0] < 0:
+        raise BenchError(f"case {case.spec}: u0(0) = {U[0]:g} violates the obstacle "
+                         f"constraint; allowed: u0(0) >= 0")
+    F = -case.g * M.matvec(np.ones(n_nodes))
+    if case.far_end == "clamped":
+        m = n_nodes - 1
+        uL = float(case.u_L)
+        U[-1] = uL
+        V[-1] = 0.0
+        full_load = F.copy()
+        F = F[:m].copy()
+        F[m - 1] -= K.off[m - 1] * uL  # coupling with the clamped node
+        # energy of the full vector minus the reduced expression
+        offset = 0.5 * K.diag[m] * uL**2 - full_load[m] * uL
+    elif case.far_end == "free":
+        m = n_nodes
+        uL = None
+        offset = 0.0
+    else:
+        raise BenchError(f"case {case.spec}: far_end must be 'clamped' or 'free', "
+                         f"got {case.far_end!r}")
+    h0 = x[1] - x[0]
+    E_contact = (float(np.asarray(case.E(np.array([0.5 * h0]))).ravel()[0]) if callable(case.E)
+                 else float(case.E))
+    # x-dependent E or rho: nodes and element midpoints, so that a jump inside an
+    # element (a graded mesh) still shows both sides in the largest wave speed
+    xs = np.concatenate((x, 0.5 * (x[1:] + x[:-1])))
+    Ex = np.asarray(case.E(xs)) if callable(case.E) else case.E
+    rx = np.asarray(case.rho(xs)) if callable(case.rho) else case.rho
+    c_max = float(np.max(np.sqrt(np.asarray(Ex, float) / np.asarray(rx, float))))
+    return Semidiscrete(
+        x=x, nfree=m, M=M.head(m), K=K.head(m), F=F, U0=U[:m].copy(), V0=V[:m].copy(),
+        u_fixed=uL, energy_offset=float(offset), massless=mass_kind in MASSLESS_KINDS,
+        E_contact=E_contact, c_max=c_max,
+    )

@@ -1,0 +1,220 @@
+"""Every bad input we try, and the one line the user sees (the README's table).
+
+    python -m contact_bench.cli.bad_inputs          # prints the Markdown table
+
+Each entry is run through `contact_bench.cli.main.main` exactly as a user would type it; the table
+shows the exit code and the stderr line. `tests/test_reliability.py` runs the same list
+and checks: exit code 2, one stderr line that contains the entry's bad value, no
+traceback, no file written. Out-of-range rows are generated from the declared
+parameters of every registered scheme and scene, so new plugins are covered too.
+
+Two demo scenes and one demo scheme stand in for plugins that have material
+parameters or cannot run a scene; they are registered only inside `demo_plugins()`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import shlex
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case, Scheme
+from contact_bench.api.registry import cases, schemes
+from contact_bench.schemes.standard import Standard
+
+
+class DemoBar(Case):
+    """A clamped bar with material and data parameters (demo for bad input)."""
+
+    name = "demo_bar"
+    summary = "demo: clamped bar with parameters E, rho, u0_at_0, data"
+    params = {
+        "E": Param(1.0, "Young modulus", low=0.0, low_open=True),
+        "rho": Param(1.0, "density", low=0.0, low_open=True),
+        "u0_at_0": Param(0.5, "u0(0); u0 is linear down to 0 at x = L"),
+        "data": Param("ok", "'nan' makes v0 not finite", choices=("ok", "nan")),
+    }
+    T, nx, dt = 1.0, 20, 0.01
+
+    def u0(self, x: np.ndarray) -> np.ndarray:
+        return self.u0_at_0 * (1.0 - np.asarray(x, float))
+
+    def v0(self, x: np.ndarray) -> np.ndarray:
+        v = np.zeros_like(np.asarray(x, float))
+        if self.data == "nan":
+            v[v.size // 2] = np.nan
+        return v
+
+
+class RawBar(DemoBar):
+    """A scene that computes a non-physical modulus (no declared range catches it)."""
+
+    name = "raw_bar"
+    summary = "demo: a scene whose E comes out negative"
+    params = {}
+    E = -1.0
+
+
+class DemoFreeOnly(Standard):
+    """The standard scheme, pretending it needs a free far end."""
+
+    name = "demo_free_only"
+    summary = "demo: a scheme that cannot run clamped bars"
+
+    def cannot_run(self, case: Case) -> str | None:
+        if case.far_end == "clamped":
+            return "needs a free far end (demo), this scene is clamped"
+        return None
+
+
+DEMO_CASES: tuple[type[Case], ...] = (DemoBar, RawBar)
+DEMO_SCHEMES: tuple[type[Scheme], ...] = (DemoFreeOnly,)
+
+
+@contextlib.contextmanager
+def demo_plugins() -> Iterator[None]:
+    """Register the demo plugins in this process for the duration of the block."""
+    added: list[tuple[dict, str]] = []
+    try:
+        for reg, classes in ((cases(), DEMO_CASES), (schemes(), DEMO_SCHEMES)):
+            for cls in classes:
+                if cls.name not in reg.plugins:
+                    reg.plugins[cls.name] = cls
+                    added.append((reg.plugins, cls.name))
+        yield
+    finally:
+        for plugins, name in added:
+            plugins.pop(name, None)
+
+
+@dataclass(frozen=True)
+class BadInput:
+    what: str  # the kind of bad input
+    argv: tuple[str, ...]  # after `contact-bench`
+    bad: str  # text the error line must contain (the bad value)
+
+
+BASE = ("--T", "0.1", "--format", "csv")
+
+
+def _run(*extra: str, case: str = "clamped_bar", scheme: str = "standard") -> tuple[str, ...]:
+    return ("run", "--case", case, "--scheme", scheme, *BASE, *extra)
+
+
+def _bad_value(p: Param) -> Any:
+    """A value just outside what `p` allows (None if every value is allowed)."""
+    if p.choices is not None:
+        if all(isinstance(c, int | float) for c in p.choices):
+            return max(p.choices) + 1
+        return "bogus"
+    if p.kind is bool:
+        return "maybe"
+    if p.low is not None:
+        return p.low if p.low_open else p.low - 1
+    if p.high is not None:
+        return p.high if p.high_open else p.high + 1
+    return None
+
+
+def _param_entries() -> list[BadInput]:
+    """One row per distinct (kind, parameter name, allowed values) of the registered plugins."""
+    out, seen = [], set()
+    for kind, reg in (("scheme", schemes()), ("case", cases())):
+        for name, cls in reg.plugins.items():
+            if cls in DEMO_CASES or cls in DEMO_SCHEMES:
+                continue
+            for key, p in cls.params.items():
+                bad = _bad_value(p)
+                if bad is None or (kind, key, p.allowed()) in seen:
+                    continue
+                seen.add((kind, key, p.allowed()))
+                value = f"{bad:g}" if isinstance(bad, float) else str(bad)
+                spec = f"{name}[{key}={value}]"
+                argv = _run(case=spec) if kind == "case" else _run(scheme=spec)
+                out.append(BadInput(f"{kind} parameter out of range ({p.allowed()})", argv,
+                                    f"{key}={value}"))
+    return out
+
+
+def bad_inputs() -> list[BadInput]:
+    """The list, in README order (parameter rows follow the registered plugins)."""
+    explicit = "redistributed[beta=0]"
+    fixed = [
+        BadInput("nx < 1", _run("--nx", "0"), "got 0"),
+        BadInput("nx not an integer", _run("--nx", "2.5"), "'2.5'"),
+        BadInput("nx not a number", _run("--nx", "ten"), "'ten'"),
+        BadInput("dt = 0", _run("--dt", "0"), "got 0"),
+        BadInput("dt < 0", _run("--dt", "-0.01"), "-0.01"),
+        BadInput("dt NaN", _run("--dt", "nan"), "nan"),
+        BadInput("dt inf", _run("--dt", "inf"), "inf"),
+        BadInput("dt so small the samples do not fit in memory",
+                 _run("--dt", "1e-12"), "dt = 1e-12"),
+        BadInput("T = 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "0"),
+                 "got 0"),
+        BadInput("T < 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "-1"),
+                 "-1"),
+        BadInput("T NaN", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "nan"),
+                 "nan"),
+        BadInput("E <= 0 (scene parameter)", _run(case="demo_bar[E=0]"), "E=0"),
+        BadInput("rho <= 0 (scene parameter)", _run(case="demo_bar[rho=-1]"), "rho=-1"),
+        BadInput("E <= 0 (computed by the scene)", _run(case="raw_bar"), "E = -1"),
+        BadInput("u0(0) < 0 (violates the constraint)", _run(case="demo_bar[u0_at_0=-0.1]"),
+                 "u0(0) = -0.1"),
+        BadInput("initial data not finite", _run(case="demo_bar[data=nan]"), "nan"),
+        BadInput("unknown scene", _run(case="clamped"), "'clamped'"),
+        BadInput("unknown scheme", _run(scheme="redistributd"), "'redistributd'"),
+        BadInput("unknown parameter", _run(scheme="standard[gama=0.6]"), "'gama'"),
+        BadInput("parameter not a number", _run(scheme="standard[gamma=abc]"), "gamma=abc"),
+        BadInput("malformed spec", _run(scheme="standard[gamma=0.6"), "standard[gamma=0.6"),
+        *_param_entries(),
+        BadInput("scheme cannot run the scene (single pair asked for)",
+                 _run(scheme="demo_free_only"), "demo_free_only"),
+        BadInput("explicit dt above the stability limit",
+                 _run("--nx", "40", "--dt", "0.1", scheme=explicit), "dt = 0.1"),
+        BadInput("stride larger than the number of steps", _run("--stride", "1000"), "1000"),
+        BadInput("stride < 1", _run("--stride", "0"), "got 0"),
+        BadInput("grading < 1", _run("--grading", "0.5"), "0.5"),
+        BadInput("unknown option (argparse)", _run("--bogus"), "--bogus"),
+        BadInput("bad choice (argparse)", ("run", "--format", "xml"), "'xml'"),
+        BadInput("option without its value (argparse)", ("run", "--nx"), "--nx"),
+        BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
+    ]
+    return fixed
+
+
+def try_input(argv: tuple[str, ...] | list[str]) -> tuple[int, str]:
+    """Run the CLI in-process: (exit code, stderr)."""
+    from contact_bench.cli.main import main
+
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+        code = main(list(argv))
+    return code, err.getvalue()
+
+
+def markdown_table() -> str:
+    from contact_bench.cli.main import INTERRUPTED
+
+    lines = ["| Bad input | Command | What the user sees (stderr) | Exit |",
+             "|---|---|---|---|"]
+    with demo_plugins():
+        for item in bad_inputs():
+            code, err = try_input(item.argv)
+            cmd = shlex.join(["contact-bench", *item.argv])
+            shown = err.strip().replace("|", "\\|")
+            lines.append(f"| {item.what} | `{cmd}` | `{shown}` | {code} |")
+    lines.append(f"| Ctrl-C during a run | (SIGINT) | `{INTERRUPTED}` | 130 |")
+    lines.append("")
+    lines.append("`demo_bar`, `raw_bar` and `demo_free_only` are demo plugins of "
+                 "`bench/bad_inputs.py`, registered only while the table is made.")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(markdown_table())

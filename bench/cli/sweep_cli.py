@@ -1,0 +1,164 @@
+"""The `sweep`, `report` and `study` subcommands of `contact-bench` (hooked in
+contact_bench.cli.main)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from contact_bench.core.errors import BenchError
+
+COMMANDS = ("sweep", "report", "study")
+
+
+def _runner_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-j", "--jobs", type=int, default=os.cpu_count() or 1,
+                   help="local worker processes (default: the number of CPUs)")
+    p.add_argument("--dask", metavar="ADDRESS",
+                   help="run on Dask distributed: a scheduler address, or 'local' for a "
+                        "LocalCluster of -j workers")
+    p.add_argument("--cache", metavar="DIR",
+                   help="run cache (default: $CONTACT_BENCH_CACHE or ~/.cache/contact-bench)")
+    p.add_argument("--no-cache", action="store_true", help="recompute every run")
+    p.add_argument("--repeats", type=int, default=None,
+                   help="timed repeats per run in the serial timing pass (0: no timing; "
+                        "default 5, 2 with --quick)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (CI)")
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    """Add the sweep, report and study subparsers."""
+    s = sub.add_parser("sweep", help="grid of cases x scheme specs x nx x dt (or CFL), one "
+                                     "tidy table, cached and parallel")
+    s.add_argument("--case", action="append", help="case spec (repeatable; lists expand)")
+    s.add_argument("--scheme", action="append",
+                   help="scheme spec, lists expand: 'penalty[gamma_p=[1,10,100]]' (repeatable)")
+    s.add_argument("--nx", action="append", help="elements, repeatable or comma-separated")
+    s.add_argument("--dt", action="append", help="time steps, repeatable or comma-separated")
+    s.add_argument("--cfl", action="append",
+                   help="CFL = c dt / h at each nx instead of --dt (repeatable or commas)")
+    s.add_argument("--T", type=float, help="final time (default: the case's)")
+    s.add_argument("--stride", type=int, default=1, help="keep a sample every K steps")
+    s.add_argument("--max-samples", type=int,
+                   help="raise the stride so that about this many samples are kept")
+    s.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x = 0")
+    s.add_argument("--out", default="results/sweep",
+                   help="folder for sweep.csv (and sweep.parquet) (default: results/sweep)")
+    _runner_options(s)
+
+    r = sub.add_parser("report", help="tables, figures and an HTML page from a saved table")
+    r.add_argument("table", help="a sweep table (.csv or .parquet)")
+    r.add_argument("--out", required=True, help="folder for the report")
+    r.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
+
+    st = sub.add_parser("study", help="the published default study: sweep + report")
+    st.add_argument("--out", default="results/study", help="folder (default: results/study)")
+    st.add_argument("--quick", action="store_true", help="tiny grids (smoke test)")
+    st.add_argument("--scheme", action="append",
+                    help="scheme specs (default: every registered scheme)")
+    st.add_argument("--case", action="append", help="scenes (default: the seed scenes)")
+    st.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
+    _runner_options(st)
+
+
+def _values(raw: list[str] | None, kind: type, name: str) -> list | None:
+    if not raw:
+        return None
+    out = []
+    for item in raw:
+        for v in item.split(","):
+            v = v.strip()
+            if not v:
+                continue
+            try:
+                out.append(kind(v) if kind is float else int(v))
+            except ValueError:
+                what = "a number" if kind is float else "an integer"
+                raise BenchError(f"--{name} must be {what}, got {v!r}") from None
+    return out
+
+
+def _cache(args: argparse.Namespace):  # noqa: ANN202
+    from contact_bench.sweeps.cache import Cache, default_cache_dir
+
+    if args.no_cache:
+        return Cache(None)
+    return Cache(Path(args.cache) if args.cache else default_cache_dir())
+
+
+def _check_runner(args: argparse.Namespace) -> None:
+    if args.jobs < 1:
+        raise BenchError(f"-j must be >= 1, got {args.jobs}")
+    if args.repeats is None:
+        args.repeats = 2 if getattr(args, "quick", False) else 5
+    if args.repeats < 0:
+        raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
+
+
+def _summary(res, path: Path, quiet: bool) -> None:  # noqa: ANN001
+    counts = res.table["status"].value_counts().to_dict()
+    line = (f"{len(res.table)} runs ({res.executed} computed, {res.cached} from the cache, "
+            f"{res.timed} timed) in {res.elapsed:.1f} s; status: "
+            + ", ".join(f"{k} {v}" for k, v in counts.items()) + f"; wrote {path}")
+    print(line, file=sys.stderr if quiet else sys.stdout)
+
+
+def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    from contact_bench.api.registry import cases, schemes
+    from contact_bench.sweeps.sweep import plan, run_sweep, save_table
+
+    _check_runner(args)
+    nxs = _values(args.nx, int, "nx") or [None]
+    dts = _values(args.dt, float, "dt")
+    cfls = _values(args.cfl, float, "cfl")
+    case_specs = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
+    scheme_specs = args.scheme or schemes().names()
+    tasks = plan(case_specs, scheme_specs, nxs, dts, cfls, args.T, args.stride,
+                 args.max_samples, args.grading)
+    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet)
+    written = save_table(res.table, Path(args.out) / "sweep.csv")
+    _summary(res, written[0], args.quiet)
+    return 0
+
+
+def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    from contact_bench.output.report import write_report
+    from contact_bench.sweeps.sweep import load_table
+
+    df = load_table(args.table)
+    written = write_report(df, args.out, argv, args.error)
+    print(f"wrote {len(written)} files to {args.out} (open {Path(args.out) / 'index.html'})")
+    return 0
+
+
+def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    from contact_bench.output.report import write_report
+    from contact_bench.sweeps.study import plan_study
+    from contact_bench.sweeps.sweep import run_sweep, save_table
+
+    _check_runner(args)
+    start = time.perf_counter()
+    tasks = plan_study(args.quick, args.scheme, args.case)
+    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet)
+    out = Path(args.out)
+    written = save_table(res.table, out / "sweep.csv")
+    _summary(res, written[0], args.quiet)
+    files = write_report(res.table, out, argv, args.error)
+    print(f"study: {len(files) + len(written)} files in {out} (open {out / 'index.html'}); "
+          f"{time.perf_counter() - start:.0f} s")
+    return 0
+
+
+def run_command(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    """Dispatch one of COMMANDS; Ctrl-C leaves the finished runs in the cache."""
+    handler = {"sweep": cmd_sweep, "report": cmd_report, "study": cmd_study}[args.command]
+    try:
+        return handler(args, argv)
+    except KeyboardInterrupt:
+        print("contact-bench: interrupted; finished runs are cached: run the same command "
+              "again to continue", file=sys.stderr)
+        return 130

@@ -1,0 +1,132 @@
+"""Symmetric tridiagonal machinery in numba: products, quadratic forms, LDL^T solves.
+
+Tridiagonal symmetric matrices travel as (diag, off). Factorisations are done by LAPACK
+through scipy (`dpttrf`: A = L D L^T) outside the hot loop; compiled loops only apply
+them. The bottom layer: it imports nothing of the project but its error type.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from scipy.linalg import lapack
+
+from contact_bench.core.errors import BenchError
+
+
+@njit(cache=True)
+def tri_matvec(d, e, x, out):
+    """out = A x for the symmetric tridiagonal A = (d, e) (out must not be x).
+
+    Row i is (d[i] x[i] + e[i-1] x[i-1]) + e[i] x[i+1], in that order: the sums of the
+    former loop `out[i] += e[i] x[i+1]; out[i + 1] += e[i] x[i]` over out = d x, bit
+    for bit, written as a stencil (each row once: no store-to-load chain through out,
+    and the loop vectorises)."""
+    n = d.size
+    if n <= 1:  # 0 rows: nothing, as the loops wrote nothing
+        if n == 1:
+            out[0] = d[0] * x[0]
+        return
+    out[0] = d[0] * x[0] + e[0] * x[1]
+    for i in range(1, n - 1):
+        out[i] = (d[i] * x[i] + e[i - 1] * x[i - 1]) + e[i] * x[i + 1]
+    out[n - 1] = d[n - 1] * x[n - 1] + e[n - 2] * x[n - 2]
+
+
+@njit(cache=True, inline="always")
+def tri_row(d, e, x, i, n):  # pragma: no cover - compiled
+    """Row i of A x for the symmetric tridiagonal A = (d, e) of size n, summed as
+    `tri_matvec` sums it (the same bits): for kernels that fuse it into a sweep."""
+    if i == 0:
+        return d[0] * x[0] + e[0] * x[1] if n > 1 else d[0] * x[0]
+    if i == n - 1:
+        return d[i] * x[i] + e[i - 1] * x[i - 1]
+    return (d[i] * x[i] + e[i - 1] * x[i - 1]) + e[i] * x[i + 1]
+
+
+@njit(cache=True)
+def newmark_update(rhs, mu, w, pin0, Ut, U, V, A, dt, bdt2, gamma, massless
+                   ):  # pragma: no cover - compiled
+    """The end of an implicit Newmark-family step in one pass over the nodes: U1 = rhs +
+    mu w (node 0 set to 0 if pin0: an active exact contact), A1 = (U1 - U~) / (beta
+    dt^2), V += dt ((1 - gamma) A + gamma A1), a massless node 0's velocity the backward
+    difference and its acceleration 0; U, V, A overwritten."""
+    for i in range(U.size):
+        u1 = rhs[i] + mu * w[i]
+        if i == 0 and pin0:
+            u1 = 0.0
+        a1 = (u1 - Ut[i]) / bdt2
+        v = V[i] + dt * ((1.0 - gamma) * A[i] + gamma * a1)
+        if i == 0 and massless:
+            v = (u1 - U[0]) / dt
+            a1 = 0.0
+        V[i] = v
+        U[i] = u1
+        A[i] = a1
+
+
+@njit(cache=True)
+def tri_quad(d, e, x):
+    """x^T A x."""
+    s = 0.0
+    n = d.size
+    for i in range(n):
+        s += d[i] * x[i] * x[i]
+    for i in range(n - 1):
+        s += 2.0 * e[i] * x[i] * x[i + 1]
+    return s
+
+
+@njit(cache=True)
+def pt_solve(df, ef, b):
+    """Solve L D L^T x = b in place (factors from LAPACK dpttrf).
+
+    Forward: y[i] = b[i] - ef[i-1] y[i-1], carried in a register, and b[i] = y[i] /
+    df[i] stored at once; backward: b[i] -= ef[i] b[i+1]. The operations of three
+    separate sweeps (L, then D, then L^T), bit for bit, in two passes over b."""
+    n = df.size
+    if n == 0:
+        return
+    y = b[0]
+    b[0] = y / df[0]
+    for i in range(1, n):
+        y = b[i] - ef[i - 1] * y
+        b[i] = y / df[i]
+    pt_backward(ef, b)
+
+
+@njit(cache=True)
+def pt_backward(ef, b):
+    """The backward sweep of `pt_solve` in place, b[i] -= ef[i] b[i+1] from the last row
+    up: for kernels that fuse the forward sweep into another pass."""
+    for i in range(b.size - 2, -1, -1):
+        b[i] -= ef[i] * b[i + 1]
+
+
+def factor_pt(d: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """LDL^T factors of a symmetric positive definite tridiagonal matrix (LAPACK dpttrf)."""
+    d, e = np.ascontiguousarray(d, float), np.ascontiguousarray(e, float)
+    if d.size == 1:  # scipy's dpttrf wrapper rejects the empty e of a 1 x 1 matrix
+        if not d[0] > 0.0:
+            raise BenchError(f"system matrix not positive definite (1 x 1: {d[0]!r})")
+        return d.copy(), e.copy()
+    df, ef, info = lapack.dpttrf(d, e)
+    if info != 0:
+        raise BenchError(f"system matrix not positive definite (LAPACK dpttrf info={info})")
+    return df, ef
+
+
+# fastmath=False explicitly: a numba callee with no fastmath setting takes its caller's, and
+# a contracted K00 u0 + K01 u1 - F0 leaves a round-off lambda != 0 on a free node
+@njit(cache=True, fastmath=False)
+def eliminate_contact_node(Kd, Ke, F, U, p1=1):
+    """Set U[0] = max(0, (F0 - K01 u1) / K00), the massless node of (P_U^mod); return lambda.
+
+    u1 = U[p1] (node 1's position: 1 in node order, another in the interleaved layout
+    of `contact_bench.core.spike`). lambda = K00 u0 + K01 u1 - F0 >= 0 is the obstacle's force
+    (the contact stress is -lambda); it is 0 when the node is free.
+    """
+    u1 = U[p1]
+    u0 = (F[0] - Ke[0] * u1) / Kd[0]
+    U[0] = u0 if u0 > 0.0 else 0.0
+    return Kd[0] * U[0] + Ke[0] * u1 - F[0]

@@ -1,0 +1,405 @@
+"""Run (case, scheme, nx, dt, T, stride) and tabulate one metrics row per run.
+
+The harness reads only what plugins declare: the case's reference and the quantities
+it provides, the scheme's traits, stability limit and `cannot_run`. What a scene does
+not provide is left empty (NaN) and the row's `notes` say why.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Case, Exact, Scheme, Trajectory
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core.errors import BenchError
+from contact_bench.harness import metrics
+from contact_bench.harness.metrics import (
+    ERROR_COLUMNS,
+    NEEDS,
+    energy_metrics,
+    error_metrics,
+    penetration,
+)
+
+if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
+    import pandas as pd
+
+COLUMNS = (
+    "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
+    "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "wall_s",
+    "status", "notes", "stride", "grading", "blowup_time", "reference",
+)
+
+_warmed: set[tuple[type, str]] = set()
+_warmed_metrics: list[bool] = []
+_warmed_references: set[type] = set()  # reference types whose kernels are loaded
+#: a plan's semi-discrete problem dropped after the checks, rebuilt when it runs
+_REBUILD: Any = object()
+#: semi-discrete problems a table keeps from its checks to its runs, in bytes (the
+#: first plan's is always kept); the others are assembled again when they run
+KEEP_SEMI_BYTES = 64 * 2**20
+
+
+@dataclass
+class Run:
+    """One finished run: its metrics row and, unless it did not start, its trajectory.
+
+    `norm_s`: the time spent on the error norms (`contact_bench.harness.metrics.error_metrics`, JIT
+    compilation excluded), None when there were none; compare with row["wall_s"].
+    """
+
+    row: dict[str, Any]
+    trajectory: Trajectory | None = None
+    semi: Any = None
+    norm_s: float | None = None
+
+    def without_samples(self) -> Run:
+        """The same run without what grows with the mesh: the semi-discrete problem and
+        the sampled fields U, V (left with no columns); t, contact_u, stress and energy
+        stay (what the figures use)."""
+        tr = self.trajectory
+        if tr is not None:
+            tr = dataclasses.replace(tr, U=np.empty((tr.t.size, 0)), V=np.empty((tr.t.size, 0)))
+        return Run(self.row, tr, None, self.norm_s)
+
+
+_reference_lock = threading.Lock()
+_references: list[tuple[tuple, Exact | None]] = []  # most recent first
+#: references kept for the next runs: at most this many, and at most this many bytes
+#: (counting those that tell their size, `nbytes`; a larger one is not kept)
+KEEP_REFERENCES = 4
+KEEP_REFERENCE_BYTES = 128 * 2**20
+
+
+def reference(case: Case, T: float) -> Exact | None:
+    """`case.exact(T)`, kept for the next runs: the schemes of a table share it.
+
+    Keyed on the case's class, spec and attributes and on T, so a changed case or time
+    builds a new one (an explicit scheme's lowered dt gives another T). A few are kept
+    (`KEEP_REFERENCES`, `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
+    """
+    key = (type(case), case.spec, repr(sorted(vars(case).items())), float(T))
+    with _reference_lock:
+        for i, (k, exact) in enumerate(_references):
+            if k == key:
+                _references.insert(0, _references.pop(i))
+                return exact
+    exact = case.exact(T)
+    with _reference_lock:
+        _references.insert(0, (key, exact))
+        total = 0
+        for i, (_, kept) in enumerate(_references):
+            total += int(getattr(kept, "nbytes", 0) or 0)
+            if i >= KEEP_REFERENCES or total > KEEP_REFERENCE_BYTES:
+                del _references[i:]
+                break
+    return exact
+
+
+def _check_positive(name: str, value: float) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise BenchError(f"{name} must be a number > 0, got {value!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise BenchError(f"{name} must be finite and > 0, got {value!r}")
+    return value
+
+
+def _check_nx(nx: Any) -> int:
+    if isinstance(nx, bool) or not isinstance(nx, int | np.integer | str | float):
+        raise BenchError(f"nx must be an integer >= 1, got {nx!r}")
+    try:
+        value = int(nx) if not isinstance(nx, str) else int(nx.strip())
+    except ValueError:
+        raise BenchError(f"nx must be an integer >= 1, got {nx!r}") from None
+    if value < 1 or (isinstance(nx, float) and value != nx):
+        raise BenchError(f"nx must be an integer >= 1, got {nx!r}")
+    return value
+
+
+def check_task_inputs(nx: Any = None, dt: Any = None, T: Any = None, cfl: Any = None,
+                      stride: Any = None, grading: Any = 1.0) -> None:
+    """Check the numeric inputs of a run before anything runs (one-line BenchError)."""
+    if nx is not None:
+        _check_nx(nx)
+    for name, value in (("dt", dt), ("T", T), ("cfl", cfl)):
+        if value is not None:
+            _check_positive(name, value)
+    if stride is not None:
+        _check_stride(stride)
+    _check_grading(grading)
+
+
+def _check_stride(stride: Any) -> int:
+    if (isinstance(stride, bool) or not isinstance(stride, int | np.integer | float)
+            or stride != stride or int(stride) != stride or stride < 1):
+        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
+    return int(stride)
+
+
+def _check_grading(grading: Any) -> float:
+    try:
+        value = float(grading)
+    except (TypeError, ValueError):
+        raise BenchError(f"grading must be a number >= 1, got {grading!r}") from None
+    if not (math.isfinite(value) and value >= 1.0):
+        raise BenchError(f"grading must be a finite number >= 1, got {grading!r}")
+    return value
+
+
+#: largest sample buffers a run may allocate (U and V, float64), in bytes
+MAX_SAMPLE_BYTES = 4 * 2**30
+
+
+@dataclass
+class _Plan:
+    """A checked configuration, ready to integrate (or a finished 'not applicable' row)."""
+
+    case: Case
+    scheme: Scheme
+    row: dict[str, Any]
+    notes: list[str]
+    semi: Any = None
+    dt: float = 0.0
+    steps: int = 0
+    stride: int = 1
+    T_run: float = 0.0
+    #: a later run of the table has the same case, mesh and sample times: the error
+    #: norms keep what they can share with it (`contact_bench.harness.metrics.error_metrics`'s keep)
+    shared: bool = True
+
+    def grid(self) -> tuple | None:
+        """What the error norms of two runs share when it is equal: the case (one
+        object per table), the mesh and the sample times; None for a run without."""
+        if self.semi is None:
+            return None
+        r = self.row
+        return (id(self.case), r["nx"], r["grading"], self.dt, self.steps, self.stride)
+
+
+def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
+             grading: Any, allow_unstable: bool, strict: bool) -> _Plan:
+    """Every check of run_one that needs no time stepping; bad input raises BenchError."""
+    nx = _check_nx(case.nx if nx is None else nx)
+    T = _check_positive("T", case.T if T is None else T)
+    dt_given = dt is not None
+    dt = _check_positive("dt", case.dt if dt is None else dt)
+    stride_given = stride is not None
+    stride = _check_stride(case.stride if stride is None else stride)  # scene's default
+    grading = _check_grading(grading)
+    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
+               grading=grading, reference=case.reference or "none")
+    notes: list[str] = []
+    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+    if reason:
+        if strict:
+            raise BenchError(f"scheme {scheme.spec} cannot run case {case.spec}: {reason}")
+        row.update(dt=dt, status="not applicable", notes=reason)
+        return _Plan(case, scheme, row, notes)
+
+    x = mesh_nodes(_check_length(case), nx, grading)
+    semi = discretise(case, x, scheme.mass_kind())
+    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    if limit is not None and dt > limit * (1 + 1e-12):
+        if dt_given and not allow_unstable:
+            raise BenchError(
+                f"dt = {dt:g} is above the stability limit {limit:.6g} of {scheme.spec} "
+                f"at nx = {nx} (pass --allow-unstable to run it anyway)")
+        if dt_given:
+            notes.append(f"dt above the stability limit {limit:.4g} (--allow-unstable)")
+        else:  # the case's default dt is too large for this explicit scheme
+            dt = 0.9 * limit
+            notes.append(f"dt lowered to 0.9 x the stability limit {limit:.4g}")
+    steps = max(1, math.ceil(T / dt - 1e-9))
+    if stride > steps and not stride_given:
+        stride = steps  # a short run of a long scene: its default stride is too coarse
+        row["stride"] = stride
+    if stride > steps:
+        raise BenchError(f"stride = {stride} is larger than the number of steps ({steps})")
+    samples = steps // stride + 2
+    if 16.0 * samples * semi.nfree > MAX_SAMPLE_BYTES:
+        need = math.ceil(16.0 * steps * semi.nfree / MAX_SAMPLE_BYTES)
+        need_s = str(need) if need < 10**9 else f"{float(need):.3g}"
+        fix = f"a larger dt or --stride >= {need_s}" if need <= steps / 2 else "a larger dt"
+        raise BenchError(
+            f"dt = {dt:g} with T = {T:g} and nx = {nx} keeps {float(samples):.3g} samples of "
+            f"{semi.nfree} values (over {MAX_SAMPLE_BYTES / 2**30:g} GiB); allowed: {fix}")
+    T_run = steps * dt
+    row.update(dt=dt, T=T_run, steps=steps)
+    return _Plan(case, scheme, row, notes, semi, dt, steps, stride, T_run)
+
+
+def _check_length(case: Case) -> float:
+    """The bar's length, checked (material and data are checked in `discretise`)."""
+    try:
+        L = float(case.L)
+    except (TypeError, ValueError):
+        raise BenchError(f"case {case.spec}: L = {case.L!r} must be a number > 0") from None
+    if not (math.isfinite(L) and L > 0):
+        raise BenchError(f"case {case.spec}: L = {case.L!r} must be finite and > 0")
+    return L
+
+
+def _execute(plan: _Plan) -> Run:
+    """Integrate a prepared configuration and fill in its metrics."""
+    row, notes = plan.row, plan.notes
+    if plan.semi is None:  # not applicable
+        return Run(row)
+    case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
+    norm_s = None
+    if semi is _REBUILD:  # dropped after the checks to bound a table's memory
+        semi = discretise(case, mesh_nodes(_check_length(case), row["nx"], row["grading"]),
+                          scheme.mass_kind())
+    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
+    if key not in _warmed:
+        scheme.warm_up(semi)  # JIT compilation stays out of wall_s
+        _warmed.add(key)
+    start = time.perf_counter()
+    traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
+    row["wall_s"] = time.perf_counter() - start
+
+    row.update(energy_metrics(traj))
+    row["penetration_max"] = penetration(traj)
+    if traj.blowup_time is not None:
+        row.update(status="unstable", blowup_time=traj.blowup_time)
+        notes.append(f"blew up at t = {traj.blowup_time:.6g} (stopped after "
+                     f"{traj.steps_done} of {plan.steps} steps)")
+    else:
+        row["status"] = "ok"
+        exact = reference(case, plan.T_run) if case.reference else None
+        if exact is None:
+            notes.append("errors: no reference solution")
+        else:
+            if not _warmed_metrics:
+                metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
+                _warmed_metrics.append(True)
+            if type(exact) not in _warmed_references:  # and the reference's own
+                metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
+                _warmed_references.add(type(exact))
+            start = time.perf_counter()
+            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared))
+            norm_s = time.perf_counter() - start
+            missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
+            if missing:
+                notes.append(f"reference has no {', '.join(missing)}")
+            if case.reference == "numerical":
+                notes.append("errors against a numerical reference")
+    row["notes"] = "; ".join(notes)
+    return Run(row, traj, semi, norm_s)
+
+
+def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
+               grading: Any, exc: BaseException, row: dict[str, Any] | None = None) -> Run:
+    """The row of a run that raised an unexpected exception (a bug, not a bad input)."""
+    out: dict[str, Any] = dict.fromkeys(COLUMNS)
+    out.update(case=case.spec, scheme=scheme.spec, nx=nx, dt=dt, T=T, stride=stride,
+               grading=grading, reference=case.reference or "none")
+    if row is not None:
+        out.update({k: v for k, v in row.items() if v is not None})
+    reason = " ".join(f"{type(exc).__name__}: {exc}".split())
+    if out.get("notes"):
+        reason = f"{reason}; {out['notes']}"
+    out.update(status="error", notes=reason, wall_s=None)
+    return Run(out)
+
+
+def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
+            dt: float | None = None, T: float | None = None, stride: int | None = None,
+            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False) -> Run:
+    """Run one configuration. Bad input raises BenchError; a blow-up is a row.
+
+    stride None: the case's default `Case.stride` (lowered to the number of steps).
+    A pair that cannot run is a 'not applicable' row, or a BenchError when `strict`
+    (the user asked for exactly this combination). The error norms keep what the next
+    run on the same grid can reuse (`contact_bench.harness.metrics`): a sweep's worker runs its
+    tasks
+    one after the other. `run_table` knows its runs and keeps only for a later one.
+    """
+    case = make_case(case) if isinstance(case, str) else case
+    scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
+    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict))
+
+
+def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),
+              dts: Iterable[float | None] = (None,), T: float | None = None,
+              stride: int | None = None,
+              grading: float = 1.0, allow_unstable: bool = False,
+              keep: list[Run] | None = None, *, explicit_pair: bool = False,
+              keep_samples: bool = True) -> pd.DataFrame:
+    """The product cases x schemes x nx x dt as one DataFrame (one row per run).
+
+    Every configuration is checked before any is run, so a bad input (BenchError) fails
+    at once and nothing is half done. A run that blows up is an 'unstable' row, a run
+    that raises anything else an 'error' row with the reason; the table goes on.
+    `explicit_pair`: the user named one case and one scheme, so a pair that cannot run
+    is an error rather than a 'not applicable' row. `keep` collects the runs; with
+    `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
+    grow with the number of runs (one run's samples at a time).
+    """
+    case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
+    scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
+    nxs, dts = list(nxs), list(dts)
+    strict = explicit_pair and len(case_objs) == 1 and len(scheme_objs) == 1
+    plans: list[_Plan | Run | None] = []
+    for case in case_objs:
+        for scheme in scheme_objs:
+            for nx in nxs:
+                for dt in dts:
+                    try:
+                        plans.append(_prepare(case, scheme, nx, dt, T, stride, grading,
+                                              allow_unstable, strict))
+                    except BenchError:
+                        raise
+                    except Exception as exc:  # noqa: BLE001 - a broken plugin is a row
+                        plans.append(_error_row(case, scheme, nx, dt, T, stride, grading, exc))
+    later: set[tuple] = set()  # the last run on a grid keeps nothing for the next ones
+    for plan in reversed(plans):
+        if isinstance(plan, _Plan) and (grid := plan.grid()) is not None:
+            plan.shared = grid in later
+            later.add(grid)
+    kept = 0  # large semi-discrete problems are not all held from the checks on
+    for plan in plans:
+        if isinstance(plan, _Plan) and plan.semi is not None:
+            size = _semi_bytes(plan.semi)
+            if kept and kept + size > KEEP_SEMI_BYTES:
+                plan.semi = _REBUILD
+            else:
+                kept += size
+    rows = []
+    for i, plan in enumerate(plans):
+        plans[i] = None  # each run's memory goes with it
+        if isinstance(plan, Run):
+            run = plan
+        else:
+            assert plan is not None
+            try:
+                run = _execute(plan)
+            except Exception as exc:  # noqa: BLE001 - one failing run never stops a table
+                before = dict(plan.row, notes="; ".join(plan.notes) or None)
+                run = _error_row(plan.case, plan.scheme, plan.row["nx"], plan.row["dt"],
+                                 plan.row["T"], plan.row["stride"], plan.row["grading"], exc,
+                                 before)
+        rows.append(run.row)
+        if keep is not None:
+            keep.append(run if keep_samples else run.without_samples())
+        del plan, run
+    import pandas as pd  # here: not loaded while the runs step (its memory adds to theirs)
+
+    return pd.DataFrame(rows, columns=list(COLUMNS))
+
+
+def _semi_bytes(semi: Any) -> int:
+    return sum(a.nbytes for a in (semi.x, semi.M.diag, semi.M.off, semi.K.diag, semi.K.off,
+                                   semi.F, semi.U0, semi.V0))

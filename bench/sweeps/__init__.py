@@ -1,0 +1,1 @@
+"""Sweeps over grids of configurations, the run cache, the published study, analysis."""

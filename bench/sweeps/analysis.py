@@ -1,0 +1,217 @@
+"""From a sweep table to the study's tables: work-precision, orders, stability, energy.
+
+Everything here reads a saved table (`contact_bench.sweeps.sweep.load_table`); nothing is rerun.
+
+- Work-precision: per scene, the chosen error against the serial stepping time
+  `time_s`; one curve per scheme (and CFL) over its refinements; the Pareto front
+  (no other run is both faster and more accurate) is marked.
+- Convergence orders: least-squares slope of log error against log h over runs at a
+  fixed CFL (dt proportional to h), and against log dt at the finest nx that has at
+  least three dt; pairwise local orders between neighbouring refinements next to the
+  fit; errors at the round-off floor (below `ROUNDOFF_FLOOR`) left out.
+- Stability: the class of each run ('stable', 'energy-growing' beyond the declared
+  behaviour, 'blown up'); a map scheme x CFL holding the worst class per cell.
+- Energy: drift, growth and final drift against the declared behaviour.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+#: relative errors below this are at the round-off floor (about 1e6 machine epsilons)
+ROUNDOFF_FLOOR = 1e-10
+MIN_POINTS = 3
+CLASS_RANK = {"stable": 0, "energy-growing": 1, "blown up": 2}
+
+
+def _sig(x: float, digits: int = 3) -> float:
+    if not (isinstance(x, float | int) and math.isfinite(x)) or x == 0:
+        return x
+    return round(x, digits - 1 - int(math.floor(math.log10(abs(x)))))
+
+
+def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
+    """Rows tagged with `group` (the ';'-separated `group` column); all rows if none is."""
+    if "group" not in df or df.empty:
+        return df
+    tags = df["group"].fillna("").astype(str).str.split(";")
+    mask = tags.map(lambda t: group in t).astype(bool)
+    return df[mask] if mask.any() else df
+
+
+# ------------------------------------------------------------------- order fits
+
+
+@dataclass
+class OrderFit:
+    """Least-squares slope of log err against log x, and the pairwise local orders."""
+
+    order: float
+    intercept: float
+    n_used: int
+    n_dropped: int
+    x: np.ndarray  # used points, decreasing x
+    err: np.ndarray
+    local: np.ndarray  # local[i]: order between x[i] and x[i + 1]
+
+
+def fit_order(x: np.ndarray | list[float], err: np.ndarray | list[float],
+              floor: float = ROUNDOFF_FLOOR) -> OrderFit:
+    """Fit err ~ C x^p on the points above the round-off floor (p = NaN if < 2 points)."""
+    x = np.asarray(x, float)
+    err = np.asarray(err, float)
+    ok = np.isfinite(x) & np.isfinite(err) & (x > 0) & (err > floor)
+    n_dropped = int((~ok).sum())
+    xs, es = x[ok], err[ok]
+    order_idx = np.argsort(-xs, kind="stable")
+    xs, es = xs[order_idx], es[order_idx]
+    if np.unique(xs).size < 2:
+        return OrderFit(math.nan, math.nan, int(xs.size), n_dropped, xs, es, np.array([]))
+    lx, le = np.log(xs), np.log(es)
+    p, c = np.polyfit(lx, le, 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        local = np.diff(le) / np.diff(lx)
+    return OrderFit(float(p), float(c), int(xs.size), n_dropped, xs, es, local)
+
+
+def _ok(df: pd.DataFrame, error: str) -> pd.DataFrame:
+    if error not in df:
+        raise KeyError(f"no column {error!r} in the table")
+    return df[(df["status"] == "ok") & np.isfinite(df[error].astype(float))]
+
+
+def _t_key(T: pd.Series) -> pd.Series:
+    return T.astype(float).map(lambda v: _sig(v, 2))
+
+
+def convergence_table(df: pd.DataFrame, error: str = "err_u_linf_l2",
+                      floor: float = ROUNDOFF_FLOOR,
+                      against: tuple[str, ...] = ("h", "dt")) -> pd.DataFrame:
+    """Orders against h (fixed CFL, dt proportional to h) and dt (finest nx with >= 3 dt)."""
+    ok = _ok(df, error).copy()
+    out = []
+    if ok.empty:
+        return pd.DataFrame(columns=["case", "scheme", "against", "at", "T", "points", "order",
+                                     "local orders", "declared order", "floor points", "error"])
+    ok["_T"] = _t_key(ok["T"])
+    ok["_cfl"] = ok["cfl"].map(lambda v: _sig(float(v), 3))
+    for (case, scheme, T, cfl), g in ok.groupby(["case", "scheme", "_T", "_cfl"], sort=False):
+        if "h" in against and g["nx"].nunique() >= MIN_POINTS:
+            g = g.drop_duplicates("nx")
+            out.append(_fit_row(case, scheme, "h", f"CFL = {cfl:g}", T, g["h"], g[error], g,
+                                error, floor))
+    for (case, scheme, T), g in ok.groupby(["case", "scheme", "_T"], sort=False):
+        counts = g.groupby("nx")["dt"].nunique()
+        good = counts[counts >= MIN_POINTS]
+        if "dt" not in against or good.empty:
+            continue
+        nx = int(good.index.max())
+        gg = g[g["nx"] == nx].drop_duplicates("dt")
+        out.append(_fit_row(case, scheme, "dt", f"nx = {nx}", T, gg["dt"], gg[error], gg,
+                            error, floor))
+    return pd.DataFrame(out)
+
+
+def _fit_row(case: str, scheme: str, against: str, at: str, T: float, x: pd.Series,
+             err: pd.Series, g: pd.DataFrame, error: str, floor: float) -> dict:
+    fit = fit_order(x.to_numpy(float), err.to_numpy(float), floor)
+    declared = g["order_declared"].dropna()
+    return {
+        "case": case, "scheme": scheme, "against": against, "at": at, "T": T,
+        "points": fit.n_used, "order": fit.order,
+        "local orders": " ".join("n/a" if not math.isfinite(v) else f"{v:.2f}"
+                                 for v in fit.local),
+        "declared order": int(declared.iloc[0]) if len(declared) else None,
+        "floor points": fit.n_dropped, "error": error,
+    }
+
+
+# -------------------------------------------------------------- work-precision
+
+
+def pareto_mask(time_s: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """True for the points no other point beats in both time and error."""
+    time_s, err = np.asarray(time_s, float), np.asarray(err, float)
+    mask = np.zeros(time_s.size, bool)
+    best = math.inf
+    for i in np.lexsort((err, time_s)):
+        if err[i] < best:
+            mask[i] = True
+            best = err[i]
+    return mask
+
+
+def work_precision(df: pd.DataFrame, error: str = "err_u_linf_l2") -> pd.DataFrame:
+    """Timed ok runs with their error; `curve` names the line, `pareto` marks the front."""
+    ok = _ok(df, error)
+    ok = ok[np.isfinite(ok["time_s"].astype(float))].copy()
+    cols = ["case", "curve", "scheme", "nx", "dt", "cfl", error, "time_s", "pareto"]
+    if ok.empty:
+        return pd.DataFrame(columns=cols)
+    ok["_cfl"] = ok["cfl"].map(lambda v: _sig(float(v), 2))
+    n_cfl = ok.groupby(["case", "scheme"])["_cfl"].transform("nunique")
+    ok["curve"] = [s if n == 1 else f"{s} (CFL {c:g})"
+                   for s, n, c in zip(ok["scheme"], n_cfl, ok["_cfl"], strict=True)]
+    parts = []
+    for _, g in ok.groupby("case", sort=False):
+        g = g.copy()
+        g["pareto"] = pareto_mask(g["time_s"].to_numpy(), g[error].to_numpy())
+        parts.append(g.sort_values(["curve", "time_s"]))
+    return pd.concat(parts)[cols].reset_index(drop=True)
+
+
+# ------------------------------------------------------------------- stability
+
+
+def stability_table(df: pd.DataFrame) -> pd.DataFrame:
+    """One line per run that ran: its class, and the blow-up time when it blew up."""
+    rows = df[df["stability"].notna()]
+    cols = ["case", "scheme", "nx", "cfl", "cfl_limit", "T", "stability", "blowup_time",
+            "energy_trait", "energy_growth_max", "energy_drift_bound"]
+    return rows[cols].sort_values(["case", "scheme", "cfl"]).reset_index(drop=True)
+
+
+def stability_map(df: pd.DataFrame, case: str) -> pd.DataFrame:
+    """Scheme x CFL for one scene: the worst class over the runs of each cell."""
+    rows = df[(df["case"] == case) & df["stability"].notna()].copy()
+    if rows.empty:
+        return pd.DataFrame()
+    rows["CFL"] = rows["cfl"].map(lambda v: _sig(float(v), 2))
+    rows["_rank"] = rows["stability"].map(CLASS_RANK)
+    worst = rows.groupby(["scheme", "CFL"], sort=False)["_rank"].max()
+    inv = {v: k for k, v in CLASS_RANK.items()}
+    table = worst.map(inv).unstack("CFL")
+    table = table[sorted(table.columns)]
+    return table.loc[list(dict.fromkeys(rows["scheme"]))]
+
+
+# ---------------------------------------------------------------------- energy
+
+
+def energy_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Drift max |E - E0|/|E0|, growth max (E - E0)/|E0|, final drift, against the claim."""
+    rows = df[df["status"].isin(["ok", "unstable"]) & df["energy_initial"].notna()].copy()
+    cols = ["case", "scheme", "nx", "cfl", "T", "energy_trait", "energy_drift_bound",
+            "energy_drift_max", "energy_growth_max", "energy_final_drift", "stability"]
+    if rows.empty:
+        return pd.DataFrame(columns=cols)
+    E0 = rows["energy_initial"].astype(float)
+    scale = E0.abs().where(E0 != 0, 1.0)
+    rows["energy_final_drift"] = (rows["energy_final"].astype(float) - E0) / scale
+    return rows[cols].sort_values(["case", "scheme", "nx"]).reset_index(drop=True)
+
+
+def energy_trace(row: pd.Series) -> tuple[np.ndarray, np.ndarray] | None:
+    """The stored (t, E(t)) of a row, or None."""
+    raw = row.get("energy_trace")
+    if not isinstance(raw, str) or not raw:
+        return None
+    data = json.loads(raw)
+    t = np.array([np.nan if v is None else v for v in data["t"]], float)
+    E = np.array([np.nan if v is None else v for v in data["E"]], float)
+    return t, E

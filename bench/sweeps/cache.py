@@ -1,0 +1,137 @@
+"""The run cache: identical runs (same inputs, same code) are not recomputed.
+
+A key is the SHA-256 of the run's canonical inputs and of a *code hash*: the source of
+the scheme's and the case's modules, of every project module they reach through their
+globals (e.g. `contact_bench.kernels.newmark`, `contact_bench.exact.characteristics`), of
+every module of the compiled layers (`contact_bench.core`, `contact_bench.kernels`) and of
+the harness modules a run goes through (`SHARED_MODULES` and what they reach). Editing
+any of them gives new keys, so stale rows are never served.
+
+Each entry is one small JSON file, written atomically (`contact_bench.harness.io`) by the
+process that collects the results as each run finishes: a sweep killed half-way keeps every run
+finished so far, and the next identical sweep starts from there.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import math
+import os
+import pkgutil
+import sys
+from functools import cache
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from contact_bench.harness.io import write_text
+
+PROJECT_PACKAGES = ("contact_bench",)
+#: the harness modules every run goes through; what they import is reached from them
+SHARED_MODULES = ("contact_bench.harness.runner", "contact_bench.sweeps.sweep")
+#: layers whose every module counts (kernels reached only through compiled dispatchers)
+COMPILED_LAYERS = ("contact_bench.core", "contact_bench.kernels")
+
+
+def default_cache_dir() -> Path:
+    """$CONTACT_BENCH_CACHE, else $XDG_CACHE_HOME/contact-bench, else ~/.cache/contact-bench."""
+    if os.environ.get("CONTACT_BENCH_CACHE"):
+        return Path(os.environ["CONTACT_BENCH_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "contact-bench"
+
+
+def _project_module(name: str | None) -> bool:
+    return bool(name) and name.split(".")[0] in PROJECT_PACKAGES  # type: ignore[union-attr]
+
+
+def _reached(module: ModuleType, seen: set[str]) -> None:
+    """Add module and the project modules reachable through its globals to seen."""
+    if module.__name__ in seen:
+        return
+    seen.add(module.__name__)
+    for obj in vars(module).values():
+        name = obj.__name__ if isinstance(obj, ModuleType) else getattr(obj, "__module__", None)
+        if isinstance(name, str) and _project_module(name) and name in sys.modules:
+            _reached(sys.modules[name], seen)
+
+
+def _shared() -> list[str]:
+    names = list(SHARED_MODULES)
+    for layer in COMPILED_LAYERS:
+        pkg = importlib.import_module(layer)
+        names += [f"{layer}.{info.name}" for info in pkgutil.iter_modules(pkg.__path__)]
+    return names
+
+
+@cache
+def module_hash(*module_names: str) -> str:
+    """SHA-256 over the sources of these modules and every project module they reach."""
+    seen: set[str] = set()
+    for name in (*module_names, *_shared()):
+        _reached(importlib.import_module(name), seen)
+    digest = hashlib.sha256()
+    for name in sorted(seen):
+        file = getattr(sys.modules[name], "__file__", None)
+        digest.update(name.encode())
+        if file and os.path.exists(file):
+            digest.update(Path(file).read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def code_hash(case_cls: type, scheme_cls: type) -> str:
+    """The code hash of a (case, scheme) pair (see the module docstring)."""
+    return module_hash(*sorted({case_cls.__module__, scheme_cls.__module__}))
+
+
+def run_key(inputs: dict[str, Any], code: str, kind: str = "run") -> str:
+    """Key of one run: its canonical inputs, the code hash and what is stored (run/timing)."""
+    blob = json.dumps({"inputs": inputs, "code": code, "kind": kind}, sort_keys=True,
+                      default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _plain(value: Any) -> Any:
+    """JSON-able Python scalars (numpy scalars -> Python, NaN kept)."""
+    if hasattr(value, "item") and not isinstance(value, str | bytes):
+        try:
+            return value.item()
+        except (ValueError, TypeError):
+            return str(value)
+    return value
+
+
+class Cache:
+    """One JSON file per key under `root/ab/abcdef....json`; `None` root: no caching."""
+
+    def __init__(self, root: str | Path | None) -> None:
+        self.root = None if root is None else Path(root)
+
+    def _path(self, key: str) -> Path:
+        assert self.root is not None
+        return self.root / key[:2] / f"{key}.json"
+
+    def get(self, key: str) -> dict[str, Any] | None:
+        if self.root is None:
+            return None
+        path = self._path(key)
+        try:
+            with open(path, encoding="utf-8") as fh:
+                return json.load(fh)
+        except (OSError, ValueError):  # missing, or unreadable: recompute
+            return None
+
+    def put(self, key: str, row: dict[str, Any]) -> None:
+        if self.root is None:
+            return
+        plain = {k: _plain(v) for k, v in row.items()}
+        plain = {k: (None if isinstance(v, float) and math.isnan(v) else v)
+                 for k, v in plain.items()}
+        write_text(self._path(key), json.dumps(plain, allow_nan=True, default=str))
+
+    def __len__(self) -> int:
+        if self.root is None or not self.root.exists():
+            return 0
+        return sum(1 for p in self.root.glob("*/*.json") if not p.name.startswith("."))

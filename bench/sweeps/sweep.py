@@ -1,0 +1,486 @@
+"""Sweeps: grids of scenes x scheme specs x nx x (dt or CFL), one tidy row per run.
+
+A sweep is a list of `Task`s (`plan` builds the product; scheme and case specs may hold
+list-valued parameters, expanded with `contact_bench.api.params.expand_spec`). `run_sweep` runs
+them and returns one DataFrame:
+
+1. every task whose key (inputs + code hash, `contact_bench.sweeps.cache`) is in the cache is served
+   from it (`from_cache` = True);
+2. the others run in parallel, in local processes (`jobs`) or on Dask distributed
+   (`dask` = an address or "local"); each finished row is written to the cache at
+   once, so an interrupted sweep continues where it stopped;
+3. then, with nothing else running, a *serial timing pass* in this process: for every
+   ok row of a timed task, one warm-up call of `scheme.integrate` (discarded; JIT
+   compilation is done before it by `scheme.warm_up`), then the minimum of `repeats`
+   timed calls with the garbage collector off -> `time_s`. Timings are cached too,
+   keyed on the run and the CPU model.
+
+A failing run never stops a sweep: it is a row with status 'error' and the reason.
+Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
+energy drift bound), a stability class and the environment (`contact_bench.harness.environment`).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import gc
+import json
+import math
+import multiprocessing as mp
+import time
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.params import expand_spec
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core.errors import BenchError
+from contact_bench.harness.environment import cpu_model, environment
+from contact_bench.harness.io import atomic_write, write_text
+from contact_bench.harness.metrics import ERROR_COLUMNS
+from contact_bench.harness.runner import COLUMNS as HARNESS_COLUMNS
+from contact_bench.harness.runner import check_task_inputs, run_one
+from contact_bench.sweeps.cache import Cache, code_hash, run_key
+
+#: energy |E| above this multiple of |E(0)| (or not finite) is a blow-up
+BLOWUP_FACTOR = 1e3
+#: growth max (E - E0)/|E0| tolerated for 'conserved'/'dissipated' schemes with no bound
+DEFAULT_GROWTH_TOL = 1e-2
+TRACE_POINTS = 200
+STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
+#: columns that vary from one execution of the same run to the next
+TIMING_COLUMNS = ("wall_s", "time_s", "time_repeats", "run_s")
+VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
+
+COLUMNS = (
+    "group", "case", "scheme", "case_name", "scheme_name", "nx", "h", "dt", "cfl", "T",
+    "steps", "stride", "grading", *ERROR_COLUMNS,
+    "energy_initial", "energy_final", "energy_drift_max", "energy_growth_max",
+    "penetration_max", "blowup_time", "status", "stability", "notes", "reference",
+    "implicit", "energy_trait", "order_declared", "contact", "massless_contact_node",
+    "dt_limit", "cfl_limit", "energy_drift_bound",
+    *TIMING_COLUMNS, "from_cache", "key", "code_hash", "run_date",
+    *environment().keys(), "energy_trace",
+)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run to make. `dt` and `cfl` are exclusive (neither: the case's default dt).
+
+    `max_samples` (optional) sets the sampling stride so that at most about that many
+    samples are kept (metrics cost grows with the number of samples).
+    """
+
+    case: str
+    scheme: str
+    nx: int | None = None
+    dt: float | None = None
+    cfl: float | None = None
+    T: float | None = None
+    stride: int = 1
+    max_samples: int | None = None
+    grading: float = 1.0
+    group: str = "sweep"
+    timed: bool = True
+
+    def inputs(self) -> dict[str, Any]:
+        """What defines the run (the cache key): everything but group and timed."""
+        out = asdict(self)
+        out.pop("group")
+        out.pop("timed")
+        return out
+
+
+@dataclass
+class SweepResult:
+    table: pd.DataFrame
+    executed: int  # runs computed by this call (not served from the cache)
+    cached: int  # runs served from the cache
+    timed: int  # timing measurements made by this call
+    elapsed: float
+    keys: list[str] = field(default_factory=list)
+
+
+def plan(cases: Iterable[str], schemes: Iterable[str], nxs: Sequence[int | None] = (None,),
+         dts: Sequence[float | None] | None = None, cfls: Sequence[float] | None = None,
+         T: float | None = None, stride: int = 1, max_samples: int | None = None,
+         grading: float = 1.0, group: str = "sweep", timed: bool = True) -> list[Task]:
+    """The product cases x schemes x nx x (dt or CFL), specs expanded (benchopt style)."""
+    if dts and cfls:
+        raise BenchError("give time steps either as dt or as CFL, not both")
+    steps: list[tuple[float | None, float | None]]
+    if cfls:
+        steps = [(None, float(c)) for c in cfls]
+    else:
+        steps = [(None if d is None else float(d), None) for d in (dts or [None])]
+    case_specs = [s for c in cases for s in expand_spec(c)]
+    scheme_specs = [s for c in schemes for s in expand_spec(c)]
+    return [Task(c, s, nx, dt, cfl, T, stride, max_samples, grading, group, timed)
+            for c in case_specs for s in scheme_specs for nx in nxs for dt, cfl in steps]
+
+
+# ------------------------------------------------------------------------ one run
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
+
+
+def _finite(x: Any) -> bool:
+    try:
+        return x is not None and math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
+def classify(status: str | None, energy_trait: str | None, growth: float | None,
+             bound: float | None) -> str | None:
+    """Stability class of a row: 'blown up', 'energy-growing' (beyond the declared
+    behaviour) or 'stable'; None when the run did not run (error, not applicable).
+
+    Declared behaviour: a `energy_drift_bound` when the scheme gives one; else, for
+    'conserved' and 'dissipated' schemes, a growth of at most DEFAULT_GROWTH_TOL;
+    a scheme that declares its energy 'may grow' without a bound only blows up.
+    """
+    if status == "unstable":
+        return "blown up"
+    if status != "ok":
+        return None
+    tol = bound if _finite(bound) else (
+        DEFAULT_GROWTH_TOL if energy_trait in {"conserved", "dissipated"} else None)
+    if tol is not None and _finite(growth) and float(growth) > float(tol):
+        return "energy-growing"
+    return "stable"
+
+
+def _trace(t: np.ndarray, E: np.ndarray) -> str:
+    """E(t) at <= TRACE_POINTS samples, as JSON (6 significant digits)."""
+    idx = np.unique(np.linspace(0, t.size - 1, min(t.size, TRACE_POINTS)).round().astype(int))
+
+    def r(v: float) -> float | None:
+        return float(f"{v:.6g}") if math.isfinite(v) else None
+
+    return json.dumps({"t": [r(float(v)) for v in t[idx]], "E": [r(float(v)) for v in E[idx]]})
+
+
+def _stride_for(task: dict[str, Any], dt: float | None, case: Any, limit: float | None,
+                T: float) -> int:
+    if not task.get("max_samples"):
+        return int(task["stride"])
+    dt_est = case.dt if dt is None else dt
+    if dt is None and limit is not None and dt_est > limit:
+        dt_est = 0.9 * limit
+    steps = max(1, math.ceil(T / dt_est - 1e-9))
+    return max(int(task["stride"]), min(steps, math.ceil(steps / int(task["max_samples"]))))
+
+
+def execute_task(task: dict[str, Any]) -> dict[str, Any]:
+    """Run one task (a `Task.inputs()` dict plus bookkeeping); never raises: errors are rows."""
+    start = time.perf_counter()
+    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row.update(case=task["case"], scheme=task["scheme"], nx=task["nx"], dt=task["dt"],
+               cfl=task["cfl"], T=task["T"], stride=task["stride"], grading=task["grading"])
+    try:
+        case, scheme = make_case(task["case"]), make_scheme(task["scheme"])
+        traits = scheme.traits()
+        row.update(case_name=case.name, scheme_name=scheme.name, implicit=bool(traits.implicit),
+                   energy_trait=traits.energy, order_declared=traits.order,
+                   contact=traits.contact, massless_contact_node=traits.massless_contact_node)
+        nx, grading = int(task["nx"]), float(task["grading"])
+        T = float(case.T if task["T"] is None else task["T"])
+        reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+        if reason:
+            run = run_one(case, scheme, nx, None, T, 1, grading, True)
+            row.update(run.row)
+        else:
+            semi0 = discretise(case, mesh_nodes(float(case.L), nx, grading), scheme.mass_kind())
+            h, c = semi0.hmin, semi0.c_max
+            limit = scheme.stability_limit(h, c)
+            row.update(h=h, dt_limit=limit, cfl_limit=None if limit is None else c * limit / h)
+            dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * h / c
+            stride = _stride_for(task, dt, case, limit, T)
+            run = run_one(case, scheme, nx, dt, T, stride, grading, True)
+            row.update(run.row)
+            row["cfl"] = c * float(row["dt"]) / h
+            traj = run.trajectory
+            if traj is not None and run.semi is not None:
+                row["energy_drift_bound"] = scheme.energy_drift_bound(run.semi, float(row["dt"]))
+                _energy_extras(row, traj.t, np.asarray(traj.energy, float))
+        row["stability"] = classify(row["status"], row["energy_trait"],
+                                    row["energy_growth_max"], row["energy_drift_bound"])
+    except Exception as exc:  # noqa: BLE001 - a failing run never stops the sweep
+        row.update(status="error", notes=_one_line(exc), stability=None)
+    row["run_s"] = time.perf_counter() - start
+    row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
+    row.update(environment())
+    return row
+
+
+def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
+    """Energy growth, the energy trace, and a blow-up the scheme itself did not report."""
+    E0 = float(E[0]) if E.size else float("nan")
+    scale = abs(E0) if E0 != 0 else 1.0
+    with np.errstate(invalid="ignore", over="ignore"):
+        finite = np.isfinite(E)
+        row["energy_growth_max"] = (float(np.max(E[finite] - E0) / scale)
+                                    if finite.any() else float("nan"))
+        bad = ~finite | (np.abs(np.where(finite, E, 0.0)) > BLOWUP_FACTOR * max(abs(E0), 1e-300))
+    row["energy_trace"] = _trace(t, E)
+    if row["status"] == "ok" and bad.any():
+        when = float(t[int(np.argmax(bad))])
+        note = f"energy beyond {BLOWUP_FACTOR:g} x E(0) at t = {when:.6g} (seen by the sweep)"
+        row.update(status="unstable", blowup_time=when,
+                   notes="; ".join(n for n in (row.get("notes"), note) if n))
+
+
+# ----------------------------------------------------------------- timing pass
+
+
+#: a slow run stops repeating once its timed calls have taken this long (>= 2 calls)
+TIME_BUDGET_S = 3.0
+
+
+def time_integrate(row: dict[str, Any], repeats: int) -> tuple[float, int]:
+    """Minimum over `repeats` timed `scheme.integrate` calls, after a discarded warm-up.
+
+    Returns (minimum, calls made): a run whose calls exceed TIME_BUDGET_S in total
+    stops after two calls (one when repeats = 1).
+    """
+    case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
+    semi = discretise(case, mesh_nodes(float(case.L), int(row["nx"]), float(row["grading"])),
+                      scheme.mass_kind())
+    dt, steps, stride = float(row["dt"]), int(row["steps"]), int(row["stride"])
+    scheme.warm_up(semi)  # JIT compilation
+    scheme.integrate(semi, dt, steps, stride)  # discarded warm-up call
+    best, spent, calls = math.inf, 0.0, 0
+    gc.collect()
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        while calls < max(1, repeats) and not (calls >= 2 and spent > TIME_BUDGET_S):
+            t0 = time.perf_counter()
+            scheme.integrate(semi, dt, steps, stride)
+            elapsed = time.perf_counter() - t0
+            best, spent, calls = min(best, elapsed), spent + elapsed, calls + 1
+    finally:
+        if enabled:
+            gc.enable()
+    return best, calls
+
+
+# ------------------------------------------------------------------ executors
+
+
+def _run_serial(todo: list[tuple[str, dict]], done: Callable[[str, dict], None]) -> None:
+    for key, task in todo:
+        done(key, execute_task(task))
+
+
+def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict], None]) -> None:
+    ctx = mp.get_context("spawn")  # no fork of a process holding threads (tqdm, numba)
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    try:
+        pending = {pool.submit(execute_task, task): key for key, task in todo}
+        while pending:
+            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                done(pending.pop(fut), fut.result())
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
+              done: Callable[[str, dict], None]) -> None:
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise BenchError("--dask needs dask distributed: "
+                         "pip install 'contact-bench[dask]'") from None
+    import logging
+
+    cluster = None
+    if address == "local":
+        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", silence_logs=logging.ERROR)
+        client = Client(cluster)
+    else:
+        client = Client(address)
+    try:
+        futures = {client.submit(execute_task, task, key=f"run-{key}", pure=False): key
+                   for key, task in todo}
+        for fut in as_completed(list(futures)):
+            done(futures[fut], fut.result())
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# ----------------------------------------------------------------------- driver
+
+
+def _progress(total: int, initial: int, desc: str, quiet: bool) -> Any:
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, desc=desc, unit="run", disable=quiet,
+                dynamic_ncols=True, leave=True)
+
+
+def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
+              cache: Cache | None = None, repeats: int = 5, quiet: bool = False) -> SweepResult:
+    """Run the tasks (see the module docstring); the table has one row per distinct run."""
+    start = time.perf_counter()
+    cache = cache if cache is not None else Cache(None)
+    # canonical inputs and keys; bad specs raise BenchError here, before anything runs
+    order: list[str] = []
+    meta: dict[str, dict[str, Any]] = {}
+    made: dict[tuple[str, str], tuple[Any, Any]] = {}
+    for task in tasks:
+        pair = (task.case, task.scheme)
+        if pair not in made:
+            made[pair] = (make_case(task.case), make_scheme(task.scheme))
+        case, scheme = made[pair]
+        check_task_inputs(task.nx, task.dt, task.T, task.cfl, task.stride, task.grading)
+        canon = replace(task, case=case.spec, scheme=scheme.spec,
+                        nx=int(case.nx if task.nx is None else task.nx))
+        if canon.dt is not None and canon.cfl is not None:
+            raise BenchError(f"task {task}: give dt or cfl, not both")
+        inputs = canon.inputs()
+        code = code_hash(type(case), type(scheme))
+        key = run_key(inputs, code)
+        if key in meta:  # the same run asked twice (e.g. by two parts of a study)
+            groups = meta[key]["group"].split(";")
+            if task.group not in groups:
+                meta[key]["group"] = ";".join([*groups, task.group])
+            meta[key]["timed"] = meta[key]["timed"] or task.timed
+            continue
+        order.append(key)
+        meta[key] = {"inputs": inputs, "code": code, "group": task.group, "timed": task.timed}
+
+    rows: dict[str, dict[str, Any]] = {}
+    for key in order:
+        hit = cache.get(key)
+        if hit is not None:
+            rows[key] = dict(hit, from_cache=True)
+    todo = [(key, meta[key]["inputs"]) for key in order if key not in rows]
+    n_cached = len(rows)
+    bar = _progress(len(order), n_cached, "runs", quiet)
+
+    def done(key: str, row: dict[str, Any]) -> None:
+        row.update(key=key, code_hash=meta[key]["code"])
+        cache.put(key, row)
+        rows[key] = dict(row, from_cache=False)
+        bar.update(1)
+
+    try:
+        if dask:
+            _run_dask(todo, dask, max(1, jobs), done)
+        elif jobs > 1 and len(todo) > 1:
+            _run_pool(todo, min(jobs, len(todo)), done)
+        else:
+            _run_serial(todo, done)
+    finally:
+        bar.close()
+
+    timed = _timing_pass(order, meta, rows, cache, repeats, quiet)
+    for key in order:
+        rows[key].update(group=meta[key]["group"], key=key, code_hash=meta[key]["code"])
+    table = _frame([rows[k] for k in order])
+    return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order)
+
+
+def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
+                 cache: Cache, repeats: int, quiet: bool) -> int:
+    """Serial timings in this process, after all parallel work is over (see module doc)."""
+    if repeats <= 0:
+        return 0
+    wanted = [k for k in order if meta[k]["timed"] and rows[k].get("status") == "ok"]
+    machine = cpu_model()
+    todo = []
+    for key in wanted:
+        tkey = run_key({"run": key, "cpu": machine, "repeats": repeats}, meta[key]["code"],
+                       kind="timing")
+        hit = cache.get(tkey)
+        if hit is not None:
+            rows[key].update(time_s=hit["time_s"], time_repeats=hit["time_repeats"])
+        else:
+            todo.append((key, tkey))
+    bar = _progress(len(todo), 0, "timing (serial)", quiet or not todo)
+    try:
+        for key, tkey in todo:
+            try:
+                best, calls = time_integrate(rows[key], repeats)
+            except Exception as exc:  # noqa: BLE001 - a failing timing is a note, not a crash
+                rows[key]["notes"] = "; ".join(
+                    n for n in (rows[key].get("notes"), f"timing failed: {_one_line(exc)}") if n)
+                bar.update(1)
+                continue
+            rows[key].update(time_s=best, time_repeats=calls)
+            cache.put(tkey, {"time_s": best, "time_repeats": calls})
+            bar.update(1)
+    finally:
+        bar.close()
+    return len(todo)
+
+
+def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    extra = [k for r in rows for k in r if k not in COLUMNS]
+    extra += [k for k in HARNESS_COLUMNS if k not in COLUMNS and k not in extra]
+    cols = list(COLUMNS) + list(dict.fromkeys(extra))
+    df = pd.DataFrame(rows, columns=cols)
+    for col in ("nx", "steps", "stride", "order_declared", "time_repeats", "env_ncpu"):
+        if col in df:
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
+    for col in ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
+                "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
+                "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", *TIMING_COLUMNS):
+        if col in df:
+            df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
+    for col in ("implicit", "massless_contact_node", "from_cache"):
+        if col in df:
+            df[col] = df[col].astype("boolean")
+    return df
+
+
+# ------------------------------------------------------------------ table files
+
+
+def save_table(df: pd.DataFrame, path: str | Path) -> list[Path]:
+    """Write df as CSV (and Parquet next to it when pyarrow is installed), atomically."""
+    path = Path(path)
+    written = [write_text(path, df.to_csv(index=False))]
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        return written
+    pq = path.with_suffix(".parquet")
+    written.append(atomic_write(pq, lambda tmp: df.to_parquet(tmp, index=False)))
+    return written
+
+
+def load_table(path: str | Path) -> pd.DataFrame:
+    """A saved sweep table (CSV or Parquet), with the column types `run_sweep` gives."""
+    path = Path(path)
+    if not path.exists():
+        raise BenchError(f"no such table: {path}")
+    if path.suffix == ".parquet":
+        df = pd.read_parquet(path)
+    else:
+        with open(path, encoding="utf-8") as fh:
+            skip = 0
+            for line in fh:
+                if not line.startswith("#"):
+                    break
+                skip += 1
+        df = pd.read_csv(path, skiprows=skip, keep_default_na=True)
+    if "case" not in df or "scheme" not in df:
+        raise BenchError(f"{path} is not a sweep table: it has no 'case' and 'scheme' columns")
+    return _frame(df.to_dict("records"))
