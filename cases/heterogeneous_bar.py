@@ -35,7 +35,7 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case
 from contact_bench.exact.numerical import NumericalReference
 
-REFERENCE_SCHEME = "redistributed[variant=conservative]"
+REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
 REFERENCE_NX = 1000
 REFERENCE_CFL = 0.5
 REFERENCE_SAMPLES = 4000

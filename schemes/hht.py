@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
@@ -117,8 +117,8 @@ class HHT(Scheme):
     params = {
         "alpha": Param(-0.1, "HHT alpha: beta = (1-alpha)^2/4, gamma = 1/2 - alpha",
                        low=-1.0 / 3.0, high=0.0),
-        "mass": Param("seed", "mass matrix (contact_bench.api.fem); seed: the paper's M^mod",
-                      choices=MASS_KINDS),
+        "mass": Param("first_element_massless", "mass matrix (contact_bench.api.fem)",
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
     }
 
     @property

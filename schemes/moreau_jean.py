@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
@@ -116,7 +116,7 @@ class MoreauJean(MassiveContactNodeScheme):
         "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
         "theta": Param(0.5, "theta of the theta-method", low=0.5, high=1.0),
         "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
-                      choices=MASS_KINDS),
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
     }
 
     def traits(self) -> Traits:

@@ -58,7 +58,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
@@ -74,7 +74,8 @@ class Nitsche(Scheme):
                        choices=(-1, 0, 1)),
         "gamma0": Param(5.0, "Nitsche parameter: gam = gamma0 E / h", low=1.0, low_open=True,
                         high=1e8),
-        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS,
+                      aliases=MASS_ALIASES),
         "beta": BETA,
         "gamma": GAMMA,
     }

@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
@@ -61,8 +62,8 @@ class OdeAdaptive(Scheme):
     summary = "the seed's ODE (P_U^mod) by DOP853 with error control (dt = sampling only)"
     params = {
         "rtol": Param(1e-8, "relative tolerance of DOP853", low=1e-13, high=1e-2),
-        "variant": Param("seed", "where the first element's mass goes",
-                         choices=("seed", "getfem", "conservative")),
+        "variant": Param("first_element_massless", "where the first element's mass goes",
+                         choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
     }
 
     def mass_kind(self) -> str:

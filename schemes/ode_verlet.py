@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
+from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
@@ -161,8 +162,8 @@ class OdeVerlet(Scheme):
     name = "ode_verlet"
     summary = "the seed's Lipschitz ODE (P_U^mod) by Stormer-Verlet, fixed step"
     params = {
-        "variant": Param("seed", "where the first element's mass goes",
-                         choices=("seed", "getfem", "conservative")),
+        "variant": Param("first_element_massless", "where the first element's mass goes",
+                         choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
     }
 
     def mass_kind(self) -> str:

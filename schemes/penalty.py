@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
@@ -46,7 +46,8 @@ class Penalty(Scheme):
     params = {
         "gamma_p": Param(1.0, "penalty parameter: kappa = gamma_p E / h", low=0.0, low_open=True,
                          high=1e8),
-        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS,
+                      aliases=MASS_ALIASES),
         "beta": BETA,
         "gamma": GAMMA,
     }

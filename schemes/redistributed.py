@@ -21,6 +21,7 @@ nx = 40 ... 320 (tests/test_foundation.py checks CFL 0.08).
 
 from __future__ import annotations
 
+from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
@@ -31,8 +32,8 @@ class Redistributed(Scheme):
     name = "redistributed"
     summary = "massless contact node (mass redistribution), Newmark, exact contact"
     params = {
-        "variant": Param("seed", "where the first element's mass goes",
-                         choices=("seed", "getfem", "conservative")),
+        "variant": Param("first_element_massless", "where the first element's mass goes",
+                         choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
         "beta": BETA,
         "gamma": GAMMA,
     }

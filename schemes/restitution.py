@@ -92,7 +92,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
 from contact_bench.core.errors import BenchError
@@ -213,7 +213,7 @@ class Restitution(MassiveContactNodeScheme):
     params = {
         "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0),
         "mass": Param("lumped", "mass matrix (massless contact node kinds are refused)",
-                      choices=MASS_KINDS),
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
         "beta": Param(0.0, "stiffness weight (0: explicit central difference, 1/4: implicit)",
                       low=0.0, high=0.5),
     }

@@ -17,7 +17,7 @@ energy grows 10 to 60 fold; the runs are sensitive to round-off.
 
 from __future__ import annotations
 
-from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
@@ -30,7 +30,8 @@ class Standard(Scheme):
     params = {
         "beta": Param(0.25, "Newmark beta (> 0: implicit)", low=0.0, high=0.5, low_open=True),
         "gamma": GAMMA,
-        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS,
+                      aliases=MASS_ALIASES),
     }
 
     def mass_kind(self) -> str:

@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
-from contact_bench.api.fem import MASS_KINDS
+from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
@@ -184,7 +184,7 @@ class TaylorFlanagan(MassiveContactNodeScheme):
     summary = "explicit central difference; contact force that stops the contact node"
     params = {
         "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
-                      choices=MASS_KINDS),
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
     }
 
     def traits(self) -> Traits:

@@ -6,14 +6,20 @@ a dense n x n matrix.
 
 Mass variants (node 0 is the contact node; see the project note, section 3):
 
-===============  ===============================================================
-consistent       M as assembled (the *standard* mass)
-lumped           row sums on the diagonal
-seed             M^mod_ij = int_h^L rho phi_i phi_j: the first element carries no mass
-getfem           M11 += M00 + M01, then row and column 0 zeroed (GetFEM's 1D demo)
-conservative     M11 += M00 + 2 M01, row and column 0 zeroed: total mass kept
-singular         first element's local mass [[0, 0], [0, rho h / 4]] (M11 = 7h/12)
-===============  ===============================================================
+======================  ========================================================
+consistent              M as assembled (the *standard* mass)
+lumped                  row sums on the diagonal
+first_element_massless  M^mod_ij = int_h^L rho phi_i phi_j: the first element carries
+                        no mass (Dabaghi, Petrov, Pousin, Renard 2014; total L - h)
+getfem                  M11 += M00 + M01, then row and column 0 zeroed (GetFEM's 1D
+                        demo; total mass L - h/6)
+mass_conserving         M11 += M00 + 2 M01, row and column 0 zeroed: total mass kept
+singular                first element's local mass [[0, 0], [0, rho h / 4]]
+                        (M11 = 7h/12, Renard 2010)
+======================  ========================================================
+
+Older spellings still parse (`MASS_ALIASES`): ``seed`` is ``first_element_massless`` and
+``conservative`` is ``mass_conserving``.
 """
 
 from __future__ import annotations
@@ -29,8 +35,18 @@ from skfem.helpers import dot, grad
 
 Coefficient = float | Callable[[np.ndarray], np.ndarray]
 
-MASS_KINDS = ("consistent", "lumped", "seed", "getfem", "conservative", "singular")
-MASSLESS_KINDS = frozenset({"seed", "getfem", "conservative", "singular"})
+MASS_KINDS = ("consistent", "lumped", "first_element_massless", "getfem", "mass_conserving",
+              "singular")
+MASSLESS_KINDS = frozenset({"first_element_massless", "getfem", "mass_conserving", "singular"})
+#: the redistributed variants (massless contact node, no singular mass)
+REDISTRIBUTED_KINDS = ("first_element_massless", "getfem", "mass_conserving")
+#: older names of mass kinds, accepted wherever a kind is parsed: (old, canonical)
+MASS_ALIASES = (("seed", "first_element_massless"), ("conservative", "mass_conserving"))
+
+
+def canonical_mass(kind: str) -> str:
+    """The canonical name of a mass kind (an old spelling of `MASS_ALIASES` mapped)."""
+    return dict(MASS_ALIASES).get(kind, kind)
 
 
 @dataclass(frozen=True)
@@ -170,6 +186,7 @@ def assemble(x: np.ndarray, rho: Coefficient, E: Coefficient) -> Assembly:
 
 def mass_variant(asm: Assembly, kind: str) -> Tridiag:
     """The mass matrix of the given kind (see the module docstring) as bands."""
+    kind = canonical_mass(kind)
     if kind not in MASS_KINDS:
         raise ValueError(f"mass must be one of {', '.join(MASS_KINDS)}; got {kind!r}")
     d = asm.M.diag.copy()
@@ -185,11 +202,11 @@ def mass_variant(asm: Assembly, kind: str) -> Tridiag:
     )
     if d.size < 2:
         raise ValueError("a massless contact node needs at least one element besides the first")
-    if kind == "seed":
+    if kind == "first_element_massless":
         d[1] -= m11
     elif kind == "getfem":
         d[1] += m00 + m01
-    elif kind == "conservative":
+    elif kind == "mass_conserving":
         d[1] += m00 + 2.0 * m01
     elif kind == "singular":
         d[1] += -m11 + 0.75 * m11  # first element's local mass becomes [[0, 0], [0, rho h / 4]]

@@ -26,6 +26,8 @@ class Param:
     high: float | None = None
     low_open: bool = False
     high_open: bool = False
+    #: older spellings of choices that still parse: (old, canonical) pairs
+    aliases: tuple[tuple[Any, Any], ...] = ()
 
     @property
     def kind(self) -> type:
@@ -64,6 +66,7 @@ class Param:
             raise BenchError(f"{where}: not a valid {self.kind.__name__}; "
                              f"allowed: {self.allowed()}") from None
         if self.choices is not None:
+            value = dict(self.aliases).get(value, value)
             if value not in self.choices:
                 raise BenchError(f"{where}: not allowed; allowed: {self.allowed()}")
             return value

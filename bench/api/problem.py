@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from contact_bench.api.fem import MASSLESS_KINDS, assemble, mass_variant
+from contact_bench.api.fem import MASSLESS_KINDS, assemble, canonical_mass, mass_variant
 from contact_bench.api.plugin import Case, Semidiscrete
 from contact_bench.core.errors import BenchError
 
@@ -47,6 +47,7 @@ def discretise(case: Case, x: np.ndarray, mass_kind: str = "consistent") -> Semi
     every mass variant. Initial data are nodal interpolants of the case's u0 and v0.
     """
     check_case(case)
+    mass_kind = canonical_mass(mass_kind)
     try:
         asm = assemble(x, case.rho, case.E)
     except ValueError as exc:  # x-dependent rho or E not > 0 somewhere
