@@ -1,32 +1,19 @@
-"""The bar dropped under gravity (the seed's section 5, eq. 5.5, corrected).
+"""The bar dropped under gravity (Dabaghi, Petrov, Pousin, Renard 2014, section 5.2).
 
 L = 10, E = 900, rho = 1, g = 10, u0 = 5, v0 = 0, both ends free, T = 6.5; c = 30,
 transit time L/c = 1/3. The bar falls for 1 s, hits at speed 10, stays in contact for
 2L/c while a wave runs up and back, flies, and so on (period 16 L/c). Contact
 intervals [1, 5/3], [11/3, 13/3], [19/3, 7]; stress on the first contact from -300 to
--500; energy (with gravity) rho g L u0 = 500. Stresses: gravity, free ends, a
-nearly grazing second impact (speed 10/3).
+-500; energy (with gravity) rho g L u0 = 500. Stresses gravity, free ends and a nearly
+grazing second impact (speed 10/3).
 
-Reference used by the harness: the characteristics solution (`contact_bench.exact.characteristics`),
-exact to round-off. Up to T = 32 L/c (two periods) on a grid of one cell per length L
-(`EXACT_CELLS`): u0 is constant and v0 = 0 (piecewise linear data, no kinks), every
-impact and take-off falls on a multiple of L/c (t = 1 = 3 L/c, 5/3, 11/3, ...: tau = c t
-a multiple of L, a node of any grid, so no crossing is inserted), and with gravity the
-stored pieces are the exact quadratics ("Accuracy" in `contact_bench.exact.characteristics`). It
-agrees with the default grid (20000 cells per length) to round-off in u, u_x, u_t, the
-contact times and the energy (tests/test_characteristics_runs.py), builds in 1.5 ms
-instead of 20-40, and evaluates the error norms' grids by long runs of points per cell
-(about 1.5 ns per point instead of 14-19). Beyond two periods the round-off of the
-coarse grid grows faster than that of the default grid (u(t + 16 L/c) - u(t): 5e-10
-against 1e-11 after three periods), so longer runs use the default grid.
-
-`series_u` is the seed's closed form (5.5) with its typo fixed: in h1 the factor
-sqrt(2 u0 / g) must be sqrt(2 u0 g) (the impact speed 10, not the fall time 1). With
-`SERIES_MODES` = 4000 modes its truncation error on u is below 1.2e-4 (the tail of
-h2's series, sum_{n>N} 4 g / (E lam_n^2) <= 4 g L^2 / (E pi^2 N); h1's tail is O(N^-2)),
-and tests/test_foundation.py checks it against the characteristics solution to that
-bound. Its impact times t_{4k+1} = 3L/sqrt(E) + 16 k L/sqrt(E) rely on
-sqrt(2 u0 / g) = 3 L / sqrt(E), true for these parameters only.
+Reference: the characteristics solution (`contact_bench.exact.characteristics`), exact
+to round-off. Up to `COARSE_PERIODS` periods it uses one cell per length L
+(`EXACT_CELLS`): the data are constant and every impact and take-off falls on a
+multiple of L/c, so that grid is exact and much faster; longer runs use the default
+grid. `series_u` is the paper's series (5.5) with its typo fixed (sqrt(2 u0 g), not
+sqrt(2 u0 / g), in h1), a cross-check valid for these parameters only. Measurements:
+docs/scenes.md.
 """
 
 from __future__ import annotations
@@ -37,14 +24,20 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
+
+EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)
+
+COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)
+SERIES_MODES = 4000
+
 SERIES_MODES = 4000
 SERIES_TRUNCATION = 1.2e-4  # bound on |u_series - u| with SERIES_MODES modes
 
 
 class DroppedBar(Case):
     name = "dropped_bar"
-    summary = "free bar dropped under gravity on the obstacle (seed eq. 5.5, corrected)"
+    summary = "free bar dropped under gravity on the obstacle (the paper's sec. 5.2)"
     L, rho, E, g = 10.0, 1.0, 900.0, 10.0
     far_end, u_L = "free", 0.0
     T, nx, dt = 6.5, 100, 2e-3

@@ -4,22 +4,15 @@ L = 1, rho = E = 1 (c = 1), g = 0, both ends free. u0 = gap = 0.01 L, v0 = -mach
 (uniform), mach in [1e-3, 0.5] (default 0.01). The bar flies for t1 = gap / (mach c),
 stays in contact for exactly 2 L / c while a compression wave (stress -rho c v =
 -E mach) runs up and back, then leaves with velocity +mach c, stress free.
-T = t1 + 3 L / c (so the scene ends one transit after the take-off).
+T = t1 + 3 L / c (the scene ends one transit after the take-off).
 
-Stresses: the ratio of two time scales, the flight (gap / v) and the wave transit
+Stresses the ratio of two time scales, the flight (gap / v) and the wave transit
 (L / c): at mach = 1e-3 the impact comes after 10 transits of slow flight, at mach = 0.5
-after 0.02 (4 steps at the default dt), with a strain of 0.5 (far outside small strain:
-the linear model is pushed to its limit on purpose). Impact inside a time step, with an
-instantaneous velocity jump of the contact node. The model is linear: the deformation
-scales with mach, so the relative errors of u_t and of the stress barely depend on it
-(only through where t1 falls in a time step); what mach changes is the flight time and
-the share of the rigid gap in u (hence in the relative u errors). Reference: the characteristics
-solution (exact: piecewise linear in x and t, the impact instant is inserted in its
-grid), on one cell per length L (`EXACT_CELLS`): the data are constants, so any grid is
-exact (an impact within 1e-9 cells of a node is put on the node: within 1e-9 L / c of
-the true instant here), and the coarse grid agrees with the default one to round-off
-(tests/test_characteristics_runs.py) while building and evaluating much faster. Provides u,
-u_t, the contact stress and the energy 1/2 rho L v^2.
+after 0.02 (4 steps at the default dt), with a strain of 0.5, far outside small strain
+on purpose. Reference: the characteristics solution, exact (piecewise linear; the
+impact instant is inserted in its grid), on one cell per length L (`EXACT_CELLS`): the
+data are constant, so any grid is exact. Provides u, u_t, the contact stress and the
+energy 1/2 rho L v^2. More: docs/scenes.md.
 """
 
 from __future__ import annotations
@@ -29,6 +22,8 @@ import numpy as np
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
+
+GAP_FRACTION = 0.01  # initial gap / L
 
 GAP_FRACTION = 0.01  # initial gap / L
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data

@@ -3,25 +3,17 @@
 L = 1, rho = 1, E = 1 on [0, 1/2) and E = contrast on [1/2, 1] (default 4: wave speeds
 1 and 2, impedance ratio 2), g = 0, both ends free; u0 = 0.05 (gap), v0 = -1/2, T = 3.
 The bar hits at t = 0.1; the compression wave is partly reflected at the interface, so
-the contact ends at a time no closed form gives, and later waves re-impact.
+the contact ends at a time no closed form gives, and later waves re-impact. Stresses
+x-dependent coefficients, reflections inside the bar and a reference that is not exact.
 
-Stresses: x-dependent coefficients (assembly with callable E, the largest wave speed in
-the stability limit), reflections inside the bar, a reference that is not exact.
-
-Reference (reference = "numerical"): a fine run of `REFERENCE_SCHEME` (the mass
-redistribution scheme, mass-conserving variant, Crank-Nicolson) with `REFERENCE_NX`
-elements and c_max dt / h = 1/2 (discretised and integrated directly, not through the
-harness, which would ask this scene for its reference again), kept every few steps (at most about
-`REFERENCE_SAMPLES` samples) and evaluated by P1 interpolation
-in space and linear interpolation in time (`NumericalReference`). It is computed once
-per process and parameter set (functools.cache) on [0, T_ref], T_ref = 1.25 T doubled
-until it covers the requested time, so a sweep reuses it. Every report row says that
-its errors are against a numerical reference (harness note and reference column).
-Its own error is far below that of runs at nx <= 200 (it converges like them, at
-order about 1/2 to 1 in these norms), so errors decrease towards it under refinement
-until nx approaches REFERENCE_NX / 4 or so.
-Provides u, u_t, the (numerical) contact stress and the conserved energy 1/2 rho L v0^2
-(energy is exact: the data carry no strain).
+Reference (reference = "numerical"): a fine run of `REFERENCE_SCHEME` with
+`REFERENCE_NX` elements and c_max dt / h = `REFERENCE_CFL`, discretised and integrated
+directly (not through the harness, which would ask this scene for its reference
+again), kept at about `REFERENCE_SAMPLES` samples and interpolated
+(`NumericalReference`). It is computed once per process and parameters on
+[0, T_ref], T_ref = 1.25 T doubled until it covers the requested time, so a sweep
+reuses it. Every report row says that its errors are against a numerical reference.
+Provides u, u_t, the (numerical) contact stress and the energy 1/2 rho L v0^2.
 """
 
 from __future__ import annotations
@@ -36,8 +28,16 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.numerical import NumericalReference
 
 REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
+
+REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
+REFERENCE_NX = 1000
+
 REFERENCE_NX = 1000
 REFERENCE_CFL = 0.5
+
+REFERENCE_CFL = 0.5
+REFERENCE_SAMPLES = 4000
+
 REFERENCE_SAMPLES = 4000
 GAP, SPEED, INTERFACE = 0.05, 0.5, 0.5
 

@@ -1,25 +1,18 @@
 """A smooth compactly supported pulse running into the obstacle, several impacts.
 
 L = 1, rho = E = 1 (c = 1), g = 0, clamped at x = 1 (u = 0), T = 8.
-u0 = gap (1 - x) + f(x), v0 = f'(x): a wave f(x + t) travelling towards the obstacle
-on the uniform strain gap (1 - x), gap = 0.1. That strain is not at rest: the end x = 0
-is stress free, so it moves down at speed c gap from t = 0 (u(0, t) = gap (1 - c t)
-until the pulse arrives at t = 0.3). f = -A b((x - x0) / w) with the C-infinity
-bump b(y) = exp(1 - 1 / (1 - y^2)) (|y| < 1, 0 elsewhere), A = 0.2, x0 = 1/2, w = 0.2.
-The pulse pulls the end down by A > gap: it hits the obstacle (contact [0.340, 0.505]),
-comes back from the clamped end with the opposite sign, lifts the end, returns, and
-hits again: contact periods [0.340, 0.505], [2.505, 2.689], [4.689, 6], [6.363, 6.505]
-in [0, 8].
+u0 = gap (1 - x) + f(x), v0 = f'(x): a wave f(x + t) travelling towards the obstacle on
+the uniform strain gap (1 - x), gap = 0.1, with f = -A b((x - x0) / w), the C-infinity
+bump b(y) = exp(1 - 1 / (1 - y^2)) on |y| < 1, A = 0.2, x0 = 1/2, w = 0.2. The pulse
+pulls the end down by A > gap, so it hits the obstacle, comes back from the clamped end
+with the opposite sign, returns and hits again: contact periods [0.340, 0.505],
+[2.505, 2.689], [4.689, 6], [6.363, 6.505] in [0, 8].
 
-Stresses: the smooth regime (errors away from impacts are those of a smooth wave, so
-the loss of order comes from the contact only), dispersion of a pulse over several
-reflections, repeated impacts. Reference: d'Alembert's formula with the contact instants
-found by root finding on the closed forms of the data (`contact_bench.exact.dalembert`; errors 7e-13
-on u and 2e-8 on u_x, u_t, those of its table; checked against the characteristics
-solution of the same data, which converges to it, in tests/test_dalembert.py). Until
-2026-11 it was that characteristics solution on 20000 cells per length (5e-8 on u, up to
-4e-3 on the slopes near the pulse: its chord slopes; `benchmarks/pulse_reference.py`).
-Provides u, u_t, the contact stress and the conserved energy.
+Stresses the smooth regime (away from impacts the errors are those of a smooth wave,
+so a loss of order comes from the contact only), dispersion over several reflections
+and repeated impacts. Reference: d'Alembert's formula (`contact_bench.exact.dalembert`)
+on the closed forms of the data below (`_u0`, `_V`); how it is checked:
+docs/scenes.md. Provides u, u_t, the contact stress and the conserved energy.
 """
 
 from __future__ import annotations
@@ -30,29 +23,6 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.dalembert import DalembertSolution
 
 GAP, AMPLITUDE, CENTER, WIDTH = 0.1, 0.2, 0.5, 0.2
-
-
-def _bump(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """b(y) and b'(y) of the C-infinity bump exp(1 - 1/(1 - y^2)) on (-1, 1)."""
-    y = np.asarray(y, float)
-    inside = np.abs(y) < 1.0
-    s = np.where(inside, 1.0 - y * y, 1.0)
-    b = np.where(inside, np.exp(1.0 - 1.0 / s), 0.0)
-    return b, np.where(inside, b * (-2.0 * y / s**2), 0.0)
-
-
-def _u0(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """u0 and u0' in closed form (for the d'Alembert reference)."""
-    x = np.asarray(x, float)
-    b, db = _bump((x - CENTER) / WIDTH)
-    return GAP * (1.0 - x) - AMPLITUDE * b, -GAP - AMPLITUDE / WIDTH * db
-
-
-def _V(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """V = int_0^x v0 = -A (b((x - x0) / w) - b(-x0 / w)) and v0, in closed form."""
-    b, db = _bump((np.asarray(x, float) - CENTER) / WIDTH)
-    b0 = float(_bump(np.asarray(-CENTER / WIDTH))[0])
-    return -AMPLITUDE * (b - b0), -AMPLITUDE / WIDTH * db
 
 
 class Pulse(Case):
@@ -77,3 +47,26 @@ class Pulse(Case):
     @property
     def exact_energy(self) -> float:
         return float(self.exact(1e-3).energy(0.0))
+
+
+def _bump(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """b(y) and b'(y) of the C-infinity bump exp(1 - 1/(1 - y^2)) on (-1, 1)."""
+    y = np.asarray(y, float)
+    inside = np.abs(y) < 1.0
+    s = np.where(inside, 1.0 - y * y, 1.0)
+    b = np.where(inside, np.exp(1.0 - 1.0 / s), 0.0)
+    return b, np.where(inside, b * (-2.0 * y / s**2), 0.0)
+
+
+def _u0(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """u0 and u0' in closed form (for the d'Alembert reference)."""
+    x = np.asarray(x, float)
+    b, db = _bump((x - CENTER) / WIDTH)
+    return GAP * (1.0 - x) - AMPLITUDE * b, -GAP - AMPLITUDE / WIDTH * db
+
+
+def _V(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """V = int_0^x v0 = -A (b((x - x0) / w) - b(-x0 / w)) and v0, in closed form."""
+    b, db = _bump((np.asarray(x, float) - CENTER) / WIDTH)
+    b0 = float(_bump(np.asarray(-CENTER / WIDTH))[0])
+    return -AMPLITUDE * (b - b0), -AMPLITUDE / WIDTH * db

@@ -3,21 +3,16 @@
 L = 1, rho = E = 1 (c = 1), g = 0, clamped at x = 1 (u = 0), T = 6.
 u0 is piecewise linear with a kink at x = 0.3 (u0 in H1, not H2):
 (0, 0.1) - (0.3, 0.35) - (1, 0); v0 jumps at x = 1/2 from -1/2 to +1/4 (v0 in L2 only).
-This is the regularity the seed's convergence theorem assumes (u0 in H1, v0 in L2),
-and no more: the solution carries a velocity jump and a strain jump along
-characteristics for all times. Three contact periods in [0, 6]: [0.5, 1.7], [3.5, 4],
-[4.4, 4.5].
+This is the regularity that the convergence theorem of Dabaghi, Petrov, Pousin, Renard
+(2014) assumes, and no more: the solution carries a velocity jump and a strain jump
+along characteristics for all times. Contact periods in [0, 6]: [0.5, 1.7], [3.5, 4],
+[4.4, 4.5]. Stresses convergence at minimal regularity (fronts smeared by the mesh,
+order below 1) and repeated impacts of a discontinuous wave.
 
-Stresses: convergence at minimal regularity (fronts smeared by the mesh, order below 1),
-repeated impacts of a discontinuous wave. Reference: the characteristics solution
-(`contact_bench.exact.characteristics`) with the data as tuples, so the kink and the jump lie on its
-grid and the reference is exact to round-off, on any grid: it uses one cell per length L
-(`EXACT_CELLS`; the kinks 0.3, 0.5 and 0.7 are nodes of their own), which agrees with
-the default grid to round-off (tests/test_characteristics_runs.py) and builds and
-evaluates much faster (past T ~ 40 the impacts fill its node cap, and `coarse_solution`
-takes the default grid). It provides u, u_t, the contact stress
-(E u_x(0, t) is in L2(0, T) by hidden regularity: piecewise constant here) and the
-conserved energy.
+Reference: the characteristics solution (`contact_bench.exact.characteristics`) with
+the data as tuples, so the kink and the jump lie on its grid and it is exact to
+round-off, on one cell per length L (`EXACT_CELLS`). It provides u, u_t, the contact
+stress (in L2(0, T) by hidden regularity; piecewise constant here) and the energy.
 """
 
 from __future__ import annotations
@@ -28,13 +23,17 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
+
+U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
+V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))
+
 V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for tuple data
 
 
 class RoughData(Case):
     name = "rough_data"
-    summary = "step in v0 (only L2) and kinked u0 (H1): the seed's minimal regularity"
+    summary = "step in v0 (only L2) and kinked u0 (H1): the paper's minimal regularity"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0
     far_end, u_L = "clamped", 0.0
     T, nx, dt = 6.0, 80, 0.005

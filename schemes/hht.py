@@ -4,17 +4,14 @@
     U1 = U0 + dt V0 + dt^2 ((1/2 - beta) A0 + beta A1),  V1 = V0 + dt ((1 - gamma) A0 + gamma A1)
 
 with alpha in [-1/3, 0], beta = (1 - alpha)^2 / 4, gamma = 1/2 - alpha (alpha = 0 is
-Crank-Nicolson, the `standard` scheme). Displacement form: S U1 = M U~ +
-beta dt^2 (F + alpha K U0 + lambda e0), S = M + (1 + alpha) beta dt^2 K factored once;
-the contact uses the precomputed w = S^-1 e0 as in `contact_bench.kernels.newmark`. The multiplier
-is not alpha-weighted (a constraint force at t_{n+1}); the sampled stress is -lambda.
-Unconditionally stable for the linear problem; numerical damping of the high
-frequencies grows with |alpha|.
+Crank-Nicolson, the `standard` scheme). S = M + (1 + alpha) beta dt^2 K is factored
+once and the contact uses w = S^-1 e0 as in `contact_bench.kernels.newmark`; the
+sampled stress is -lambda. Unconditionally stable for the linear problem, with
+numerical damping of the high frequencies that grows with |alpha|.
 
-Energy (kinetic + strain + load potential, sampled): with a massless contact node it
-is dissipated (alpha < 0). With a massive contact node the exact contact at t_{n+1}
-is an inelastic shock of that node, as in `standard`, and the energy grows at impacts
-despite the damping: declared "may grow".
+Energy: dissipated with a massless contact node (the default mass); with a massive one
+the exact contact at t_{n+1} is an inelastic shock of that node, as in `standard`, and
+the energy may grow at impacts despite the damping.
 """
 
 from __future__ import annotations
@@ -33,6 +30,59 @@ from contact_bench.kernels.common import (
     massless_drift_bound,
     trajectory,
 )
+
+
+class HHT(Scheme):
+    name = "hht"
+    summary = "Hilber-Hughes-Taylor alpha (dissipative Newmark family), exact contact"
+    params = {
+        "alpha": Param(-0.1, "HHT alpha: beta = (1-alpha)^2/4, gamma = 1/2 - alpha",
+                       low=-1.0 / 3.0, high=0.0),
+        "mass": Param("first_element_massless", "mass matrix (contact_bench.api.fem)",
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
+    }
+
+    @property
+    def beta(self) -> float:
+        return (1.0 - self.alpha) ** 2 / 4.0
+
+    @property
+    def gamma(self) -> float:
+        return 0.5 - self.alpha
+
+    def mass_kind(self) -> str:
+        return self.mass
+
+    def traits(self) -> Traits:
+        massless = self.mass in MASSLESS_KINDS
+        return Traits(implicit=True, massless_contact_node=massless, contact="exact",
+                      energy="dissipated" if massless and self.alpha < 0 else
+                      ("conserved" if massless else "may grow"),
+                      order=2)
+
+    def stability_limit(self, h: float, c: float) -> float | None:
+        return None
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        M, K = semi.M, semi.K
+        dt = float(dt)
+        beta, gamma, alpha = self.beta, self.gamma, float(self.alpha)
+        s = (1.0 + alpha) * beta * dt * dt
+        Sd, Se = factor_pt(M.diag + s * K.diag, M.off + s * K.off)
+        w = np.zeros(semi.nfree)
+        w[0] = 1.0
+        pt_solve(Sd, Se, w)
+        U, V = semi.U0.copy(), semi.V0.copy()
+        A = initial_acceleration(semi)
+        out = allocate(semi, nsteps, stride)
+        k, done, min_u0, blow = hht_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma,
+            bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
+            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+        return trajectory(out, k, done, min_u0, blow, dt)
 
 
 @njit(cache=True)
@@ -109,56 +159,3 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
-
-
-class HHT(Scheme):
-    name = "hht"
-    summary = "Hilber-Hughes-Taylor alpha (dissipative Newmark family), exact contact"
-    params = {
-        "alpha": Param(-0.1, "HHT alpha: beta = (1-alpha)^2/4, gamma = 1/2 - alpha",
-                       low=-1.0 / 3.0, high=0.0),
-        "mass": Param("first_element_massless", "mass matrix (contact_bench.api.fem)",
-                      choices=MASS_KINDS, aliases=MASS_ALIASES),
-    }
-
-    @property
-    def beta(self) -> float:
-        return (1.0 - self.alpha) ** 2 / 4.0
-
-    @property
-    def gamma(self) -> float:
-        return 0.5 - self.alpha
-
-    def mass_kind(self) -> str:
-        return self.mass
-
-    def traits(self) -> Traits:
-        massless = self.mass in MASSLESS_KINDS
-        return Traits(implicit=True, massless_contact_node=massless, contact="exact",
-                      energy="dissipated" if massless and self.alpha < 0 else
-                      ("conserved" if massless else "may grow"),
-                      order=2)
-
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return None
-
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        M, K = semi.M, semi.K
-        dt = float(dt)
-        beta, gamma, alpha = self.beta, self.gamma, float(self.alpha)
-        s = (1.0 + alpha) * beta * dt * dt
-        Sd, Se = factor_pt(M.diag + s * K.diag, M.off + s * K.off)
-        w = np.zeros(semi.nfree)
-        w[0] = 1.0
-        pt_solve(Sd, Se, w)
-        U, V = semi.U0.copy(), semi.V0.copy()
-        A = initial_acceleration(semi)
-        out = allocate(semi, nsteps, stride)
-        k, done, min_u0, blow = hht_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma,
-            bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
-        return trajectory(out, k, done, min_u0, blow, dt)

@@ -1,33 +1,19 @@
 """Moreau-Jean: velocity-level Newton impact law with the theta-method (as in Siconos).
 
-The time-stepping scheme of Moreau and Jean (Jean, CMAME 177, 1999; Acary, Brogliato,
-Numerical Methods for Nonsmooth Dynamical Systems, Springer 2008, ch. 10; Siconos'
-`MoreauJeanOSI`), written for M u'' + K u = F + p e0:
+The time-stepping scheme of Moreau and Jean (Jean 1999; Acary, Brogliato 2008, ch. 10;
+Siconos' `MoreauJeanOSI`) for M u'' + K u = F + p e0:
 
     M (V^{n+1} - V^n) = dt (F - K (theta U^{n+1} + (1 - theta) U^n)) + P^{n+1} e0,
     U^{n+1} = U^n + dt (theta V^{n+1} + (1 - theta) V^n),
 
-so (M + theta^2 dt^2 K) V^{n+1} = M V^n + dt (F - K U^n) - theta (1 - theta) dt^2 K V^n
-+ P e0, one solve per step with a matrix factored once. The contact is detected on the
-predicted gap u0^n + dt/2 v0^n <= 0 (Siconos' default gamma = 1/2); when active, the
-impulse P >= 0 satisfies the Newton law 0 <= v0^{n+1} + e v0^n _|_ P >= 0 (a scalar
-complementarity: P = -(v_f + e v0^n) / w0 with w = (M + theta^2 dt^2 K)^{-1} e0). The
-contact stress reported is -P / dt.
+one solve per step with M + theta^2 dt^2 K, factored once. Contact is detected on the
+predicted gap u0^n + dt/2 v0^n <= 0; the impulse P >= 0 then satisfies the Newton law
+0 <= v0^{n+1} + e v0^n _|_ P. The reported contact stress is -P / dt.
 
-Declared: implicit (a solve with M + theta^2 dt^2 K); no stability limit for theta in
-[1/2, 1]; the constraint holds on velocities only, so the position may penetrate by
-O(dt v_impact): declared bound 4 dt v (v = `velocity_scale`), measured below 1.5 dt v
-on clamped_bar and dropped_bar. Energy: theta = 1/2 is the trapezoidal rule
-(Crank-Nicolson), exact energy conservation in free flight; an impact with e < 1
-dissipates and theta > 1/2 damps ("dissipated": measured never above E(0) beyond
-round-off on both scenes). With e = 1 and theta = 1/2 the impact is an exact reflection
-of v0 in the metric of M + dt^2/4 K, and the energy is conserved to round-off
-("conserved", declared drift bound 1e-8; measured 1.3e-10 on dropped_bar, nx = 100, and
-3e-12 on clamped_bar). Order 2 away from impacts for theta = 1/2, else 1.
-
-Mass: consistent (default) or lumped. A massless contact node is refused: it has no
-momentum, so a velocity impact law does not determine it (its velocity is slaved to
-node 1's); the sound treatment of a massless node is `redistributed`.
+The constraint holds on velocities only, so the end may penetrate by O(dt v_impact).
+A massless contact node is refused: it has no momentum for an impact law to act on
+(`redistributed` is the sound treatment). Declared bounds and their measurements:
+docs/schemes.md.
 """
 
 from __future__ import annotations
@@ -49,6 +35,48 @@ from contact_bench.kernels.common import (
 
 MASSLESS_REASON = ("moreau_jean needs a contact node with mass: a velocity impact law "
                    "does not determine a massless node (use redistributed)")
+
+
+class MoreauJean(MassiveContactNodeScheme):
+    name = "moreau_jean"
+    massless_reason = MASSLESS_REASON
+    summary = "Moreau-Jean theta-method, Newton impact law on velocities (Siconos)"
+    params = {
+        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
+        "theta": Param(0.5, "theta of the theta-method", low=0.5, high=1.0),
+        "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
+    }
+
+    def traits(self) -> Traits:
+        conserved = self.e == 1 and self.theta == 0.5
+        return Traits(implicit=True, massless_contact_node=False,
+                      contact="velocity-level O(dt v)",
+                      energy="conserved" if conserved else "dissipated",
+                      order=2 if self.theta == 0.5 else 1)
+
+    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
+        return 4.0 * dt * velocity_scale(semi)
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        return 1e-8 if self.e == 1 and self.theta == 0.5 else None
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        self.check_massive(semi)
+        M, K = semi.M, semi.K
+        t2 = (self.theta * dt) ** 2
+        Sd, Se = factor_pt(M.diag + t2 * K.diag, M.off + t2 * K.off)
+        w = np.zeros(semi.nfree)
+        w[0] = 1.0
+        pt_solve(Sd, Se, w)
+        U, V = semi.U0.copy(), semi.V0.copy()
+        out = allocate(semi, nsteps, stride)
+        k, done, min_u0, blow = moreau_jean_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, float(dt),
+            float(self.theta), float(self.e), int(nsteps), int(stride), semi.energy_offset,
+            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
+        )
+        return trajectory(out, k, done, min_u0, blow, dt)
 
 
 @njit(cache=True)
@@ -106,45 +134,3 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
-
-
-class MoreauJean(MassiveContactNodeScheme):
-    name = "moreau_jean"
-    massless_reason = MASSLESS_REASON
-    summary = "Moreau-Jean theta-method, Newton impact law on velocities (Siconos)"
-    params = {
-        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
-        "theta": Param(0.5, "theta of the theta-method", low=0.5, high=1.0),
-        "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
-                      choices=MASS_KINDS, aliases=MASS_ALIASES),
-    }
-
-    def traits(self) -> Traits:
-        conserved = self.e == 1 and self.theta == 0.5
-        return Traits(implicit=True, massless_contact_node=False,
-                      contact="velocity-level O(dt v)",
-                      energy="conserved" if conserved else "dissipated",
-                      order=2 if self.theta == 0.5 else 1)
-
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
-        return 4.0 * dt * velocity_scale(semi)
-
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return 1e-8 if self.e == 1 and self.theta == 0.5 else None
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        self.check_massive(semi)
-        M, K = semi.M, semi.K
-        t2 = (self.theta * dt) ** 2
-        Sd, Se = factor_pt(M.diag + t2 * K.diag, M.off + t2 * K.off)
-        w = np.zeros(semi.nfree)
-        w[0] = 1.0
-        pt_solve(Sd, Se, w)
-        U, V = semi.U0.copy(), semi.V0.copy()
-        out = allocate(semi, nsteps, stride)
-        k, done, min_u0, blow = moreau_jean_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, float(dt),
-            float(self.theta), float(self.e), int(nsteps), int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        )
-        return trajectory(out, k, done, min_u0, blow, dt)

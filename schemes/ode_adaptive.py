@@ -1,27 +1,16 @@
-"""The seed's Lipschitz ODE (P_U^mod) by scipy's DOP853 with error control: the reference.
+"""The paper's Lipschitz ODE (P_U^mod) by scipy's DOP853 with error control: the reference.
 
 The same ODE as `ode_verlet` (Dabaghi, Petrov, Pousin, Renard 2014, section 4: node 0
-massless and eliminated, u0 = max(0, (F0 - K01 u1) / K00)), integrated as a first-order
-system y = (U_bar, V_bar) by `scipy.integrate.solve_ivp(method="DOP853")` (Dormand-Prince
-8(5,3), Hairer, Norsett, Wanner, Solving ODEs I, section II.10) with relative tolerance
-`rtol` and absolute tolerance rtol x (max|U0| + `velocity_scale`). The right-hand side is
-a numba function (one tridiagonal solve with M_bar, factored once); the samples come
-from DOP853's 7th-order dense output at the sample times.
+massless and eliminated, u0 = max(0, (F0 - K01 u1) / K00)), as a first-order system for
+`scipy.integrate.solve_ivp(method="DOP853")` with relative tolerance `rtol` and absolute
+tolerance rtol x (max|U0| + `velocity_scale`). The right-hand side is a numba function
+(one tridiagonal solve with the reduced mass, factored once); the samples come from
+DOP853's dense output at the sample times.
 
-**dt is only the sampling interval here**: the integrator picks its own steps (the
-right-hand side is only Lipschitz: it has a kink at every contact switch, where the
-error control shrinks the steps). `steps` in the results table is T / dt, not the
-number of steps taken; `Trajectory.extra` carries `nfev` (right-hand-side calls) and
-the solver's message. It is the accuracy reference in time, not a speed contender:
-its wall time (measured by the harness around `integrate`, Python-level stepping with
-about 12 numba calls per step) is reported as it is: 0.44 s on clamped_bar at nx = 80,
-dt = 0.005 (rtol = 1e-8) against 0.002 s for ode_verlet at the same dt.
-
-Declared: explicit, no stability limit (the step size control keeps it stable, at
-the price of steps below ~ 1.7 h / c); contact exact (u0 >= 0 by construction);
-energy "conserved" up to the tolerance: declared drift bound 1e3 rtol (measured at
-rtol = 1e-8: 1.4e-6 on clamped_bar, nx = 40, 1e-7 on dropped_bar, nx = 100); no time
-order in dt (order None: the time error is set by rtol, not by dt).
+dt is only the sampling interval: the integrator picks its own steps, so `steps` in the
+results is T / dt and `Trajectory.extra` carries `nfev` and the solver's message. It is
+the accuracy reference in time, not a speed contender. Its declared bounds and their
+measurements: docs/schemes.md.
 """
 
 from __future__ import annotations
@@ -37,29 +26,9 @@ from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import velocity_scale
 
 
-@njit(cache=True)
-def ode_rhs(y, Kd, Ke, F, Sd, Se):
-    """d/dt (U_bar, V_bar) = (V_bar, M_bar^{-1} (F - K U)[1:]) with u0 = u0(u1)."""
-    m = y.size // 2  # = nfree - 1
-    U = np.empty(m + 1)
-    U[1:] = y[:m]
-    u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
-    U[0] = u0 if u0 > 0.0 else 0.0
-    KU = np.empty(m + 1)
-    tri_matvec(Kd, Ke, U, KU)
-    dy = np.empty(2 * m)
-    dy[:m] = y[m:]
-    a = np.empty(m)
-    for i in range(m):
-        a[i] = F[i + 1] - KU[i + 1]
-    pt_solve(Sd, Se, a)
-    dy[m:] = a
-    return dy
-
-
 class OdeAdaptive(Scheme):
     name = "ode_adaptive"
-    summary = "the seed's ODE (P_U^mod) by DOP853 with error control (dt = sampling only)"
+    summary = "the paper's ODE (P_U^mod) by DOP853 with error control (dt = sampling only)"
     params = {
         "rtol": Param(1e-8, "relative tolerance of DOP853", low=1e-13, high=1e-2),
         "variant": Param("first_element_massless", "where the first element's mass goes",
@@ -120,3 +89,23 @@ class OdeAdaptive(Scheme):
         Sd, Se = factor_pt(semi.M.diag[1:], semi.M.off[1:])
         ode_rhs(np.concatenate([semi.U0[1:], semi.V0[1:]]), semi.K.diag, semi.K.off,
                 semi.F, Sd, Se)
+
+
+@njit(cache=True)
+def ode_rhs(y, Kd, Ke, F, Sd, Se):
+    """d/dt (U_bar, V_bar) = (V_bar, M_bar^{-1} (F - K U)[1:]) with u0 = u0(u1)."""
+    m = y.size // 2  # = nfree - 1
+    U = np.empty(m + 1)
+    U[1:] = y[:m]
+    u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
+    U[0] = u0 if u0 > 0.0 else 0.0
+    KU = np.empty(m + 1)
+    tri_matvec(Kd, Ke, U, KU)
+    dy = np.empty(2 * m)
+    dy[:m] = y[m:]
+    a = np.empty(m)
+    for i in range(m):
+        a[i] = F[i + 1] - KU[i + 1]
+    pt_solve(Sd, Se, a)
+    dy[m:] = a
+    return dy

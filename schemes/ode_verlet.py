@@ -1,33 +1,17 @@
-"""The redistributed problem as the seed's Lipschitz ODE (P_U^mod), Stormer-Verlet steps.
+"""The paper's Lipschitz ODE (P_U^mod) by Stormer-Verlet with a fixed step.
 
-With a massless contact node the semi-discrete problem is the ODE of the seed (Dabaghi,
-Petrov, Pousin, Renard 2014, section 4) in the other nodes U_bar:
+With a massless contact node the semi-discrete problem is an ODE in the other nodes
+(Dabaghi, Petrov, Pousin, Renard 2014, section 4):
 
     M_bar U_bar'' + K_bar U_bar = F_bar - C u0(U_bar),  u0 = max(0, (F0 - K01 u1) / K00),
 
-a Lipschitz right-hand side, so any ODE integrator applies (Hairer, Lubich, Wanner,
-Geometric Numerical Integration, for Stormer-Verlet). Here: velocity Verlet with a
-fixed step, V += dt/2 A(U); U += dt V; V += dt/2 A(U), one solve with M_bar per step
-(factored once, lane-parallel: `verlet_spike_kernel` on the SPIKE factors of
-`contact_bench.core.spike`, with node 0 decoupled as an identity row; `verlet_kernel` is the
-natural-order reference it is tested against in tests/test_spike_ports.py). The
-contact node is not a state: u0 = u0(u1) at every step, and its velocity is the exact
-derivative of that function, v0 = -(K01 / K00) v1 while u0 > 0, else 0. The initial
-state is the ODE's: u0 is set to u0(u1) at t = 0 (the interpolant's first element is
-relaxed: on clamped_bar E(0) = 1/8 - h/8, see `redistributed`).
-
-This is algebraically the same update as `redistributed[beta=0]` (explicit Newmark is
-velocity Verlet), written from the ODE; tests/test_schemes_extra.py checks that both
-agree and converge to the exact solution. `variant` picks the redistributed mass as in
-`redistributed` (seed, getfem, conservative).
-
-Declared: explicit; stability limit of the central difference with a consistent-type
-mass, h / (c sqrt 3); contact exact (u0 >= 0 by construction); energy "conserved": the
-ODE conserves it (seed, Lemma 4.2) and Verlet is symplectic, but the force has a kink
-at contact switches, so the discrete energy moves by O(dt^2) there: declared drift
-bound 2 (c dt / h)^2 (measured 2.1e-3 on clamped_bar at nx = 80, dt = 0.005, where the
-bound is 0.32, and 8.9e-4 on dropped_bar at nx = 100, dt = 0.0017). Order 2 (checked
-against DOP853 in tests/test_schemes_extra.py).
+with a Lipschitz right-hand side, so any ODE integrator applies. Here velocity Verlet:
+V += dt/2 A(U); U += dt V; V += dt/2 A(U), one solve with M_bar per step (factored once;
+`verlet_spike_kernel` on the SPIKE factors of `contact_bench.core.spike`, checked against
+the natural-order `verlet_kernel`). The contact node is not a state: u0 = u0(u1) at
+every step, v0 its exact derivative. Algebraically the same update as
+`redistributed[beta=0]`, written from the ODE. Declared bounds and their measurements:
+docs/schemes.md.
 """
 
 from __future__ import annotations
@@ -43,6 +27,31 @@ from contact_bench.core.spike import L, lane_position, record_lane_sample, spike
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.newmark import massless_acceleration, newmark_limit
+
+
+class OdeVerlet(Scheme):
+    name = "ode_verlet"
+    summary = "the paper's Lipschitz ODE (P_U^mod) by Stormer-Verlet, fixed step"
+    params = {
+        "variant": Param("first_element_massless", "where the first element's mass goes",
+                         choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
+    }
+
+    def mass_kind(self) -> str:
+        return self.variant
+
+    def traits(self) -> Traits:
+        return Traits(implicit=False, massless_contact_node=True, contact="exact",
+                      energy="conserved", order=2)
+
+    def stability_limit(self, h: float, c: float) -> float | None:
+        return newmark_limit(0.0, 0.5, h, c, lumped=False)
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        return 2.0 * (semi.c_max * dt / semi.hmin) ** 2
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return run_ode_verlet(semi, dt, nsteps, stride)
 
 
 @njit(cache=True)
@@ -156,31 +165,6 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
-
-
-class OdeVerlet(Scheme):
-    name = "ode_verlet"
-    summary = "the seed's Lipschitz ODE (P_U^mod) by Stormer-Verlet, fixed step"
-    params = {
-        "variant": Param("first_element_massless", "where the first element's mass goes",
-                         choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
-    }
-
-    def mass_kind(self) -> str:
-        return self.variant
-
-    def traits(self) -> Traits:
-        return Traits(implicit=False, massless_contact_node=True, contact="exact",
-                      energy="conserved", order=2)
-
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(0.0, 0.5, h, c, lumped=False)
-
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return 2.0 * (semi.c_max * dt / semi.hmin) ** 2
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return run_ode_verlet(semi, dt, nsteps, stride)
 
 
 def run_ode_verlet(semi: Semidiscrete, dt: float, nsteps: int, stride: int,

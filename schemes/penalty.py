@@ -1,29 +1,17 @@
 """Penalized contact: the obstacle pushes back with kappa min(0, u(0)), kappa = gamma_p E / h.
 
-h is the first element's length and E the Young modulus there. The contact is
-violated by O(1/kappa): the end penetrates about |sigma| / kappa (0.5 / kappa on
-clamped_bar, up to 500 / kappa on dropped_bar). The spring's energy
+h is the first element's length and E the Young modulus there. The contact is violated
+by O(1/kappa) (the end penetrates about |sigma| / kappa), and the spring's energy
 kappa/2 min(0, u0)^2 is part of the sampled energy.
 
-Time integration: Newmark(beta, gamma). Implicit (beta > 0): each step is piecewise
-linear in u0 and solved exactly with the precomputed w = S^-1 e0 (see
-`contact_bench.kernels.boundary`). Explicit (beta = 0): central differences with any mass the
-kernel can invert once (consistent, lumped; a massless contact node is solved from
-its own row). With beta = 1/4, gamma = 1/2 the energy is conserved between contact
-switches; at a switch the step is not energy-exact, so no conservation is claimed
-for a massive contact node ("may grow"). With a massless node the node and its
-spring are static (a softer first element): energy as `redistributed`, the first
-step releasing the first element's strain and the drift bound
-`contact_bench.schemes.redistributed.massless_drift_bound` (checked by the property test).
-
-Stability (explicit): the spring stiffens the first element; the limit uses the
-first element's local eigenvalue with the spring (`contact_bench.kernels.boundary.element_limit`),
-e.g. lumped mass: dt <= 2 / omega, omega^2 = (c/h)^2 2 (2 + a + sqrt(a^2 + 4)) / 2,
-a = gamma_p.
-
-Penetration bound: from the energy, kappa/2 d^2 <= W + g m d with W = 2 |E(0)|
-(the discrete energy is assumed to stay below twice its initial value, which the
-property test checks) and g m the bar's weight: d <= (g m + sqrt((g m)^2 + 2 kappa W)) / kappa.
+Time integration: Newmark(beta, gamma), in the shared boundary-contact kernel
+(`contact_bench.kernels.boundary`). Implicit (beta > 0): each step is piecewise linear
+in u0 and solved exactly. Explicit (beta = 0): central differences; the spring stiffens
+the first element, and the stability limit uses that element's eigenvalue with the
+spring (`element_limit`). With a massless contact node the node and its spring are
+static (a softer first element): energy as `redistributed`. The penetration bound
+follows from the energy (at most twice its initial value, which the property test
+checks): kappa/2 d^2 <= W + g m d. Details: docs/schemes.md.
 """
 
 from __future__ import annotations

@@ -1,22 +1,15 @@
 """The mass redistribution method (Dabaghi, Petrov, Pousin, Renard 2014).
 
-The contact node carries no inertia, so the semi-discrete problem is the Lipschitz
-ODE (P_U^mod): u0 = max(0, (F0 - K01 u1) / K00) and no impact law is needed. Time
+The contact node carries no inertia, so the semi-discrete problem is the Lipschitz ODE
+(P_U^mod): u0 = max(0, (F0 - K01 u1) / K00), and no impact law is needed. Time
 integration is Newmark(beta, gamma); beta = 0 is the explicit central difference.
 
-Variants of the mass (`variant`, see `contact_bench.api.fem`): `seed` (the paper's M^mod, the
-first element has no mass), `getfem` (GetFEM's demo: M11 += M00 + M01) and
-`conservative` (M11 += M00 + 2 M01, total mass kept).
-
-Energy. When the initial contact node is not in equilibrium with node 1 (the clamped
-bar: a strained first element), the first step moves the massless node there and
-releases the first element's strain energy, h/8 on the clamped bar (a relative drop
-of h; measured (1 + O(CFL^2)) h/8). After that, with beta = 1/4, gamma = 1/2, the
-energy is constant to round-off between switches of the contact status; at a switch
-the Crank-Nicolson balance E^{n+1} - E^n = (u0^{n+1} lam^n - u0^n lam^{n+1}) / 2 is
-not zero. Measured on clamped_bar, T = 12 (max |E - E(dt)| / E(dt), getfem variant):
-1.3e-4 at nx = 80, dt = 0.002; 3.2e-5 at dt = 0.001; below 1e-4 for CFL <= 0.1 at
-nx = 40 ... 320 (tests/test_foundation.py checks CFL 0.08).
+`variant` says where the first element's mass goes (`contact_bench.api.fem`):
+`first_element_massless` (the paper's M^mod: the first element has no mass), `getfem`
+(GetFEM's demo: M11 += M00 + M01) or `mass_conserving` (M11 += M00 + 2 M01, total mass
+kept). The first step releases the first element's strain energy when node 0 starts out
+of equilibrium; after that the energy moves only at switches of the contact status
+(`massless_drift_bound`; measurements in docs/schemes.md).
 """
 
 from __future__ import annotations

@@ -1,18 +1,14 @@
 """The standard scheme: consistent mass, Newmark, contact enforced exactly at t_{n+1}.
 
-This is the reference point of the seed paper (section 5): with a massive contact
-node the impact is treated as an instantaneous inelastic shock of that node, so the
-energy jumps at impacts (it grows, Fig. 5.3 left) and the contact stress oscillates
-(Fig. 5.1-5.2 left).
+The starting point of Dabaghi, Petrov, Pousin, Renard (2014, section 5): with a massive
+contact node the impact is an instantaneous inelastic shock of that node, so the energy
+jumps at impacts (it grows, their Fig. 5.3 left) and the contact stress oscillates
+(Fig. 5.1-5.2 left). No convergence order is claimed with a massive contact node
+(measurements: docs/schemes.md).
 
-`mass` picks the mass matrix (`contact_bench.api.fem`); the default is the consistent one. With
-a massless contact node (seed, getfem, conservative, singular) this is the
-`redistributed` scheme, with its energy behaviour and drift bound.
-
-No convergence is claimed with a massive contact node (Traits.order = None): on
-dropped_bar at CFL 0.5 the relative L2(0,T;L2) error on u is 0.70, 0.23, 0.34, 0.48
-for nx = 20, 40, 80, 160 (consistent mass; lumped: 1.04, 0.18, 0.53, 0.28) while the
-energy grows 10 to 60 fold; the runs are sensitive to round-off.
+`mass` picks the mass matrix (`contact_bench.api.fem`). With a massless contact node
+(first_element_massless, getfem, mass_conserving, singular) this is the `redistributed`
+scheme, with its energy behaviour and drift bound.
 """
 
 from __future__ import annotations

@@ -1,37 +1,19 @@
-"""Taylor-Flanagan / Carpenter: explicit central difference, contact force that stops the node.
+"""Taylor-Flanagan / Carpenter: explicit central difference, a contact force that stops the node.
 
-The explicit contact treatment of PRONTO-type codes (Taylor, Flanagan, Int. J. Numer.
-Meth. Eng. 1989; Carpenter, Taylor, Katona, Int. J. Numer. Meth. Eng. 32, 1991, the
-forward-increment Lagrange multiplier), as in GetFEM's dynamic 1D contact demo
-(version = 4). One step of the central difference in velocity-Verlet form:
+The explicit contact treatment of PRONTO-type codes (Taylor, Flanagan 1989; Carpenter,
+Taylor, Katona 1991), as in GetFEM's dynamic 1D contact demo (version = 4):
 
     U1 = U + dt V + dt^2/2 A,   V_half = V + dt/2 A;
-    if U1[0] < 0: a contact force lam e0 with lam = max(0, -V_half[0] / (dt w0)),
-        w = M^{-1} e0, is applied over the step: U1 += dt^2 lam w, V_half += dt lam w,
-        so that the contact node's (half-step) velocity becomes zero;
+    if U1[0] < 0: lam = max(0, -V_half[0] / (dt w0)), w = M^{-1} e0,
+        U1 += dt^2 lam w, V_half += dt lam w   (the contact node's velocity becomes 0);
     A1 = M^{-1} (F - K U1),   V1 = V_half + dt/2 A1.
 
-The contact stress reported is -lam. Since U1[0] = U[0] + dt V_half[0], the correction
-dt^2 lam w0 = -dt V_half[0] puts the node back at U[0] >= 0: no penetration ever
-(u0 never below 0, by induction), the node is stopped where it was.
-
-Declared: explicit (lumped mass: no solve, one fused pass per step in
-`contact_bench.kernels.lumped.tf_lumped_kernel`; consistent: one solve with M per step, factored
-once, lane-parallel in `tf_spike_kernel` on the SPIKE factors of `contact_bench.core.spike`;
-`taylor_flanagan_kernel` is the natural-order reference of both fast paths);
-stability limit of the central difference, h/c (lumped) and h/(c sqrt 3)
-(consistent); contact exact (penetration bound 0, see above); energy
-"dissipated": stopping the node is a perfectly inelastic impact of its mass. On top
-of that the sampled energy of the central difference oscillates by O((omega_max dt)^2):
-declared growth bound r^2 / (1 - r^2), r = dt / limit (the central difference conserves
-a modified energy exactly: `schemes._common.central_difference_excess`); measured
-growth 9.3e-3 on dropped_bar (nx = 100, 0.9 x limit, consistent), 2.3e-3 on
-clamped_bar (nx = 160, 0.9 x limit), below 1e-4 with the lumped mass. Order 2 away
-from impacts.
-
-Mass: consistent (default, as GetFEM's demo) or lumped. A massless contact node is
-refused: there is no velocity to stop; GetFEM's demo then falls back to the static
-elimination u0 = max(0, -K01 u1) / K00, which is `redistributed[beta=0]`.
+The reported stress is -lam; the node is stopped where it was, so it never penetrates.
+Lumped mass: one fused pass per step (`contact_bench.kernels.lumped.tf_lumped_kernel`);
+consistent (default): one solve with M per step on SPIKE factors (`tf_spike_kernel`);
+`taylor_flanagan_kernel` is the natural-order reference of both. A massless contact
+node is refused: it has no velocity to stop (`redistributed[beta=0]` is its static
+elimination). Declared bounds and their measurements: docs/schemes.md.
 """
 
 from __future__ import annotations
@@ -64,6 +46,31 @@ from contact_bench.kernels.newmark import newmark_limit
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
+
+
+class TaylorFlanagan(MassiveContactNodeScheme):
+    name = "taylor_flanagan"
+    massless_reason = MASSLESS_REASON
+    summary = "explicit central difference; contact force that stops the contact node"
+    params = {
+        "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
+                      choices=MASS_KINDS, aliases=MASS_ALIASES),
+    }
+
+    def traits(self) -> Traits:
+        return Traits(implicit=False, massless_contact_node=False,
+                      contact="exact", energy="dissipated", order=2)
+
+    def stability_limit(self, h: float, c: float) -> float | None:
+        return newmark_limit(0.0, 0.5, h, c, lumped=self.mass == "lumped")
+
+    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+        # contact only removes energy; the central difference may show its own excess
+        return central_difference_excess(dt, self.stability_limit(semi.hmin, semi.c_max))
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        self.check_massive(semi)
+        return run_taylor_flanagan(semi, dt, nsteps, stride)
 
 
 @njit(cache=True)
@@ -176,31 +183,6 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
-
-
-class TaylorFlanagan(MassiveContactNodeScheme):
-    name = "taylor_flanagan"
-    massless_reason = MASSLESS_REASON
-    summary = "explicit central difference; contact force that stops the contact node"
-    params = {
-        "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
-                      choices=MASS_KINDS, aliases=MASS_ALIASES),
-    }
-
-    def traits(self) -> Traits:
-        return Traits(implicit=False, massless_contact_node=False,
-                      contact="exact", energy="dissipated", order=2)
-
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(0.0, 0.5, h, c, lumped=self.mass == "lumped")
-
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        # contact only removes energy; the central difference may show its own excess
-        return central_difference_excess(dt, self.stability_limit(semi.hmin, semi.c_max))
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        self.check_massive(semi)
-        return run_taylor_flanagan(semi, dt, nsteps, stride)
 
 
 def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,

@@ -1,4 +1,4 @@
-"""Every bad input we try, and the one line the user sees (the README's table).
+"""Every bad input we try, and the one line the user sees (the table of docs/bad-inputs.md).
 
     python -m contact_bench.cli.bad_inputs          # prints the Markdown table
 
@@ -143,7 +143,7 @@ def _param_entries() -> list[BadInput]:
 
 
 def bad_inputs() -> list[BadInput]:
-    """The list, in README order (parameter rows follow the registered plugins)."""
+    """The list, in the table's order (parameter rows follow the registered plugins)."""
     explicit = "redistributed[beta=0]"
     fixed = [
         BadInput("nx < 1", _run("--nx", "0"), "got 0"),
