@@ -1,6 +1,6 @@
 """Per run of a table: stepping time (wall_s) against error-norm time (Run.norm_s).
 
-    python benchmarks/norm_cost.py                 # the default run (both seed scenes)
+    python benchmarks/norm_cost.py                 # the default run (the paper's two scenes)
     python benchmarks/norm_cost.py clamped_bar --nx 80 --dt 0.002 --repeats 3
     python benchmarks/norm_cost.py --alone         # each scheme in a table of its own
     python benchmarks/norm_cost.py --cli-memory    # glibc set up as `contact-bench` does
@@ -21,11 +21,9 @@ does), so each is the first on its grid and pays the quadrature and the exact no
 `--cli-memory`: glibc is set up first as the `contact-bench` command sets it up
 (`contact_bench.harness.environment.return_freed_memory`: mmap threshold 4 MB, trim threshold 64
 MB),
-so the times are those of the command's own tables. Since commit 1cb67f6 that gives
-the times of a plain process: a run's sample buffers (1.5-2.6 MB per field on the
-default scenes) come back from the heap already touched. Before it, with a 1 MB mmap
-threshold, they were mapped anew and page-faulted inside every run's wall_s, which
-made the command's ratios look better than the stepping alone deserves.
+so the times are those of the command's own tables: a run's sample buffers (1.5-2.6 MB
+per field on the default scenes) come back from the heap already touched, as in a plain
+process.
 """
 
 from __future__ import annotations

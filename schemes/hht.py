@@ -93,11 +93,9 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     Three passes over the nodes per step, with the operations of the plain algorithm
     (module docstring; `tri_matvec`, `pt_solve`) in the same order, so the same bits:
     up, the predictor, the right-hand side and the forward sweep; down, the backward
-    sweep; up, the contact and the Newmark update (formerly eleven passes: 9.0 -> 5.7
-    ns per dof-step at n = 1e5). Fusing the update into the next step's first pass was
-    slower (7.6: two divisions per node in the sweep's loop), and so were the rows by
-    `tri_row` in one loop, as `contact_bench.kernels.boundary` has them (6.2: two products per row,
-    each with its end-row tests), hence the first and last rows written apart."""
+    sweep; up, the contact and the Newmark update. The first and last rows are written
+    apart rather than by `tri_row` in one loop, which was slower here (how this layout
+    was chosen, with timings: docs/performance.md)."""
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)

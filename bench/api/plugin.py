@@ -155,7 +155,8 @@ class Case(Plugin):
     reference: ClassVar[str | None] = None
     #: quantities the reference provides: subset of {"u", "v", "stress", "energy"}
     provides: ClassVar[frozenset[str]] = frozenset()
-    #: part of the default `contact-bench run` (the seed's two scenes)
+    #: part of the default `contact-bench run` (the two scenes of Dabaghi, Petrov,
+    #: Pousin, Renard 2014)
     in_default_run: ClassVar[bool] = False
     #: a stiff scene (physical units, short time scale): the study's stability part runs it
     stiff: ClassVar[bool] = False

@@ -212,7 +212,7 @@ def markdown_table() -> str:
     lines.append(f"| Ctrl-C during a run | (SIGINT) | `{INTERRUPTED}` | 130 |")
     lines.append("")
     lines.append("`demo_bar`, `raw_bar` and `demo_free_only` are demo plugins of "
-                 "`bench/bad_inputs.py`, registered only while the table is made.")
+                 "`bench/cli/bad_inputs.py`, registered only while the table is made.")
     return "\n".join(lines)
 
 

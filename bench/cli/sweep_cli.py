@@ -60,7 +60,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--quick", action="store_true", help="tiny grids (smoke test)")
     st.add_argument("--scheme", action="append",
                     help="scheme specs (default: every registered scheme)")
-    st.add_argument("--case", action="append", help="scenes (default: the seed scenes)")
+    st.add_argument("--case", action="append", help="scenes (default: the scenes of the main job)")
     st.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
     _runner_options(st)
 

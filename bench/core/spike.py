@@ -1,8 +1,7 @@
 """A partitioned ("SPIKE") solver for the constant tridiagonal systems of the stepping loops.
 
 A forward-backward tridiagonal solve is a chain of dependent fused multiply-adds, so
-it runs at one entry per FMA latency (about 3.3 ns per dof-step for the two sweeps
-of a Newmark step on this machine), however wide the vector units are. Here the n
+it runs at one entry per FMA latency, however wide the vector units are. Here the n
 unknowns are cut into `lanes` blocks of m = ceil(n / lanes) consecutive nodes, and
 every block is solved at once, one row of all blocks per vector instruction:
 

@@ -7,9 +7,9 @@ Problem (notes, section 1)::
     far end: u(L,t) = u_L (clamped)  or  u_x(L,t) = 0 (free)
     u(x,0) = u0(x),  u_t(x,0) = v0(x),    u0 in H1, v0 in L2, u0(0) >= 0
 
-Method (notes, section 2a; the seed's section 2), written around a STATIC particular
-solution so that every stored quantity stays bounded (O(data)) for all times. With
-c = sqrt(E/rho), tau = c t, gam = g/c^2:
+Method (notes, section 2a; section 2 of Dabaghi, Petrov, Pousin, Renard 2014), written
+around a STATIC particular solution so that every stored quantity stays bounded
+(O(data)) for all times. With c = sqrt(E/rho), tau = c t, gam = g/c^2:
 
     u(x, t) = p(x + tau) + q(x - tau) + u_p(x),    u_p'' = gam,
     free end:    u_p = gam (x^2/2 - L x)          (u_p'(L) = 0, u_p(0) = 0)
@@ -22,14 +22,14 @@ w(tau) = p(tau) + q(-tau) = u(0,t) - u_p(0), so u(0,t) >= 0 is w >= phi: a FIXED
 The stress is E u_x(0) = E (p'(tau) + q'(-tau) + a). While w > phi the end is stress
 free, q'(-tau) = -p'(tau) - a, so w' = p' - q'(-tau) = 2 p' + a: the free motion of w is
 G(tau) = w(0) + 2 (p(tau) - p(0)) + a tau (a linear drift; g = 0: no drift), and w is the
-solution of the one-sided Skorokhod problem (the seed's inclusion (2.8))
+solution of the one-sided Skorokhod problem (inclusion (2.8) of Dabaghi et al. 2014)
 
     w(tau) = G(tau) + eta(tau),  eta(tau) = max(0, max_{s <= tau} (phi - G(s))),
     q(-tau) = w(tau) - p(tau),   E u_x(0) = E (2 p' + a - w') = -E eta' <= 0.
 
 The far end reflects: free p(L + s) = q(L - s) + p(L) - q(L) (u_x(L) = 0, u_p'(L) = 0);
 clamped p(L + s) = -q(L - s) (u(L) = u_L = u_p(L)). For g = 0, u_p is 0 (free) or the
-constant u_L (clamped), and the method is the seed's.
+constant u_L (clamped), and the method is Dabaghi et al.'s.
 
 Bounded magnitudes. G and eta drift (like a tau, and eta compensates it: the mean
 contact force carries the weight), so they are never formed globally: each block of
@@ -43,9 +43,8 @@ with a gauge offset o_k = p(kL) (P^_k = P_k - o_k, Q^_k = Q_k + o_k), and only t
 bounded increments delta_k = o_{k+1} - o_k are kept: u needs the offsets of two
 neighbouring blocks only. So round-off is that of O(data) numbers (no c T or (c T)^2
 factor). What remains is the accumulation of that round-off from block to block (and
-the contact dynamics can amplify it); measured on the dropped bar of the notes (default
-grid): impact times off by 2e-11 at T = 200 and 2e-10 at T = 1000 (formerly 5e-8 and
-6e-5), periodicity |u(t + m 16L/c) - u(t)| 3e-10 and 3e-9, energy 500 to 1e-12.
+the contact dynamics can amplify it); how far that goes on the dropped bar at long times
+is measured in docs/exact-solutions.md.
 
 Discretisation. One grid R in a local coordinate r in [0, L] carries a block of length L
 of both p and q: block k holds P_k(r) = p(kL + r) and Q_k(r) = q((1 - k)L - r). The far

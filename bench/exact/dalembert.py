@@ -1,7 +1,7 @@
 """Exact solution of the bar with a Signorini end for smooth data without gravity, by
 d'Alembert's formula with the contact instants found by root finding.
 
-Problem: that of `contact_bench.exact.characteristics` with g = 0 (notes, section 1; the seed's
+Problem: that of `contact_bench.exact.characteristics` with g = 0 (notes, section 1; Dabaghi et al.
 section 2). With c = sqrt(E/rho), tau = c t and u_p the constant u_L (clamped far end)
 or 0 (free):
 
@@ -10,7 +10,7 @@ or 0 (free):
 on [0, L] from the data (f = u0 - u_p, V(x) = int_0^x v0). The end w(tau) = p(tau) +
 q(-tau) stays above the barrier phi = -u_p; with g = 0 its free motion is G(tau) = w(0)
 + 2 (p(tau) - p(0)) and w = G + eta, eta the running max of phi - G (the Skorokhod
-problem, the seed's inclusion (2.8)). So at the obstacle q(-tau) = w(tau) - p(tau) is
+problem, inclusion (2.8) of Dabaghi et al. 2014). So at the obstacle q(-tau) = w(tau) - p(tau) is
 
     in contact:            q(-tau) = phi - p(tau)
     free after a contact:  q(-tau) = p(tau) + w(0) - 2 p(0) + eta  (eta constant),

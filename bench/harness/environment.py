@@ -90,11 +90,10 @@ def return_freed_memory() -> bool:
     memory at n = 1e6. A fixed threshold keeps every array above MMAP_THRESHOLD (4 MB)
     mapped on its own. Below it, arrays come from the heap, and a trim threshold of
     64 MB keeps what a run frees for the next run: the sample buffers of a default run
-    (1.5-2.6 MB a field) are not page-faulted again inside every run's wall_s. (With a
-    1 MB threshold they were: restitution's stepping of the clamped bar took 2.8 ms in
-    the default run, 1.3 ms of it page faults.) The price: meshes whose n-sized arrays
-    are under 4 MB keep some freed temporaries on the heap (peak +29-30 MiB at n = 3e5
-    and 5e5, `results/memory.md`); at n = 1e6 they are mapped. Returns False where there is
+    (1.5-2.6 MB a field) are not page-faulted again inside every run's wall_s. The
+    price: meshes whose n-sized arrays are under 4 MB keep some freed temporaries on the
+    heap; at n = 1e6 they are mapped. Both effects are measured in docs/performance.md
+    and `results/memory.md`. Returns False where there is
     no glibc (nothing changes then).
     """
     try:

@@ -16,9 +16,7 @@ The kernels are explicit SIMD (`contact_bench.core.simd`): the 4 points of an el
 vector. Summation order of every space norm, per sample: one partial sum per quadrature
 point over a leaf of `_LEAF` (64) elements in element order, the leaf's sum (s0 + s1) +
 (s2 + s3), the leaves' sums added in order, then the blocks' (so long meshes stay
-accurate). The errors keep the bits of the former scalar kernels (same terms, same
-order); the exact norms, formerly one serial sum per leaf, changed in the last bits.
-The next calls on a grid (values kept, or evaluated again) and the first (values
+accurate). The next calls on a grid (values kept, or evaluated again) and the first (values
 evaluated, norms summed in the same pass) compute the errors with the same code: the
 same bits.
 
@@ -32,15 +30,13 @@ so a lone run keeps nothing). The exact values at the quadrature points are kept
 when the reference is slow to evaluate (longer than `KEEP_VALUES_NS` per point on the
 first block, and again on its first few sample times if so: one interruption does not
 count): a fine characteristics grid evaluated point by point, the d'Alembert solution
-(3-4 ns per point: pulse), a numerical reference. A fast one (the closed forms, the
-characteristics on a grid of runs: about 0.6-1.6 ns per point) is evaluated again at
-each call into one block reused from call to call, which costs less than keeping its
-values: 24 bytes per point newly touched by the first scheme (page faults, tens of ms
-for a default grid in a fresh process) and read back from memory by the others. The
-threshold, 2.5 ns, lies between the two kinds (`python benchmarks/eval_cost.py` with
-every scene); on pulse's default table keeping its values took the later schemes'
-norms from 2.4 ms to 0.5-0.6 ms (`benchmarks/norm_cost.py pulse` at commits 595cc02 and
-0554b37).
+(pulse), a numerical reference. A fast one (the closed forms, the characteristics on a
+grid of runs) is evaluated again at each call into one block reused from call to call,
+which costs less than keeping its values: 24 bytes per point newly touched by the first
+scheme (page faults in a fresh process) and read back from memory by the others. The
+threshold `KEEP_VALUES_NS` lies between the two kinds; the evaluation costs of every
+scene and what keeping the values saves are measured in docs/performance.md
+(`benchmarks/eval_cost.py`, `benchmarks/norm_cost.py`).
 Either way the errors have the same bits. Entries hold the reference weakly; larger
 problems are evaluated block by block every time (memory bounded by the block). With
 `fields_into` an entry's values are one allocation, carved into the blocks (one array

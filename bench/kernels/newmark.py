@@ -11,8 +11,8 @@ spike correction, so an active contact costs no second solve. The obstacle's for
 lambda = mu / (beta dt^2) >= 0 and the contact stress is -lambda (E u_x(0) <= 0 in
 compression).
 
-Explicit (beta = 0), only with a massless contact node (the seed's P_U^mod): the
-other nodes are advanced by central differences, then
+Explicit (beta = 0), only with a massless contact node (P_U^mod of Dabaghi, Petrov,
+Pousin, Renard 2014): the other nodes are advanced by central differences, then
 u0 = max(0, (F0 - K01 u1) / K00) and lambda = K00 u0 + K01 u1 - F0.
 
 A massless node has no inertia, so its Newmark acceleration is meaningless: its
@@ -69,8 +69,8 @@ MIN_ROWS = 3
 
 @njit(cache=True, fastmath=_FM)
 def massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
-    """The seed's (P_U^mod) in the interleaved layout: U[0] <- u0(u1) (node 1 at position
-    p1), z <- A = M_r^-1 (F - K U) on nodes 1.. and A[0] = 0; returns lambda.
+    """The ODE (P_U^mod) of Dabaghi et al. 2014 in the interleaved layout: U[0] <- u0(u1)
+    (node 1 at position p1), z <- A = M_r^-1 (F - K U) on nodes 1.. and A[0] = 0; returns lambda.
 
     fac = `Spike.factors()` of M_r with node 0 decoupled (an identity row, lo = 0 at
     node 1), so the right-hand side of node 0 only reaches z[0], which is set to 0.

@@ -1,4 +1,5 @@
-"""The seed's figures: u(0, t) and contact stress against the exact ones, energy in time."""
+"""The figures of Dabaghi et al. (2014, Fig. 5.1-5.4): u(0, t) and the contact stress against
+the exact ones, and the energy in time."""
 
 from __future__ import annotations
 

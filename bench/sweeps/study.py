@@ -1,6 +1,6 @@
 """The published default study: its grids, built from what plugins declare.
 
-For each seed scene (cases with `in_default_run`) and every registered scheme (default
+For each scene of the main job (cases with `in_default_run`) and every registered scheme (default
 parameters, plus any spec given with --scheme):
 
 - refine (work-precision, order in h, energy): nx in nx_refine at a fixed CFL, the
