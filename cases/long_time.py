@@ -8,14 +8,12 @@ agrees with it at late times (tests/test_scenes.py).
 
 Stresses: accumulation of the energy error of a contact treatment (a drift per impact
 that is invisible on 4 periods), phase error of the discrete wave over many periods.
-Defaults: nx = 80, dt = 0.005 (600000 steps, well under a second for a Newmark kernel)
-and a sampling stride of 50 (12 samples per period), so the kept samples stay small;
---stride overrides it.
+Defaults: nx = 80, dt = 0.005 (600000 steps) and a sampling stride of 50 (12 samples
+per period), so the kept samples stay small; --stride overrides it.
 
 Every scheme can run it. One whose energy grows at impacts (traits().energy ==
 'may grow', e.g. the standard Newmark scheme) shows up as an 'unstable' row with the
-time of its blow-up (the standard scheme: t = 59.5 at the defaults), which is the
-long-time answer for it.
+time of its blow-up, which is the long-time answer for it (docs/scenes.md).
 """
 
 from __future__ import annotations

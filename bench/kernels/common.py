@@ -109,15 +109,11 @@ def massless_drift_bound(semi: Semidiscrete, dt: float, limit: float | None = No
     Three parts. (1) The first step moves the massless node to equilibrium with node 1
     and releases the first element's initial strain energy (computed exactly here),
     up to a factor 1 + O(CFL^2). (2) At each switch of the contact status the
-    Crank-Nicolson balance is off by (u0^{n+1} lam^n - u0^n lam^{n+1}) / 2. Measured
-    on clamped_bar (T = 12) and dropped_bar (T = 6.5), nx = 20 ... 80, CFL = c dt / h
-    in 0.1 ... 2, the three variants, beta in {0, 1/4}: part (2) stayed below
-    0.8 c dt / L (largest 9.8e-2 at nx = 20, CFL 2, getfem variant; 8e-3 at nx = 80,
-    CFL 1; 1.5e-4 at nx = 80, CFL 0.1); random piecewise-linear data on coarse meshes
-    (tests/test_properties.py) needed more. Declared: 4 c dt / L, an empirical
-    bound that grows with the number of impacts in the run. (3) For the explicit
-    variant (`limit` given), the central difference's own excess r^2 / (1 - r^2),
-    r = dt / limit (`schemes._common.central_difference_excess`).
+    Crank-Nicolson balance is off by (u0^{n+1} lam^n - u0^n lam^{n+1}) / 2; declared:
+    4 c dt / L, an empirical bound (how it was measured: docs/schemes.md) that grows
+    with the number of impacts in the run. (3) For the explicit variant (`limit`
+    given), the central difference's own excess r^2 / (1 - r^2), r = dt / limit
+    (`central_difference_excess`).
     """
     U0, V0 = semi.U0, semi.V0
     e0 = abs(0.5 * semi.M.quad(V0) + 0.5 * semi.K.quad(U0) - semi.F @ U0 + semi.energy_offset)
