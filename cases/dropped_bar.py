@@ -24,13 +24,7 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
-
-EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)
-
-COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)
-SERIES_MODES = 4000
-
 SERIES_MODES = 4000
 SERIES_TRUNCATION = 1.2e-4  # bound on |u_series - u| with SERIES_MODES modes
 

@@ -24,8 +24,6 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 GAP_FRACTION = 0.01  # initial gap / L
-
-GAP_FRACTION = 0.01  # initial gap / L
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 

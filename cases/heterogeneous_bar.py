@@ -28,16 +28,8 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.numerical import NumericalReference
 
 REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
-
-REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
-REFERENCE_NX = 1000
-
 REFERENCE_NX = 1000
 REFERENCE_CFL = 0.5
-
-REFERENCE_CFL = 0.5
-REFERENCE_SAMPLES = 4000
-
 REFERENCE_SAMPLES = 4000
 GAP, SPEED, INTERFACE = 0.05, 0.5, 0.5
 

@@ -23,10 +23,6 @@ from contact_bench.api.plugin import Case
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
-
-U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
-V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))
-
 V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for tuple data
 
