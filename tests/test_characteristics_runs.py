@@ -325,7 +325,8 @@ def _compare_grids(coarse, fine, tol_u, tol_d):
 
 
 def test_dropped_bar_reference_on_one_cell_per_length():
-    from contact_bench.cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
+    from contact_bench.cases.dropped_bar import DroppedBar
+    from contact_bench.exact.dropped_series import SERIES_TRUNCATION, series_u
 
     case = DroppedBar()
     ex = case.exact(6.5)

@@ -99,9 +99,14 @@ def test_clamped_bar_exact_solution_properties():
 
 
 def test_dropped_bar_series_agrees_with_characteristics():
-    from contact_bench.cases.dropped_bar import SERIES_TRUNCATION, DroppedBar, series_u
+    from contact_bench.cases.dropped_bar import DroppedBar
+    from contact_bench.exact import dropped_series
+    from contact_bench.exact.dropped_series import SERIES_TRUNCATION, series_u
 
     case = DroppedBar()
+    assert (dropped_series.LENGTH, dropped_series.YOUNG, dropped_series.GRAVITY,
+            dropped_series.HEIGHT) == (case.L, case.E, case.g, case.height)
+    assert case.rho == 1.0
     ex = case.exact(6.5)
     rng = np.random.default_rng(1)
     x, t = rng.uniform(0, 10, 300), rng.uniform(0, 6.5, 300)
