@@ -37,7 +37,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.tridiag import factor_pt, pt_backward, pt_solve, tri_row
 from contact_bench.kernels.common import (
@@ -122,8 +122,8 @@ class MoreauJean(MassiveContactNodeScheme):
     def traits(self) -> Traits:
         conserved = self.e == 1 and self.theta == 0.5
         return Traits(implicit=True, massless_contact_node=False,
-                      contact="velocity-level O(dt v)",
-                      energy="conserved" if conserved else "dissipated",
+                      contact=Contact.VELOCITY_LEVEL,
+                      energy=Energy.CONSERVED if conserved else Energy.DISSIPATED,
                       order=2 if self.theta == 0.5 else 1)
 
     def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:

@@ -60,7 +60,7 @@ from scipy.sparse.linalg import spsolve
 
 from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
@@ -85,11 +85,11 @@ class Nitsche(Scheme):
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         if massless:  # identical to the redistributed scheme (module docstring)
-            energy = "dissipated" if self.gamma > 0.5 else "conserved"
-            contact = "exact"
+            energy = Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED
+            contact = Contact.EXACT
         else:
-            energy = "dissipated" if self.gamma > 0.5 and self.theta == 1 else "may grow"
-            contact = "Nitsche O(h / gamma0)"
+            energy = Energy.DISSIPATED if self.gamma > 0.5 and self.theta == 1 else Energy.MAY_GROW
+            contact = Contact.NITSCHE
         return Traits(implicit=self.beta > 0, massless_contact_node=massless, contact=contact,
                       energy=energy, order=2 if self.gamma == 0.5 else 1)
 

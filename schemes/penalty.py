@@ -34,7 +34,7 @@ import numpy as np
 
 from contact_bench.api.fem import MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
@@ -57,9 +57,9 @@ class Penalty(Scheme):
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         return Traits(implicit=self.beta > 0, massless_contact_node=massless,
-                      contact="penalty O(1/kappa)",
-                      energy=("dissipated" if self.gamma > 0.5 else "conserved") if massless
-                      else "may grow",
+                      contact=Contact.PENALTY,
+                      energy=(Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED)
+                      if massless else Energy.MAY_GROW,
                       order=2 if self.gamma == 0.5 else 1)
 
     def stability_limit(self, h: float, c: float) -> float | None:

@@ -22,7 +22,7 @@ nx = 40 ... 320 (tests/test_foundation.py checks CFL 0.08).
 from __future__ import annotations
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
 
@@ -41,8 +41,8 @@ class Redistributed(Scheme):
         return self.variant
 
     def traits(self) -> Traits:
-        return Traits(implicit=self.beta > 0, massless_contact_node=True, contact="exact",
-                      energy="dissipated" if self.gamma > 0.5 else "conserved",
+        return Traits(implicit=self.beta > 0, massless_contact_node=True, contact=Contact.EXACT,
+                      energy=Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED,
                       order=2 if self.gamma == 0.5 else 1)
 
     def stability_limit(self, h: float, c: float) -> float | None:

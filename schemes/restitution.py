@@ -94,7 +94,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
 from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
@@ -220,8 +220,8 @@ class Restitution(MassiveContactNodeScheme):
 
     def traits(self) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=False,
-                      contact="exact" if self.e == 0 else "restitution O(e dt v)",
-                      energy="dissipated" if self.e == 0 else "may grow", order=2)
+                      contact=Contact.EXACT if self.e == 0 else Contact.RESTITUTION,
+                      energy=Energy.DISSIPATED if self.e == 0 else Energy.MAY_GROW, order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(self.beta, 0.5, h, c, lumped=self.mass == "lumped")
