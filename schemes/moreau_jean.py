@@ -113,7 +113,8 @@ class MoreauJean(MassiveContactNodeScheme):
     massless_reason = MASSLESS_REASON
     summary = "Moreau-Jean theta-method, Newton impact law on velocities (Siconos)"
     params = {
-        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
+        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0,
+                   sweep=(0.0, 0.5, 1.0)),
         "theta": Param(0.5, "theta of the theta-method", low=0.5, high=1.0),
         "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
                       choices=MASS_KINDS),

@@ -45,7 +45,7 @@ class Penalty(Scheme):
     summary = "penalty force kappa min(0, u0), kappa = gamma_p E / h; Newmark (beta 0: explicit)"
     params = {
         "gamma_p": Param(1.0, "penalty parameter: kappa = gamma_p E / h", low=0.0, low_open=True,
-                         high=1e8),
+                         high=1e8, sweep=(1.0, 1e2, 1e4, 1e6, 1e8)),
         "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS),
         "beta": BETA,
         "gamma": GAMMA,

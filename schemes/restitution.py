@@ -211,7 +211,8 @@ class Restitution(MassiveContactNodeScheme):
     massless_reason = MASSLESS_REASON
     summary = "Paoli-Schatzman two-step scheme, constraint on (U^{n+1} + e U^{n-1})/(1+e)"
     params = {
-        "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0),
+        "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0,
+                   sweep=(0.0, 0.5, 1.0)),
         "mass": Param("lumped", "mass matrix (massless contact node kinds are refused)",
                       choices=MASS_KINDS),
         "beta": Param(0.0, "stiffness weight (0: explicit central difference, 1/4: implicit)",

@@ -52,5 +52,8 @@ class Standard(Scheme):
             return None
         return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
 
+    def newmark_parameters(self) -> tuple[float, float] | None:
+        return self.beta, self.gamma
+
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)

@@ -17,7 +17,12 @@ from contact_bench.core.errors import BenchError, unknown
 
 @dataclass(frozen=True)
 class Param:
-    """One parameter: its default, type, allowed values or range, and a short doc."""
+    """One parameter: its default, type, allowed values or range, and a short doc.
+
+    `sweep`: the values the published study runs the scheme at (its stability part, each
+    value as a variant of the scheme; the quick study takes the first and the last), or
+    None when the study keeps the default only.
+    """
 
     default: Any
     doc: str = ""
@@ -26,6 +31,7 @@ class Param:
     high: float | None = None
     low_open: bool = False
     high_open: bool = False
+    sweep: tuple[Any, ...] | None = None
 
     @property
     def kind(self) -> type:

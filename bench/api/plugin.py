@@ -324,6 +324,13 @@ class Scheme(Plugin):
         """
         return None
 
+    def newmark_parameters(self) -> tuple[float, float] | None:
+        """(beta, gamma) when the scheme is the plain Newmark method on its mass matrix
+        with the contact enforced exactly at t_{n+1} (the independent scipy
+        re-implementation `contact_bench.harness.scipy_reference` then checks it), else
+        None."""
+        return None
+
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         raise NotImplementedError
 
