@@ -228,3 +228,22 @@ def test_adding_a_scheme_file_and_a_scene_file_keeps_the_suite_green(tmp_path: P
     assert proc.returncode == 0, tail
     collected = [line for line in proc.stdout.splitlines() if " passed" in line]
     assert collected and int(collected[-1].split()[0]) >= 15, tail
+
+
+def test_the_code_hash_covers_an_entry_point_plugins_own_package(tmp_path: Path,
+                                                                 monkeypatch) -> None:
+    """A plugin outside the project namespace: its module and the modules of its own
+    top-level package that it reaches count (an edited helper gives a new hash)."""
+    from contact_bench.sweeps.cache import module_hash
+
+    pkg = tmp_path / "cb_hash_probe"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "helper.py").write_text("def step(x):\n    return x + 1\n")
+    (pkg / "scheme.py").write_text("from cb_hash_probe.helper import step\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for name in ("cb_hash_probe", "cb_hash_probe.helper", "cb_hash_probe.scheme"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+    before = module_hash.__wrapped__("cb_hash_probe.scheme")
+    (pkg / "helper.py").write_text("def step(x):\n    return x + 2\n")
+    assert module_hash.__wrapped__("cb_hash_probe.scheme") != before

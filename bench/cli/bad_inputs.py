@@ -191,6 +191,8 @@ def bad_inputs() -> list[BadInput]:
         BadInput("bad choice (argparse)", ("run", "--format", "xml"), "'xml'"),
         BadInput("option without its value (argparse)", ("run", "--nx"), "--nx"),
         BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
+        BadInput("plugin folder that does not exist", ("run", "--plugins", "no_such_folder"),
+                 "no_such_folder"),
     ]
     return fixed
 
