@@ -247,3 +247,13 @@ def test_the_code_hash_covers_an_entry_point_plugins_own_package(tmp_path: Path,
     before = module_hash.__wrapped__("cb_hash_probe.scheme")
     (pkg / "helper.py").write_text("def step(x):\n    return x + 2\n")
     assert module_hash.__wrapped__("cb_hash_probe.scheme") != before
+
+
+def test_traits_take_enums_or_their_values_and_refuse_others() -> None:
+    from contact_bench.api import BenchError, Contact, Energy, Traits
+
+    t = Traits(implicit=True, massless_contact_node=False, contact="exact", energy="may grow")
+    assert t.contact is Contact.EXACT and t.energy is Energy.MAY_GROW
+    assert f"{t.contact} {t.energy}" == "exact may grow" and t.energy == "may grow"
+    with pytest.raises(BenchError, match=r"Traits.energy = 'grows': not one of 'conserved'"):
+        Traits(implicit=True, massless_contact_node=False, contact="exact", energy="grows")
