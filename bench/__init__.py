@@ -13,7 +13,9 @@ The package's layers, bottom to top (each imports only the ones below it):
   study, analysis), `contact_bench.output` (reports and figures), `contact_bench.cli`.
 
 Plugins live in `contact_bench.schemes` and `contact_bench.cases` (the repository's
-`schemes/` and `cases/` folders) and use only public names of the layers below.
+`schemes/` and `cases/` folders), in installed distributions (entry points) and in plugin
+folders (loaded as `contact_bench.plugins.<name>`); they use only public names of the
+layers below (`contact_bench.api` re-exports what a plugin needs; docs/plugin-api.md).
 """
 
 from importlib.metadata import PackageNotFoundError, version

@@ -21,7 +21,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.tridiag import factor_pt, newmark_update, pt_backward, pt_solve
 from contact_bench.kernels.common import (
@@ -55,9 +55,9 @@ class HHT(Scheme):
 
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
-        return Traits(implicit=True, massless_contact_node=massless, contact="exact",
-                      energy="dissipated" if massless and self.alpha < 0 else
-                      ("conserved" if massless else "may grow"),
+        return Traits(implicit=True, massless_contact_node=massless, contact=Contact.EXACT,
+                      energy=Energy.DISSIPATED if massless and self.alpha < 0 else
+                      (Energy.CONSERVED if massless else Energy.MAY_GROW),
                       order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:

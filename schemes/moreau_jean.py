@@ -23,7 +23,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.tridiag import factor_pt, pt_backward, pt_solve, tri_row
 from contact_bench.kernels.common import (
@@ -42,7 +42,8 @@ class MoreauJean(MassiveContactNodeScheme):
     massless_reason = MASSLESS_REASON
     summary = "Moreau-Jean theta-method, Newton impact law on velocities (Siconos)"
     params = {
-        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0),
+        "e": Param(0.0, "Newton restitution coefficient", low=0.0, high=1.0,
+                   sweep=(0.0, 0.5, 1.0)),
         "theta": Param(0.5, "theta of the theta-method", low=0.5, high=1.0),
         "mass": Param("consistent", "mass matrix (massless contact node kinds are refused)",
                       choices=MASS_KINDS, aliases=MASS_ALIASES),
@@ -51,8 +52,8 @@ class MoreauJean(MassiveContactNodeScheme):
     def traits(self) -> Traits:
         conserved = self.e == 1 and self.theta == 0.5
         return Traits(implicit=True, massless_contact_node=False,
-                      contact="velocity-level O(dt v)",
-                      energy="conserved" if conserved else "dissipated",
+                      contact=Contact.VELOCITY_LEVEL,
+                      energy=Energy.CONSERVED if conserved else Energy.DISSIPATED,
                       order=2 if self.theta == 0.5 else 1)
 
     def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:

@@ -24,7 +24,7 @@ import numpy as np
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
@@ -37,7 +37,7 @@ class Nitsche(Scheme):
         "theta": Param(1, "Nitsche variant: 1 symmetric, 0 incomplete, -1 skew",
                        choices=(-1, 0, 1)),
         "gamma0": Param(5.0, "Nitsche parameter: gam = gamma0 E / h", low=1.0, low_open=True,
-                        high=1e8),
+                        high=1e8, sweep=(1.0, 1e2, 1e4, 1e6, 1e8)),
         "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS,
                       aliases=MASS_ALIASES),
         "beta": BETA,
@@ -50,11 +50,12 @@ class Nitsche(Scheme):
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         if massless:  # u0 = max(0, u1): the redistributed scheme (module docstring)
-            energy = "dissipated" if self.gamma > 0.5 else "conserved"
-            contact = "exact"
+            energy = Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED
+            contact = Contact.EXACT
         else:
-            energy = "dissipated" if self.gamma > 0.5 and self.theta == 1 else "may grow"
-            contact = "Nitsche O(h / gamma0)"
+            energy = (Energy.DISSIPATED if self.gamma > 0.5 and self.theta == 1
+                      else Energy.MAY_GROW)
+            contact = Contact.NITSCHE
         return Traits(implicit=self.beta > 0, massless_contact_node=massless, contact=contact,
                       energy=energy, order=2 if self.gamma == 0.5 else 1)
 

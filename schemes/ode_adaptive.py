@@ -20,7 +20,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import velocity_scale
@@ -39,8 +39,8 @@ class OdeAdaptive(Scheme):
         return self.variant
 
     def traits(self) -> Traits:
-        return Traits(implicit=False, massless_contact_node=True, contact="exact",
-                      energy="conserved", order=None)
+        return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
+                      energy=Energy.CONSERVED, order=None)
 
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         return 1e3 * self.rtol

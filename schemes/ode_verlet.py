@@ -21,7 +21,7 @@ from numba import njit, uint64
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.spike import L, lane_position, record_lane_sample, spike_factor
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
@@ -41,8 +41,8 @@ class OdeVerlet(Scheme):
         return self.variant
 
     def traits(self) -> Traits:
-        return Traits(implicit=False, massless_contact_node=True, contact="exact",
-                      energy="conserved", order=2)
+        return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
+                      energy=Energy.CONSERVED, order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(0.0, 0.5, h, c, lumped=False)

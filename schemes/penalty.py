@@ -22,7 +22,7 @@ import numpy as np
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
@@ -33,7 +33,7 @@ class Penalty(Scheme):
     summary = "penalty force kappa min(0, u0), kappa = gamma_p E / h; Newmark (beta 0: explicit)"
     params = {
         "gamma_p": Param(1.0, "penalty parameter: kappa = gamma_p E / h", low=0.0, low_open=True,
-                         high=1e8),
+                         high=1e8, sweep=(1.0, 1e2, 1e4, 1e6, 1e8)),
         "mass": Param("consistent", "mass matrix (contact_bench.api.fem)", choices=MASS_KINDS,
                       aliases=MASS_ALIASES),
         "beta": BETA,
@@ -46,9 +46,9 @@ class Penalty(Scheme):
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         return Traits(implicit=self.beta > 0, massless_contact_node=massless,
-                      contact="penalty O(1/kappa)",
-                      energy=("dissipated" if self.gamma > 0.5 else "conserved") if massless
-                      else "may grow",
+                      contact=Contact.PENALTY,
+                      energy=(Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED)
+                      if massless else Energy.MAY_GROW,
                       order=2 if self.gamma == 0.5 else 1)
 
     def stability_limit(self, h: float, c: float) -> float | None:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
 
@@ -35,8 +35,8 @@ class Redistributed(Scheme):
         return self.variant
 
     def traits(self) -> Traits:
-        return Traits(implicit=self.beta > 0, massless_contact_node=True, contact="exact",
-                      energy="dissipated" if self.gamma > 0.5 else "conserved",
+        return Traits(implicit=self.beta > 0, massless_contact_node=True, contact=Contact.EXACT,
+                      energy=Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED,
                       order=2 if self.gamma == 0.5 else 1)
 
     def stability_limit(self, h: float, c: float) -> float | None:
@@ -44,6 +44,9 @@ class Redistributed(Scheme):
 
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
+
+    def newmark_parameters(self) -> tuple[float, float] | None:
+        return self.beta, self.gamma
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)

@@ -24,7 +24,7 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
 from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
@@ -49,7 +49,8 @@ class Restitution(MassiveContactNodeScheme):
     massless_reason = MASSLESS_REASON
     summary = "Paoli-Schatzman two-step scheme, constraint on (U^{n+1} + e U^{n-1})/(1+e)"
     params = {
-        "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0),
+        "e": Param(0.0, "restitution coefficient (0 inelastic, 1 elastic)", low=0.0, high=1.0,
+                   sweep=(0.0, 0.5, 1.0)),
         "mass": Param("lumped", "mass matrix (massless contact node kinds are refused)",
                       choices=MASS_KINDS, aliases=MASS_ALIASES),
         "beta": Param(0.0, "stiffness weight (0: explicit central difference, 1/4: implicit)",
@@ -58,8 +59,8 @@ class Restitution(MassiveContactNodeScheme):
 
     def traits(self) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=False,
-                      contact="exact" if self.e == 0 else "restitution O(e dt v)",
-                      energy="dissipated" if self.e == 0 else "may grow", order=2)
+                      contact=Contact.EXACT if self.e == 0 else Contact.RESTITUTION,
+                      energy=Energy.DISSIPATED if self.e == 0 else Energy.MAY_GROW, order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(self.beta, 0.5, h, c, lumped=self.mass == "lumped")

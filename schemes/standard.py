@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import GAMMA, newmark_limit, run_newmark
 
@@ -35,9 +35,10 @@ class Standard(Scheme):
 
     def traits(self) -> Traits:
         massless = self.mass in MASSLESS_KINDS
-        energy = ("dissipated" if self.gamma > 0.5 else "conserved") if massless else "may grow"
+        energy = ((Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED) if massless
+                  else Energy.MAY_GROW)
         order = (2 if self.gamma == 0.5 else 1) if massless else None  # see the docstring
-        return Traits(implicit=True, massless_contact_node=massless, contact="exact",
+        return Traits(implicit=True, massless_contact_node=massless, contact=Contact.EXACT,
                       energy=energy, order=order)
 
     def stability_limit(self, h: float, c: float) -> float | None:
@@ -47,6 +48,9 @@ class Standard(Scheme):
         if self.mass not in MASSLESS_KINDS:
             return None
         return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
+
+    def newmark_parameters(self) -> tuple[float, float] | None:
+        return self.beta, self.gamma
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)

@@ -23,7 +23,7 @@ from numba import njit, uint64
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_sample
 from contact_bench.core.spike import (
     SPIKE_CUTOFF,
@@ -59,7 +59,7 @@ class TaylorFlanagan(MassiveContactNodeScheme):
 
     def traits(self) -> Traits:
         return Traits(implicit=False, massless_contact_node=False,
-                      contact="exact", energy="dissipated", order=2)
+                      contact=Contact.EXACT, energy=Energy.DISSIPATED, order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:
         return newmark_limit(0.0, 0.5, h, c, lumped=self.mass == "lumped")

@@ -107,10 +107,12 @@ def _solutions():
                        ("steel_bar", None), ("rough_data", None), ("grazing", (0.6, 0.61)),
                        ("pulse", (0.2, 0.21))):
         case = make_case(spec)
-        sol = case.exact(case.T) if spec not in ("grazing", "pulse") else (
-            CharacteristicsSolution(L=case.L, E=case.E, rho=case.rho, far_end=case.far_end,
-                                    u0=case.u0, v0=case.v0, T=case.T)
-        )  # the scene's reference is its closed form (or d'Alembert's): its data here
+        sol = case.exact(case.T)
+        if not isinstance(sol, CharacteristicsSolution):
+            # the scene's reference is its closed form (or d'Alembert's): its data here
+            sol = CharacteristicsSolution(L=case.L, E=case.E, rho=case.rho,
+                                          far_end=case.far_end, u0=case.u0, v0=case.v0,
+                                          T=case.T)
         out[f"scene {spec}"] = (sol, span, 500 if span is None else 1500)
     return out
 

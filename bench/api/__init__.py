@@ -1,2 +1,36 @@
 """The plugin contract (cases, schemes, what passes between them), parameters, the registry,
-and the finite-element assembly with scikit-fem."""
+and the finite-element assembly with scikit-fem.
+
+What a plugin author needs is importable from here (docs/plugin-api.md):
+`from contact_bench.api import Scheme, Traits, Contact, Energy, TrajectoryRecorder, ...`.
+"""
+
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import (
+    Case,
+    Contact,
+    Energy,
+    Exact,
+    Scheme,
+    Semidiscrete,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.recorder import TrajectoryRecorder, discrete_energy
+from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core.errors import BenchError
+from contact_bench.core.sampling import (
+    BLOWUP_FACTOR,
+    blown_up,
+    energy_of,
+    is_sample,
+    n_samples,
+    record_sample,
+)
+
+__all__ = [
+    "BLOWUP_FACTOR", "BenchError", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
+    "Semidiscrete", "Traits", "Trajectory", "TrajectoryRecorder", "blown_up",
+    "discrete_energy", "energy_of", "is_sample", "make_case", "make_scheme", "n_samples",
+    "record_sample",
+]

@@ -17,7 +17,12 @@ from contact_bench.core.errors import BenchError, unknown
 
 @dataclass(frozen=True)
 class Param:
-    """One parameter: its default, type, allowed values or range, and a short doc."""
+    """One parameter: its default, type, allowed values or range, and a short doc.
+
+    `sweep`: the values the published study runs the scheme at (its stability part, each
+    value as a variant of the scheme; the quick study takes the first and the last), or
+    None when the study keeps the default only.
+    """
 
     default: Any
     doc: str = ""
@@ -28,6 +33,7 @@ class Param:
     high_open: bool = False
     #: older spellings of choices that still parse: (old, canonical) pairs
     aliases: tuple[tuple[Any, Any], ...] = ()
+    sweep: tuple[Any, ...] | None = None
 
     @property
     def kind(self) -> type:

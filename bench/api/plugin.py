@@ -9,11 +9,13 @@ only reads these declarations: it never branches on a plugin's name.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
 from contact_bench.api.params import Param, check_params, format_spec
+from contact_bench.core.errors import BenchError
 
 
 class Plugin:
@@ -242,15 +244,52 @@ class Trajectory:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+class Energy(StrEnum):
+    """How a scheme's discrete energy (`Trajectory.energy`) behaves over a run.
+
+    A str enum: it prints, and compares equal to, its value ("conserved", ...).
+    """
+
+    CONSERVED = "conserved"  # |E(t) - E(0)| within Scheme.energy_drift_bound
+    DISSIPATED = "dissipated"  # E(t) never grows beyond that bound (or round-off)
+    MAY_GROW = "may grow"  # nothing claimed (e.g. energy jumps at impacts)
+
+
+class Contact(StrEnum):
+    """How a scheme enforces the Signorini condition u(0, t) >= 0, and its error.
+
+    A str enum: it prints, and compares equal to, its value ("exact", ...).
+    """
+
+    EXACT = "exact"  # u(0, t_n) >= 0 at every step (Lagrange multiplier, projection)
+    PENALTY = "penalty O(1/kappa)"  # penetration of order 1/kappa
+    NITSCHE = "Nitsche O(h / gamma0)"  # penetration of order h / gamma0
+    VELOCITY_LEVEL = "velocity-level O(dt v)"  # contact on velocities: penetration O(dt v)
+    RESTITUTION = "restitution O(e dt v)"  # a restitution law: penetration O(e dt v)
+
+
 @dataclass(frozen=True)
 class Traits:
-    """What a scheme declares about itself."""
+    """What a scheme declares about itself.
+
+    `contact` and `energy` are enums; their values given as strings are converted (a
+    one-line BenchError names a value that is not one of them).
+    """
 
     implicit: bool
     massless_contact_node: bool
-    contact: str  # "exact" or e.g. "penalty O(1/kappa)"
-    energy: str  # "conserved", "dissipated" or "may grow"
+    contact: Contact
+    energy: Energy
     order: int | None = None  # expected time order away from impacts
+
+    def __post_init__(self) -> None:
+        for name, kind in (("contact", Contact), ("energy", Energy)):
+            value = getattr(self, name)
+            try:
+                object.__setattr__(self, name, kind(value))
+            except ValueError:
+                allowed = ", ".join(repr(k.value) for k in kind)
+                raise BenchError(f"Traits.{name} = {value!r}: not one of {allowed}") from None
 
 
 class Scheme(Plugin):
@@ -281,9 +320,16 @@ class Scheme(Plugin):
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         """Bound on max |E(t) - E(0)| / |E(0)| the scheme claims (None: no claim).
 
-        Meaningful for traits().energy == "conserved" (and "dissipated": no growth
-        beyond this bound).
+        Meaningful for traits().energy == Energy.CONSERVED (and Energy.DISSIPATED: no
+        growth beyond this bound).
         """
+        return None
+
+    def newmark_parameters(self) -> tuple[float, float] | None:
+        """(beta, gamma) when the scheme is the plain Newmark method on its mass matrix
+        with the contact enforced exactly at t_{n+1} (the independent scipy
+        re-implementation `contact_bench.harness.scipy_reference` then checks it), else
+        None."""
         return None
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:

@@ -24,9 +24,8 @@ from typing import Any
 import numpy as np
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, Scheme
+from contact_bench.api.plugin import Case, Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.api.registry import cases, schemes
-from contact_bench.schemes.standard import Standard
 
 
 class DemoBar(Case):
@@ -61,11 +60,19 @@ class RawBar(DemoBar):
     E = -1.0
 
 
-class DemoFreeOnly(Standard):
-    """The standard scheme, pretending it needs a free far end."""
+class DemoFreeOnly(Scheme):
+    """A scheme that needs a free far end (demo): it refuses clamped bars and integrates
+    nothing (the bad-input table only shows the refusal)."""
 
     name = "demo_free_only"
     summary = "demo: a scheme that cannot run clamped bars"
+
+    def traits(self) -> Traits:
+        return Traits(implicit=True, massless_contact_node=False, contact=Contact.EXACT,
+                      energy=Energy.MAY_GROW)
+
+    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+        raise NotImplementedError("demo_free_only is a demo: it integrates nothing")
 
     def cannot_run(self, case: Case) -> str | None:
         if case.far_end == "clamped":
@@ -184,6 +191,8 @@ def bad_inputs() -> list[BadInput]:
         BadInput("bad choice (argparse)", ("run", "--format", "xml"), "'xml'"),
         BadInput("option without its value (argparse)", ("run", "--nx"), "--nx"),
         BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
+        BadInput("plugin folder that does not exist", ("run", "--plugins", "no_such_folder"),
+                 "no_such_folder"),
     ]
     return fixed
 

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
-from contact_bench.api.registry import cases, make_case, schemes
+from contact_bench.api.registry import PLUGINS_ENV, cases, checked_plugin_dirs, make_case, schemes
 from contact_bench.cli.sweep_cli import COMMANDS as SWEEP_COMMANDS
 from contact_bench.cli.sweep_cli import add_commands as add_sweep_commands
 from contact_bench.cli.sweep_cli import run_command as run_sweep_command
@@ -78,7 +79,11 @@ def cmd_list(args: argparse.Namespace) -> int:
             out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
     for kind, reg in (("case", cases()), ("scheme", schemes())):
         for name, err in reg.broken.items():
-            out.append(f"  [broken {kind} module {name}: {err}]")
+            line = f"  [broken {kind} module {name}: {err}]"
+            if name in cases().broken and name in schemes().broken:  # a plugin file
+                line = f"  [broken plugin module {name}: {err}]"
+            if line not in out:
+                out.append(line)
     print("\n".join(out))
     return 0
 
@@ -141,6 +146,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="contact-bench", description=__doc__)
+    p.add_argument("--plugins", action="append", default=[], metavar="DIR", help=PLUGINS_HELP)
     sub = p.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="cases and schemes with their parameters and declarations")
     r = sub.add_parser("run", help="run cases x schemes x nx x dt (no options: the default job)")
@@ -159,7 +165,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out",
                    help="folder for CSV, Markdown and figures (default job: results/default/)")
     add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
+    for command in sub.choices.values():  # --plugins after the subcommand too
+        command.add_argument("--plugins", action="append", default=[], metavar="DIR",
+                             dest="plugins_after", help=PLUGINS_HELP)
     return p
+
+
+PLUGINS_HELP = (f"folder of plugin files (schemes, scenes; repeatable; added to ${PLUGINS_ENV}, "
+                "which sweep workers inherit)")
 
 
 _ALLOWED = {"nx": "an integer >= 1", "dt": "a number > 0", "T": "a number > 0",
@@ -197,8 +210,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Exit codes: 0 done, 2 bad input (one line on stderr), 130 interrupted (Ctrl-C)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     return_freed_memory()  # peak memory: freed n-sized arrays are not kept by the heap
+    saved = os.environ.get(PLUGINS_ENV)
     try:
         args = build_parser().parse_args(argv)
+        dirs = checked_plugin_dirs(args.plugins + args.plugins_after)
+        if dirs:  # the registry and every worker process read the folders from there
+            os.environ[PLUGINS_ENV] = os.pathsep.join(([saved] if saved else []) + dirs)
         if args.command == "list":
             return cmd_list(args)
         if args.command in SWEEP_COMMANDS:
@@ -216,6 +233,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         # results are written atomically: an interrupted run leaves no partial file
         print(INTERRUPTED, file=sys.stderr)
         return 130
+    finally:
+        if saved is None:
+            os.environ.pop(PLUGINS_ENV, None)
+        else:
+            os.environ[PLUGINS_ENV] = saved
 
 
 if __name__ == "__main__":

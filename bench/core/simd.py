@@ -24,8 +24,8 @@ end of the module: vselect_lt, vselect_le, vselect_ge, vselect_eq (a op b ? x : 
 lane, ordered comparisons), vany (a lane not 0), vdiv (a / b), vfloor, and, with an index
 array ia (1-D, C-contiguous, int64): vgather(a, ia, i) (the lanes a[ia[i + lane]] as
 doubles), vstore_index(ia, i, v) (ia[i : i + 8] = v as int64); vprefetch(a, i) (a hint:
-the cache line of a[i]). Their codegen helpers (_gather_indices, _gather_lanes,
-_gather_pairs) also build the kernel's own gather of a cell's data.
+the cache line of a[i]). Their codegen helpers (gather_indices, gather_lanes,
+gather_pairs) also build the kernel's own gather of a cell's data.
 
 Added for the d'Alembert solution's kernel (`contact_bench.exact.dalembert`), at the end of the
 module:
@@ -61,7 +61,7 @@ class _F64x8Model(models.PrimitiveModel):
         super().__init__(dmm, fe_type, _V)
 
 
-def _data(context, builder, aryty, ary):
+def array_data(context, builder, aryty, ary):
     """The data pointer of the array ary (of numba type aryty)."""
     return context.make_array(aryty)(context, builder, ary).data
 
@@ -276,11 +276,11 @@ def _array1(ty: types.Type) -> bool:
     return isinstance(ty, types.Array) and ty.ndim == 1 and ty.layout == "C"
 
 
-def _index_array(ty: types.Type) -> bool:
+def is_index_array(ty: types.Type) -> bool:
     return _array1(ty) and ty.dtype == types.int64
 
 
-def _float_array(ty: types.Type) -> bool:
+def is_float_array(ty: types.Type) -> bool:
     return _array1(ty) and ty.dtype == types.float64
 
 
@@ -341,7 +341,7 @@ def vfloor(typingctx, a):
 @intrinsic
 def vstore_index(typingctx, ia, i, v):
     """ia[i : i + 8] = the lanes of v (whole numbers) as int64."""
-    if not (_index_array(ia) and isinstance(i, types.Integer) and _vectors(v)):
+    if not (is_index_array(ia) and isinstance(i, types.Integer) and _vectors(v)):
         return None
 
     def codegen(context, builder, sig, args):
@@ -352,17 +352,17 @@ def vstore_index(typingctx, ia, i, v):
     return types.none(ia, i, v), codegen
 
 
-def _gather_indices(context, builder, sig, args, pos: int) -> list:
+def gather_indices(context, builder, sig, args, pos: int) -> list:
     """The 8 int64 indices ia[i : i + 8] (ia = args[pos], i = the last argument)."""
-    data = _data(context, builder, sig.args[pos], args[pos])
+    data = array_data(context, builder, sig.args[pos], args[pos])
     at = context.cast(builder, args[-1], sig.args[-1], types.uint64)
     return [builder.load(builder.gep(data, [builder.add(at, ir.Constant(_I64, lane))],
                                      inbounds=True)) for lane in range(8)]
 
 
-def _gather_lanes(context, builder, aryty, ary, idx: list):
+def gather_lanes(context, builder, aryty, ary, idx: list):
     """The vector of a[idx[lane]] (one load per lane), as doubles."""
-    data = _data(context, builder, aryty, ary)
+    data = array_data(context, builder, aryty, ary)
     vec = ir.Constant(_V, ir.Undefined)
     for lane, j in enumerate(idx):
         val = context.cast(builder, builder.load(builder.gep(data, [j], inbounds=True)),
@@ -371,7 +371,7 @@ def _gather_lanes(context, builder, aryty, ary, idx: list):
     return vec
 
 
-def _gather_pairs(builder, data, idx: list) -> tuple:
+def gather_pairs(builder, data, idx: list) -> tuple:
     """The vectors of a[idx[lane]] and a[idx[lane] + 1] (data: a float64 pointer): one
     16-byte load per lane, then the lanes sorted out."""
     v2 = ir.VectorType(ir.DoubleType(), 2)
@@ -389,12 +389,12 @@ def _gather_pairs(builder, data, idx: list) -> tuple:
 def vgather(typingctx, a, ia, i):
     """The lanes a[ia[i + lane]] (a any 1-D C-contiguous array of numbers), as doubles."""
     if not (_array1(a) and isinstance(a.dtype, (types.Integer, types.Float))
-            and _index_array(ia) and isinstance(i, types.Integer)):
+            and is_index_array(ia) and isinstance(i, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
-        return _gather_lanes(context, builder, sig.args[0], args[0],
-                             _gather_indices(context, builder, sig, args, 1))
+        return gather_lanes(context, builder, sig.args[0], args[0],
+                            gather_indices(context, builder, sig, args, 1))
     return f64x8(a, ia, i), codegen
 
 
@@ -434,7 +434,7 @@ def vrows4(typingctx, tab, f):
         return None
 
     def codegen(context, builder, sig, args):
-        data = _data(context, builder, sig.args[0], args[0])
+        data = array_data(context, builder, sig.args[0], args[0])
         idx = builder.fptosi(args[1], ir.VectorType(_I64, 8))
         v4 = ir.VectorType(ir.DoubleType(), 4)
         four = ir.Constant(_I64, 4)

@@ -160,13 +160,13 @@ from contact_bench.api.plugin import (
     grid_points,
 )
 from contact_bench.core.simd import (
-    _data,
-    _float_array,
-    _gather_indices,
-    _gather_lanes,
-    _gather_pairs,
-    _index_array,
+    array_data,
     f64x8,
+    gather_indices,
+    gather_lanes,
+    gather_pairs,
+    is_float_array,
+    is_index_array,
     vany,
     vdiv,
     vfloor,
@@ -1372,16 +1372,16 @@ _SPARSE_EXTRA = 16  # at most this many nodes off the base grid per block for it
 def _vgather_cell(typingctx, rn, V, D, jn, jc, i):
     """(rn[j], rn[j + 1], V[j], V[j + 1], D[k]) lane by lane, j = jn[i + lane] (a cell's
     first node), k = jc[i + lane] (the cell): the data of a lane's cell."""
-    if not (_float_array(rn) and _float_array(V) and _float_array(D) and _index_array(jn)
-            and _index_array(jc) and isinstance(i, types.Integer)):
+    if not (is_float_array(rn) and is_float_array(V) and is_float_array(D) and is_index_array(jn)
+            and is_index_array(jc) and isinstance(i, types.Integer)):
         return None
 
     def codegen(context, builder, sig, args):
-        nodes = _gather_indices(context, builder, sig, args, 3)
-        cells = _gather_indices(context, builder, sig, args, 4)
-        r0, r1 = _gather_pairs(builder, _data(context, builder, sig.args[0], args[0]), nodes)
-        v0, v1 = _gather_pairs(builder, _data(context, builder, sig.args[1], args[1]), nodes)
-        d = _gather_lanes(context, builder, sig.args[2], args[2], cells)
+        nodes = gather_indices(context, builder, sig, args, 3)
+        cells = gather_indices(context, builder, sig, args, 4)
+        r0, r1 = gather_pairs(builder, array_data(context, builder, sig.args[0], args[0]), nodes)
+        v0, v1 = gather_pairs(builder, array_data(context, builder, sig.args[1], args[1]), nodes)
+        d = gather_lanes(context, builder, sig.args[2], args[2], cells)
         return context.make_tuple(builder, sig.return_type, [r0, r1, v0, v1, d])
     return types.UniTuple(f64x8, 5)(rn, V, D, jn, jc, i), codegen
 

@@ -1,4 +1,5 @@
-"""A plain scipy reference of the Newmark exact-contact step (`standard`, `redistributed`).
+"""A plain scipy reference of the Newmark exact-contact step (schemes declaring
+`Scheme.newmark_parameters`: the built-in `standard` and `redistributed`).
 
 The same algorithm as `contact_bench.kernels.newmark`, written the obvious way: the system matrix is
 factorised once with `scipy.sparse.linalg.splu` and each step does one solve in Python.
@@ -92,7 +93,11 @@ def reference_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
 
 def reference_for(scheme: Scheme, semi: Semidiscrete, dt: float, nsteps: int,
                   stride: int) -> Trajectory:
-    """The reference run of a `standard` or `redistributed` scheme object."""
-    if scheme.name not in ("standard", "redistributed"):
-        raise ValueError(f"no scipy reference for scheme {scheme.name!r}")
-    return reference_newmark(semi, dt, nsteps, stride, scheme.beta, scheme.gamma)
+    """The reference run of a scheme declaring `Scheme.newmark_parameters` (the plain
+    Newmark method with exact contact)."""
+    params = scheme.newmark_parameters()
+    if params is None:
+        raise ValueError(f"no scipy reference for scheme {scheme.name!r}: it declares no "
+                         "newmark_parameters()")
+    beta, gamma = params
+    return reference_newmark(semi, dt, nsteps, stride, beta, gamma)

@@ -4,8 +4,10 @@ A key is the SHA-256 of the run's canonical inputs and of a *code hash*: the sou
 the scheme's and the case's modules, of every project module they reach through their
 globals (e.g. `contact_bench.kernels.newmark`, `contact_bench.exact.characteristics`), of
 every module of the compiled layers (`contact_bench.core`, `contact_bench.kernels`) and of
-the harness modules a run goes through (`SHARED_MODULES` and what they reach). Editing
-any of them gives new keys, so stale rows are never served.
+the harness modules a run goes through (`SHARED_MODULES` and what they reach). Plugin
+files of a plugin folder are loaded as `contact_bench.plugins.<stem>` and count like the
+built-ins; an entry-point plugin's module counts with the modules of its own top-level
+package that it reaches. Editing any of them gives new keys, so stale rows are never served.
 
 Each entry is one small JSON file, written atomically (`contact_bench.harness.io`) by the
 process that collects the results as each run finishes: a sweep killed half-way keeps every run
@@ -43,19 +45,21 @@ def default_cache_dir() -> Path:
     return Path(base) / "contact-bench"
 
 
-def _project_module(name: str | None) -> bool:
-    return bool(name) and name.split(".")[0] in PROJECT_PACKAGES  # type: ignore[union-attr]
+def _project_module(name: str | None, roots: tuple[str, ...] = PROJECT_PACKAGES) -> bool:
+    return bool(name) and name.split(".")[0] in roots  # type: ignore[union-attr]
 
 
-def _reached(module: ModuleType, seen: set[str]) -> None:
-    """Add module and the project modules reachable through its globals to seen."""
+def _reached(module: ModuleType, seen: set[str],
+             roots: tuple[str, ...] = PROJECT_PACKAGES) -> None:
+    """Add module and the modules of the packages `roots` reachable through its globals
+    to seen."""
     if module.__name__ in seen:
         return
     seen.add(module.__name__)
     for obj in vars(module).values():
         name = obj.__name__ if isinstance(obj, ModuleType) else getattr(obj, "__module__", None)
-        if isinstance(name, str) and _project_module(name) and name in sys.modules:
-            _reached(sys.modules[name], seen)
+        if isinstance(name, str) and _project_module(name, roots) and name in sys.modules:
+            _reached(sys.modules[name], seen, roots)
 
 
 def _shared() -> list[str]:
@@ -70,8 +74,10 @@ def _shared() -> list[str]:
 def module_hash(*module_names: str) -> str:
     """SHA-256 over the sources of these modules and every project module they reach."""
     seen: set[str] = set()
+    # an entry-point plugin's own package counts too (e.g. mypkg.helpers of mypkg.scheme)
+    roots = tuple(dict.fromkeys((*PROJECT_PACKAGES, *(n.split(".")[0] for n in module_names))))
     for name in (*module_names, *_shared()):
-        _reached(importlib.import_module(name), seen)
+        _reached(importlib.import_module(name), seen, roots)
     digest = hashlib.sha256()
     for name in sorted(seen):
         file = getattr(sys.modules[name], "__file__", None)

@@ -11,8 +11,9 @@ parameters, plus any spec given with --scheme):
   others, e.g. an adaptive integrator, dt is not their step);
 - stability: nx = nx_stab, T = long_t x the scene's T; CFL from 0.1 to 100 (no
   declared limit) or to twice the declared limit (with 0.95 and 1.05 x the limit);
-  for a scheme declaring `gamma_p`, gamma_p in 1 ... 1e8, and for one declaring `e`,
-  e in {0, 0.5, 1}, at three CFL; every scene declaring `stiff` (steel_bar);
+  each scheme parameter declaring a `sweep` (`Param.sweep`, e.g. a penalty parameter
+  in 1 ... 1e8) at each of its values (the quick study: the first and the last), at
+  three CFL; every scene declaring `stiff` (steel_bar);
 - energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table).
 
 At most `max_samples` samples are kept per run (the stride grows with the number of
@@ -37,10 +38,10 @@ from contact_bench.sweeps.sweep import Task
 
 FULL = {"nx_refine": [20, 40, 80, 160, 320, 640], "nx_fine": 640, "dt_points": 5,
         "nx_stab": 40, "cfl_points": 8, "nx_energy": 160, "max_samples": 1000,
-        "long_t": 3.0, "gamma_p": [1.0, 1e2, 1e4, 1e6, 1e8], "e": [0.0, 0.5, 1.0]}
+        "long_t": 3.0, "param_sweep": "all"}
 QUICK = {"nx_refine": [10, 20, 40], "nx_fine": 40, "dt_points": 3,
          "nx_stab": 10, "cfl_points": 3, "nx_energy": 20, "max_samples": 300,
-         "long_t": 2.0, "gamma_p": [1.0, 1e8], "e": [0.0, 1.0]}
+         "long_t": 2.0, "param_sweep": "ends"}
 
 
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
@@ -111,10 +112,12 @@ def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
 
     out = [Task(case_spec, spec, nx, cfl=c, T=T, max_samples=ms, group="stability", timed=False)
            for c in stability_cfls(limit_of(scheme), g["cfl_points"])]
-    for pname in ("gamma_p", "e"):
-        if pname not in type(scheme).params or f"{pname}=" in spec:
+    for pname, param in type(scheme).params.items():
+        if not param.sweep or f"{pname}=" in spec:
             continue
-        for value in g[pname]:
+        values = param.sweep if g["param_sweep"] == "all" else dict.fromkeys(
+            (param.sweep[0], param.sweep[-1]))
+        for value in values:
             variant = _with_param(spec, pname, value)
             try:
                 vs = make_scheme(variant)

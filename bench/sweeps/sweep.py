@@ -40,7 +40,7 @@ import pandas as pd
 from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import expand_spec
 from contact_bench.api.problem import discretise
-from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.api.registry import make_case, make_scheme, plugin_dirs, use_plugin_dirs
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
@@ -189,11 +189,12 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
     row.update(case=task["case"], scheme=task["scheme"], nx=task["nx"], dt=task["dt"],
                cfl=task["cfl"], T=task["T"], stride=task["stride"], grading=task["grading"])
     try:
+        use_plugin_dirs(task.get("plugins", ()))
         case, scheme = make_case(task["case"]), make_scheme(task["scheme"])
         traits = scheme.traits()
         row.update(case_name=case.name, scheme_name=scheme.name, implicit=bool(traits.implicit),
-                   energy_trait=traits.energy, order_declared=traits.order,
-                   contact=traits.contact, massless_contact_node=traits.massless_contact_node)
+                   energy_trait=str(traits.energy), order_declared=traits.order,
+                   contact=str(traits.contact), massless_contact_node=traits.massless_contact_node)
         nx, grading = int(task["nx"]), float(task["grading"])
         T = float(case.T if task["T"] is None else task["T"])
         reason = scheme.cannot_run(case) or case.cannot_run(scheme)
@@ -370,7 +371,9 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
         hit = cache.get(key)
         if hit is not None:
             rows[key] = dict(hit, from_cache=True)
-    todo = [(key, meta[key]["inputs"]) for key in order if key not in rows]
+    # a worker process (spawned, or a dask worker elsewhere) loads the same plugin folders
+    todo = [(key, dict(meta[key]["inputs"], plugins=plugin_dirs()))
+            for key in order if key not in rows]
     n_cached = len(rows)
     bar = _progress(len(order), n_cached, "runs", quiet)
 
