@@ -1,0 +1,192 @@
+"""The time order of a scheme measured on a smooth stretch, to set against `Traits.order`.
+
+`Traits.order` is the order in dt a scheme expects away from impacts. `measure_time_order`
+measures it the way diffrax's `test_ode_order` does: a smooth motion, several dt at a
+fixed mesh, the error against a reference, the least-squares slope of log error against
+log dt (`contact_bench.sweeps.analysis.fit_order`, points at the round-off floor left out).
+docs/order.md describes the method and its choices.
+
+The motion (`SmoothStretch`): a free-free bar of unit length, wave speed and density,
+v0 = 0 and u0 = A (2 - b((x - x0) / w)) with the C-infinity bump b(y) = exp(1 - 1/(1 - y^2))
+on (-1, 1), x0 = 0.6, w = 0.4: flat (u0 = 2A) on [0, 0.2], so the initial data meet the
+equilibrium of a massless contact node (u0 = u1 without load) on any mesh with h <= 0.2,
+and the end x = 0 stays above A > 0 until T: no contact is ever active (no impact, no
+penalty or Nitsche force). The reference is the same scheme on the same mesh with a dt
+`REFERENCE_FACTOR` times finer than the finest measured one: the order is that of the
+time stepping towards the scheme's own semi-discretisation (its mass matrix, contact
+node and contact law), so no scheme needs a reference of its own. The error is the
+largest difference, over the sample times shared by all runs, of the displacements
+(relative to the reference's largest |u|) and of the velocities (relative to its largest
+|v|); a massless contact node's velocity is left out (see `_samples`).
+
+A scheme whose output does not change with dt at all (an adaptive integrator whose dt
+only picks the sample times) has every error at the round-off floor: `dt_free` is then
+True and there is no order in dt to measure (it should declare None).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.plugin import Case, Scheme, Semidiscrete
+from contact_bench.api.problem import discretise
+from contact_bench.api.registry import make_scheme
+from contact_bench.sweeps.analysis import fit_order
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+#: elements of the fixed mesh, final time, number of dt, CFL c dt / h of the coarsest dt
+NX = 8
+T = 0.5
+LEVELS = 5
+CFL = 0.03
+#: the reference's dt is this many times finer than the finest measured dt
+REFERENCE_FACTOR = 16
+#: relative errors at or below this are round-off (the reference takes thousands of steps)
+FLOOR = 1e-11
+#: largest |measured - declared| counted as agreement
+TOLERANCE = 0.3
+AMPLITUDE, CENTER, WIDTH = 0.1, 0.6, 0.4
+
+
+class SmoothStretch(Case):
+    """A smooth free motion that never reaches the obstacle (see the module docstring)."""
+
+    name = "smooth_stretch"
+    summary = "free-free bar, a smooth bump on a rigid shift: no contact before T"
+    L, rho, E, g = 1.0, 1.0, 1.0, 0.0
+    far_end, u_L = "free", 0.0
+    T, nx = T, NX
+
+    def u0(self, x: np.ndarray) -> np.ndarray:
+        y = (np.asarray(x, float) / self.L - CENTER) / WIDTH
+        inside = np.abs(y) < 1.0
+        bump = np.exp(1.0 - 1.0 / np.where(inside, 1.0 - y * y, 1.0))
+        return AMPLITUDE * (2.0 - np.where(inside, bump, 0.0))
+
+
+@dataclass(frozen=True)
+class TimeOrder:
+    """Errors against dt, the fitted order and what the scheme declares."""
+
+    declared: int | None
+    dt: np.ndarray  # decreasing
+    error: np.ndarray  # relative error of each dt against the reference
+    order: float  # least-squares slope over the points above the floor (NaN: < 2 points)
+    points: int  # points used in the fit
+    local: np.ndarray  # orders between neighbouring dt (points above the floor)
+    dt_free: bool  # every error at the floor: the output does not depend on dt
+    min_contact_u: float  # smallest u(0, t) of the reference run (> 0: no contact)
+    problem: str | None = None  # a run that blew up or stopped early, else None
+
+    @property
+    def verdict(self) -> str:
+        """'agrees', 'differs', 'dt only samples', 'no order declared' or 'run failed'."""
+        if self.problem:
+            return "run failed"
+        if self.dt_free:
+            return "dt only samples" if self.declared is None else "differs"
+        if self.declared is None:
+            return "no order declared"
+        ok = math.isfinite(self.order) and abs(self.order - self.declared) <= TOLERANCE
+        return "agrees" if ok and self.points >= 3 else "differs"
+
+    def describe(self) -> str:
+        errs = " ".join(f"{e:.2e}" for e in self.error)
+        return (f"declared {self.declared}, measured {self.order:.2f} "
+                f"({self.points} points; dt {self.dt[0]:.3g} .. {self.dt[-1]:.3g}; "
+                f"errors {errs})")
+
+
+def _samples(scheme: Scheme, semi: Semidiscrete, steps: int,
+             stride: int) -> tuple[np.ndarray, np.ndarray, float, str]:
+    """Displacement and velocity samples of one run, its smallest u(0, t), and what went
+    wrong ('' if nothing).
+
+    A massless contact node's velocity is a difference quotient the scheme reports, not
+    part of the stepped state (e.g. the backward difference of `redistributed`, first
+    order by construction): it is left out, its displacement is kept.
+    """
+    tr = scheme.integrate(semi, T / steps, steps, stride)
+    problem = ""
+    if tr.blowup_time is not None or tr.steps_done != steps:
+        problem = f"{steps} steps: blow-up at t = {tr.blowup_time}, {tr.steps_done} steps done"
+    V = np.asarray(tr.V, float)
+    return (np.asarray(tr.U, float), V[:, 1:] if semi.massless else V,
+            float(tr.min_contact_u), problem)
+
+
+def measure_time_order(scheme: Scheme, nx: int = NX, levels: int = LEVELS,
+                       cfl: float = CFL) -> TimeOrder:
+    """The scheme's order in dt on `SmoothStretch` (see the module docstring).
+
+    dt = T / (n0 2^k), k = 0 .. levels-1, with n0 the fewest steps keeping c dt / h at
+    most `cfl` and at most half the scheme's declared stability limit; samples every
+    2^k steps, so every run is compared at the same n0 + 1 times.
+    """
+    case = SmoothStretch()
+    semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
+    h, c = semi.hmin, semi.c_max
+    dt_max = cfl * h / c
+    limit = scheme.stability_limit(h, c)
+    if limit is not None:
+        dt_max = min(dt_max, 0.5 * limit)
+    n0 = math.ceil(T / dt_max - 1e-9)
+    ref_stride = 2 ** (levels - 1) * REFERENCE_FACTOR
+    U_ref, V_ref, min_u, problem = _samples(scheme, semi, n0 * ref_stride, ref_stride)
+    scale_u = max(float(np.max(np.abs(U_ref))), 1e-300)
+    scale_v = max(float(np.max(np.abs(V_ref))), 1e-300)
+    dts, errors = [], []
+    for k in range(levels):
+        stride = 2**k
+        U, V, _, bad = _samples(scheme, semi, n0 * stride, stride)
+        problem = problem or bad
+        err = math.inf
+        if not bad and U.shape == U_ref.shape:
+            err = max(float(np.max(np.abs(U - U_ref))) / scale_u,
+                      float(np.max(np.abs(V - V_ref))) / scale_v)
+        dts.append(T / (n0 * stride))
+        errors.append(err if math.isfinite(err) else math.inf)
+    dt_arr, err_arr = np.array(dts), np.array(errors)
+    fit = fit_order(dt_arr, err_arr, FLOOR)
+    return TimeOrder(scheme.traits().order, dt_arr, err_arr, fit.order, fit.n_used, fit.local,
+                     bool(np.all(err_arr <= FLOOR)), min_u, problem or None)
+
+
+def time_order_table(specs: Sequence[str]) -> pd.DataFrame:
+    """One row per scheme spec: declared and measured order side by side.
+
+    A spec that cannot be built or run gets a row whose `notes` say why.
+    """
+    import pandas as pd
+
+    rows = []
+    for spec in dict.fromkeys(specs):
+        row: dict = {"scheme": spec}
+        try:
+            res = measure_time_order(make_scheme(spec))
+        except Exception as exc:  # noqa: BLE001 - a failure is a row, the table goes on
+            row.update({"verdict": "run failed", "notes": str(exc).splitlines()[0]})
+            rows.append(row)
+            continue
+        row.update({
+            "declared order": res.declared,
+            "measured order": res.order,
+            "local orders": " ".join(f"{v:.2f}" for v in res.local),
+            "points": res.points,
+            "dt": f"{res.dt[0]:.3g} .. {res.dt[-1]:.3g}",
+            "max error": float(np.max(res.error)),
+            "verdict": res.verdict,
+            "notes": res.problem or "",
+        })
+        rows.append(row)
+    cols = ["scheme", "declared order", "measured order", "local orders", "points", "dt",
+            "max error", "verdict", "notes"]
+    return pd.DataFrame(rows, columns=cols)
