@@ -1,12 +1,11 @@
 """Every registered scheme's declared time order (`Traits.order`) against a measured one.
 
 diffrax's `test_ode_order` pattern: the schemes come from the registry, so a new scheme
-file is covered with no test code. Each scheme runs at its defaults and, one parameter at
-a time, at every other choice of a choice parameter and at the closed finite ends of a
-numeric range (where a declared order may change, e.g. gamma = 1); a value the scheme
-refuses is left out. `measure_time_order` (contact_bench.sweeps.time_order) fits the
-order in dt on a smooth motion without contact, against the same scheme at a much finer
-dt. Then:
+file is covered with no test code. Each scheme runs at its defaults and at the
+one-parameter variants of `scheme_variants` (every other choice, the closed ends of a
+float range: where a declared order may change, e.g. gamma = 1). `measure_time_order`
+(contact_bench.sweeps.time_order, docs/order.md) fits the order in dt on a smooth motion
+without contact, against the same scheme at a much finer dt. Then:
 
 - a declared order p: the measured order is within `TOLERANCE` of p;
 - declared None: the scheme claims no order in dt; when its output does not change with
@@ -20,41 +19,23 @@ from __future__ import annotations
 
 import math
 
+import pandas as pd
 import pytest
 
 from contact_bench.api.plugin import Scheme
 from contact_bench.api.registry import schemes
-from contact_bench.core.errors import BenchError
+from contact_bench.sweeps.analysis import with_time_orders
 from contact_bench.sweeps.time_order import (
     AMPLITUDE,
     FLOOR,
     TOLERANCE,
     SmoothStretch,
     measure_time_order,
+    scheme_variants,
+    time_order_table,
 )
 
-
-def _variants() -> list[Scheme]:
-    out: dict[str, Scheme] = {}
-    for _, cls in sorted(schemes().plugins.items()):
-        tries: list[dict] = [{}]
-        for key, p in cls.params.items():
-            if p.choices is not None:
-                tries += [{key: v} for v in p.choices if v != p.default]
-            elif p.kind is float:
-                ends = [(p.low, p.low_open), (p.high, p.high_open)]
-                tries += [{key: v} for v, is_open in ends
-                          if v is not None and not is_open and v != p.default]
-        for given in tries:
-            try:
-                scheme = cls(**given)
-            except BenchError:  # a combination the scheme refuses
-                continue
-            out.setdefault(scheme.spec, scheme)
-    return list(out.values())
-
-
-VARIANTS = _variants()
+VARIANTS = scheme_variants()
 
 
 @pytest.mark.parametrize("scheme", VARIANTS, ids=[s.spec for s in VARIANTS])
@@ -84,3 +65,19 @@ def test_every_scheme_is_measured() -> None:
     reg = schemes()
     assert not reg.broken, reg.broken
     assert {s.name for s in VARIANTS} == set(reg.plugins)
+
+
+def test_time_order_table_sits_next_to_the_convergence_orders() -> None:
+    specs = [s.spec for s in VARIANTS if s.traits().order is not None][:1]
+    table = time_order_table([*specs, "ode_adaptive", "no_such_scheme"])
+    verdicts = dict(zip(table["scheme"], table["verdict"], strict=True))
+    assert verdicts == {specs[0]: "agrees", "ode_adaptive": "dt only samples",
+                        "no_such_scheme": "run failed"}
+    assert "no_such_scheme" in table.set_index("scheme").loc["no_such_scheme", "notes"]
+    conv = pd.DataFrame({"scheme": [specs[0], "other"], "order": [0.5, 0.7],
+                         "declared order": [2, None], "error": ["e", "e"]})
+    both = with_time_orders(conv, table)
+    assert list(both.columns) == ["scheme", "order", "declared order", "smooth order", "error"]
+    measured = float(table.set_index("scheme").loc[specs[0], "measured order"])
+    assert both["smooth order"].iloc[0] == measured and math.isnan(both["smooth order"].iloc[1])
+    assert with_time_orders(conv, None) is conv
