@@ -3,7 +3,7 @@
 diffrax's `test_ode_order` pattern: the schemes come from the registry, so a new scheme
 file is covered with no test code. Each scheme runs at its defaults and at the
 one-parameter variants of `scheme_variants` (every other choice, the closed ends of a
-float range: where a declared order may change, e.g. gamma = 1). `measure_time_order`
+numeric range: where a declared order may change, e.g. gamma = 1). `measure_time_order`
 (contact_bench.sweeps.time_order, docs/order.md) fits the order in dt on a smooth motion
 without contact, against the same scheme at a much finer dt. Then:
 
@@ -17,7 +17,10 @@ without contact, against the same scheme at a much finer dt. Then:
 
 from __future__ import annotations
 
+import importlib.util
 import math
+from dataclasses import replace
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -67,6 +70,25 @@ def test_every_scheme_is_measured() -> None:
     assert {s.name for s in VARIANTS} == set(reg.plugins)
 
 
+def _declaring(scheme: Scheme, order: int | None) -> Scheme:
+    """The same scheme, declaring another order."""
+    cls = type(scheme)
+    traits = scheme.traits()
+    fake = type(f"Declares{order}", (cls,), {"traits": lambda self: replace(traits, order=order)})
+    return fake(**scheme.values)
+
+
+def test_a_wrong_declaration_is_caught() -> None:
+    second = next(s for s in VARIANTS if s.traits().order == 2)
+    assert measure_time_order(_declaring(second, 2)).verdict == "agrees"
+    assert measure_time_order(_declaring(second, 1)).verdict == "differs"
+    assert measure_time_order(_declaring(second, 3)).verdict == "differs"
+    samplers = [s for s in VARIANTS if s.traits().order is None]
+    free = next((s for s in samplers if measure_time_order(s).dt_free), None)
+    if free is not None:  # a scheme whose dt only samples may not declare an order
+        assert measure_time_order(_declaring(free, 8)).verdict == "differs"
+
+
 def test_time_order_table_sits_next_to_the_convergence_orders() -> None:
     specs = [s.spec for s in VARIANTS if s.traits().order is not None][:1]
     table = time_order_table([*specs, "ode_adaptive", "no_such_scheme"])
@@ -81,3 +103,21 @@ def test_time_order_table_sits_next_to_the_convergence_orders() -> None:
     measured = float(table.set_index("scheme").loc[specs[0], "measured order"])
     assert both["smooth order"].iloc[0] == measured and math.isnan(both["smooth order"].iloc[1])
     assert with_time_orders(conv, None) is conv
+
+
+def test_order_start_script_shows_the_massless_start_up(capsys) -> None:
+    """benchmarks/order_start.py (quoted in docs/order.md) runs and prints one row per
+    variant with a massless contact node; with u0(0) on the node's equilibrium every
+    declared order is measured again."""
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "order_start.py"
+    spec = importlib.util.spec_from_file_location("_bench_order_start", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main()
+    lines = capsys.readouterr().out.strip().splitlines()[2:]
+    massless = [s for s in VARIANTS if s.traits().massless_contact_node]
+    assert [line.split(" | ")[0].lstrip("| ") for line in lines] == [s.spec for s in massless]
+    for line in lines:
+        declared, moved = line.split(" | ")[1], line.split(" | ")[-1].rstrip(" |")
+        if declared != "None":
+            assert abs(float(moved) - float(declared)) <= TOLERANCE, line

@@ -169,7 +169,7 @@ def measure_time_order(scheme: Scheme, nx: int = NX, levels: int = LEVELS,
 
 def scheme_variants() -> list[Scheme]:
     """Every registered scheme at its defaults and, one parameter at a time, at every
-    other choice of a choice parameter and at the closed finite ends of a float range
+    other choice of a choice parameter and at the closed finite ends of a numeric range
     (where a declared order may change, e.g. gamma = 1); values a scheme refuses are
     left out. Read from the registry: a new scheme is included with no code."""
     out: dict[str, Scheme] = {}
@@ -178,7 +178,7 @@ def scheme_variants() -> list[Scheme]:
         for key, p in cls.params.items():
             if p.choices is not None:
                 tries += [{key: v} for v in p.choices if v != p.default]
-            elif p.kind is float:
+            elif p.kind in (int, float):
                 ends = [(p.low, p.low_open), (p.high, p.high_open)]
                 tries += [{key: v} for v, is_open in ends
                           if v is not None and not is_open and v != p.default]
