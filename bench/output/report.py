@@ -213,8 +213,9 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
         sections.append(
             "<h2>Time order away from impacts</h2><p>Declared (<code>Traits.order</code>) "
             "against measured: least-squares slope of log error against log dt on a smooth "
-            "motion without contact, against the same scheme at a 16 times finer dt "
-            "(docs/order.md). 'dt only samples': the output does not change with dt.</p>"
+            "motion without contact, the error of a dt being the difference with the same "
+            "scheme at dt / 2 (docs/order.md). 'dt only samples': the output does not "
+            "change with dt.</p>"
             f"<p>tables: {links(tabs)}</p>" + _html_table(time_orders))
     energy_rows = analysis.select(df, "energy")
     energy_all = analysis.energy_table(energy_rows)
