@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 from contact_bench.cli.main import main
+from contact_bench.output.report import write_tables
 from contact_bench.sweeps.analysis import convergence_table, fit_order, pareto_mask
 from contact_bench.sweeps.cache import Cache
 from contact_bench.sweeps.study import plan_study
@@ -25,6 +26,7 @@ from contact_bench.sweeps.sweep import (
     run_sweep,
     save_table,
 )
+from contact_bench.sweeps.time_order import time_order_table
 
 # 12 runs of a fraction of a second: two schemes (one explicit, blowing up at CFL 1)
 GRID = dict(cases=["clamped_bar"], schemes=["standard", "redistributed[beta=[0.25,0]]"],
@@ -129,6 +131,9 @@ def test_report_renders_from_a_saved_table(tmp_path):
     res = run_sweep(tasks, repeats=1, quiet=True)
     assert {"refine", "dt", "stability"} <= {g for gs in res.table["group"] for g in gs.split(";")}
     table = save_table(res.table, tmp_path / "sweep.csv")[0]
+    # the study's declared-against-measured time orders, saved beside the table
+    orders = time_order_table(list(res.table["scheme"]))
+    write_tables(orders, tmp_path, "time_order", "made by the test")
     out = tmp_path / "report"
     assert main(["report", str(table), "--out", str(out)]) == 0
     html = (out / "index.html").read_text()
@@ -145,3 +150,7 @@ def test_report_renders_from_a_saved_table(tmp_path):
     conv = pd.read_csv(out / "convergence_clamped_bar.csv", comment=None, skiprows=1)
     assert set(conv["against"]) == {"h", "dt"}
     assert Path(out / "stability_map_clamped_bar.tex").exists()
+    assert "Time order away from impacts" in html and (out / "time_order.md").exists()
+    assert conv.columns.get_loc("smooth order") == conv.columns.get_loc("declared order") + 1
+    shown = pd.read_csv(out / "time_order.csv", comment="#")
+    assert set(shown["scheme"]) == {"standard", "redistributed[beta=0]"}

@@ -51,7 +51,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     _runner_options(s)
 
     r = sub.add_parser("report", help="tables, figures and an HTML page from a saved table")
-    r.add_argument("table", help="a sweep table (.csv or .parquet)")
+    r.add_argument("table", help="a sweep table (.csv or .parquet); a time_order.csv "
+                                 "beside it (written by study) is shown too")
     r.add_argument("--out", required=True, help="folder for the report")
     r.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
 
@@ -130,15 +131,26 @@ def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.sweeps.sweep import load_table
 
     df = load_table(args.table)
-    written = write_report(df, args.out, argv, args.error)
+    written = write_report(df, args.out, argv, args.error, _saved_time_orders(args.table))
     print(f"wrote {len(written)} files to {args.out} (open {Path(args.out) / 'index.html'})")
     return 0
+
+
+def _saved_time_orders(table: str):  # noqa: ANN202 - pandas is imported lazily
+    """The study's time_order.csv next to a sweep table, or None."""
+    path = Path(table).with_name("time_order.csv")
+    if not path.is_file():
+        return None
+    import pandas as pd
+
+    return pd.read_csv(path, comment="#", keep_default_na=True)
 
 
 def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.output.report import write_report
     from contact_bench.sweeps.study import plan_study
     from contact_bench.sweeps.sweep import run_sweep, save_table
+    from contact_bench.sweeps.time_order import time_order_table
 
     _check_runner(args)
     start = time.perf_counter()
@@ -147,7 +159,9 @@ def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     out = Path(args.out)
     written = save_table(res.table, out / "sweep.csv")
     _summary(res, written[0], args.quiet)
-    files = write_report(res.table, out, argv, args.error)
+    # declared against measured time order for every scheme spec of the study's tables
+    time_orders = time_order_table(list(res.table["scheme"].dropna()))
+    files = write_report(res.table, out, argv, args.error, time_orders)
     print(f"study: {len(files) + len(written)} files in {out} (open {out / 'index.html'}); "
           f"{time.perf_counter() - start:.0f} s")
     return 0

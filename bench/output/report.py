@@ -28,7 +28,7 @@ from contact_bench.sweeps import analysis  # noqa: E402
 
 CLASS_COLORS = {"stable": "#4daf4a", "energy-growing": "#ff7f00", "blown up": "#e41a1c"}
 #: columns shown with 2 decimals (orders); other floats get 3 significant digits
-DECIMAL_COLUMNS = {"order"}
+DECIMAL_COLUMNS = {"order", "measured order", "smooth order"}
 INT_COLUMNS = {"nx", "points", "floor points", "declared order", "steps"}
 
 
@@ -184,8 +184,14 @@ def _html_table(df: pd.DataFrame) -> str:
 
 
 def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None = None,
-                 error: str = "err_u_linf_l2") -> list[Path]:
-    """All tables, figures and index.html for the table df, into out."""
+                 error: str = "err_u_linf_l2",
+                 time_orders: pd.DataFrame | None = None) -> list[Path]:
+    """All tables, figures and index.html for the table df, into out.
+
+    time_orders: the declared and measured orders away from impacts
+    (`contact_bench.sweeps.time_order.time_order_table`), if measured: a table of its own
+    and a "smooth order" column in the convergence tables.
+    """
     out = Path(out)
     prov = provenance(argv)
     written: list[Path] = []
@@ -200,6 +206,17 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     conv_all = pd.concat([
         analysis.convergence_table(analysis.select(df, "refine"), error, against=("h",)),
         analysis.convergence_table(analysis.select(df, "dt"), error, against=("dt",))])
+    conv_all = analysis.with_time_orders(conv_all, time_orders)
+    if time_orders is not None and not time_orders.empty:
+        tabs = write_tables(time_orders, out, "time_order", prov)
+        written += tabs
+        sections.append(
+            "<h2>Time order away from impacts</h2><p>Declared (<code>Traits.order</code>) "
+            "against measured: least-squares slope of log error against log dt on a smooth "
+            "motion without contact, the error of a dt being the difference with the same "
+            "scheme at dt / 2 (docs/order.md). 'dt only samples': the output does not "
+            "change with dt.</p>"
+            f"<p>tables: {links(tabs)}</p>" + _html_table(time_orders))
     energy_rows = analysis.select(df, "energy")
     energy_all = analysis.energy_table(energy_rows)
     stab_rows = analysis.select(df, "stability")
@@ -219,7 +236,8 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
             tabs = write_tables(conv.drop(columns=["case"]), out, f"convergence_{s}", prov)
             written += tabs
             parts.append(f"<h3>Convergence orders ({html.escape(error)}; local orders between "
-                         f"neighbouring refinements; round-off floor points left out)</h3>"
+                         f"neighbouring refinements; round-off floor points left out; "
+                         f"declared order and smooth order: away from impacts)</h3>"
                          f"<p>tables: {links(tabs)}</p>"
                          + _html_table(conv.drop(columns=["case"])))
         smap = analysis.stability_map(stab_rows, case)

@@ -8,7 +8,9 @@ Everything here reads a saved table (`contact_bench.sweeps.sweep.load_table`); n
 - Convergence orders: least-squares slope of log error against log h over runs at a
   fixed CFL (dt proportional to h), and against log dt at the finest nx that has at
   least three dt; pairwise local orders between neighbouring refinements next to the
-  fit; errors at the round-off floor (below `ROUNDOFF_FLOOR`) left out.
+  fit; errors at the round-off floor (below `ROUNDOFF_FLOOR`) left out. Next to them
+  the declared order (`Traits.order`, saved in each row) and, when the study measured
+  it, the order away from impacts (`with_time_orders`).
 - Stability: the class of each run ('stable', 'energy-growing' beyond the declared
   behaviour, 'blown up'); a map scheme x CFL holding the worst class per cell.
 - Energy: drift, growth and final drift against the declared behaviour.
@@ -129,6 +131,19 @@ def _fit_row(case: str, scheme: str, against: str, at: str, T: float, x: pd.Seri
         "declared order": int(declared.iloc[0]) if len(declared) else None,
         "floor points": fit.n_dropped, "error": error,
     }
+
+
+def with_time_orders(conv: pd.DataFrame, time_orders: pd.DataFrame | None) -> pd.DataFrame:
+    """The convergence table with the order measured away from impacts
+    (`contact_bench.sweeps.time_order.time_order_table`, column "measured order") as a
+    "smooth order" column next to "declared order", matched on the scheme spec."""
+    if time_orders is None or time_orders.empty or conv.empty:
+        return conv
+    smooth = time_orders.drop_duplicates("scheme").set_index("scheme")["measured order"]
+    out = conv.copy()
+    at = list(out.columns).index("declared order") + 1
+    out.insert(at, "smooth order", out["scheme"].map(smooth).astype(float))
+    return out
 
 
 # -------------------------------------------------------------- work-precision

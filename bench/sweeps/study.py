@@ -14,7 +14,10 @@ parameters, plus any spec given with --scheme):
   each scheme parameter declaring a `sweep` (`Param.sweep`, e.g. a penalty parameter
   in 1 ... 1e8) at each of its values (the quick study: the first and the last), at
   three CFL; every scene declaring `stiff` (steel_bar);
-- energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table).
+- energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table);
+- time order away from impacts: every scheme spec of the table, measured on a smooth
+  motion without contact (`contact_bench.sweeps.time_order`, outside the sweep and its
+  cache) and shown next to its declared order (`Traits.order`).
 
 At most `max_samples` samples are kept per run (the stride grows with the number of
 steps): the metrics' cost grows with the samples, and the sampling interval stays
