@@ -22,13 +22,15 @@ agree and converge to the exact solution. `variant` picks the redistributed mass
 `redistributed` (seed, getfem, conservative).
 
 Declared: explicit; stability limit of the central difference with a consistent-type
-mass, h / (c sqrt 3) for the getfem and conservative masses and 2 h / (c sqrt(6 + 4 sqrt 3))
-= 0.556 h / c for the seed mass (node 1 in contact keeps half its mass and all its
-stiffness, `contact_bench.kernels.newmark.newmark_limit`); contact exact (u0 >= 0 by construction); energy "conserved": the
-ODE conserves it (seed, Lemma 4.2) and Verlet is symplectic, but the force has a kink
-at contact switches, so the discrete energy moves by O(dt^2) there: declared drift
-bound 2 (c dt / h)^2 (measured 2.1e-3 on clamped_bar at nx = 80, dt = 0.005, where the
-bound is 0.32, and 8.9e-4 on dropped_bar at nx = 100, dt = 0.0017). Order 2 (checked
+mass, h / (c sqrt 3) for the getfem and conservative masses and 2 h / (c sqrt(6 + 4 sqrt
+3)) = 0.556 h / c for the seed mass (node 1 in contact keeps half its mass and all its
+stiffness, `contact_bench.kernels.newmark.newmark_limit`); contact exact (u0 >= 0 by
+construction); energy "conserved": the ODE conserves it (seed, Lemma 4.2) and Verlet is
+symplectic, but the force has a kink at contact switches, so the discrete energy moves
+by O(dt^2) there: declared drift bound 2 (c dt / h)^2 (measured 2.1e-3 on clamped_bar at
+nx = 80, dt = 0.005, where the bound is 0.32, and 8.9e-4 on dropped_bar at nx = 100, dt
+= 0.0017).
+Order 2 (checked
 against DOP853 in tests/test_schemes_extra.py).
 """
 
