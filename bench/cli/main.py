@@ -120,18 +120,18 @@ def _list_text(records: list[dict]) -> str:
             continue
         out.append(title)
         for r in recs:
-            out += _wrap(f"{r['name']}: {r['summary']}", 2)
+            out += _wrap(f"{r['name']:<18} {r['summary']}", 2)
             if kind == "case":
                 rho, E = (v if isinstance(v, str) else f"{v:g}" for v in (r["rho"], r["E"]))
                 gravity = f"g={r['g']:g}" if r["g"] > 0 else "no gravity"
                 stride = f" stride={r['stride']}" if r["stride"] != 1 else ""
                 absent = sorted({"u", "v", "stress", "energy"} - set(r["provides"]))
-                out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
-                             6)
                 out += _wrap(f"defaults T={r['T']:g} nx={r['nx']} dt={r['dt']:g}{stride}; "
                              f"reference={r['reference']}; provides="
                              f"{','.join(r['provides']) or '-'}"
                              + (f" (not: {','.join(absent)})" if absent else ""), 6)
+                out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
+                             6)
             else:
                 stab = ("none" if r["cfl_limit"] is None
                         else f"dt <= {r['cfl_limit']:.3g} h/c")
