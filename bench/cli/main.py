@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -153,8 +154,6 @@ def _list_text(records: list[dict]) -> str:
 def cmd_list(args: argparse.Namespace) -> int:
     records = list_records(args.what)
     if args.format == "json":
-        import json
-
         text = json.dumps(records, indent=1, default=str)
     else:
         text = _list_text(records)
@@ -165,12 +164,15 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]) -> list[Path]:
-    from contact_bench.output.figures import contact_figure
+def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
+                   formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
+    from contact_bench.output.figures import contact_figure, save_figure, use_style
 
     prov = provenance(argv)
     written = [
         write_text(out / "runs.csv", df.to_csv(index=False)),
+        write_text(out / "runs.csv.json", json.dumps({"provenance": prov, "file": "runs.csv"},
+                                                     indent=1) + "\n"),
         write_text(out / "runs.md", f"<!-- {prov} -->\n\n" + _markdown(df) + "\n"),
     ]
     for case_spec in dict.fromkeys(df["case"]):
@@ -179,7 +181,9 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
         T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
         exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
-        written.append(contact_figure(these, exact, case.spec, out / f"{fname}.png"))
+        with use_style(style):
+            fig = contact_figure(these, exact, case.spec)
+        written += save_figure(fig, out / fname, formats, prov)
     listing = "\n".join(f"- `{p.name}`" for p in written)
     write_text(out / "README.md", f"# Results\n\n{prov}\n\nFiles:\n{listing}\n")
     return written
@@ -249,7 +253,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they "
               "were raised", file=sys.stderr)
     if out:
-        written = _write_outputs(Path(out), df, runs, argv)
+        written = _write_outputs(Path(out), df, runs, argv, args.fig_format, args.style)
         if args.format == "table":
             print(f"\nwrote {', '.join(str(p) for p in written)}")
     return 0
@@ -293,6 +297,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"folder for CSV, Markdown and figures (default job: {DEFAULT_OUT}/, "
                         "not tracked by git; published results only with --out results/...)")
     r.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    r.add_argument("--fig-format", default="png", metavar="FORMATS",
+                   help="figure formats, comma-separated among png, pdf, svg (default png)")
+    r.add_argument("--style", metavar="FILE_OR_NAME", help="matplotlib style for the figures")
     r.add_argument("--traceback", action="store_true",
                    help="print the full traceback of every 'error' row on stderr")
     add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
@@ -345,6 +352,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.T = _numbers([args.T], float, "T")[0] if args.T else None
         args.stride = (_numbers([args.stride], int, "stride")[0]
                        if args.stride is not None else None)
+        from contact_bench.output.figures import check_formats, check_style
+
+        args.fig_format = check_formats(args.fig_format)
+        check_style(args.style)
         return cmd_run(args, argv)
     except (BenchError, UsageError) as exc:
         print(f"contact-bench: error: {' '.join(str(exc).split())}", file=sys.stderr)
