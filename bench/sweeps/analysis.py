@@ -39,7 +39,7 @@ def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
     """Rows tagged with `group` (the ';'-separated `group` column); all rows if none is."""
     if "group" not in df or df.empty:
         return df
-    tags = df["group"].fillna("").astype(str).str.split(";")
+    tags = df["group"].astype("string").fillna("").str.split(";")
     mask = tags.map(lambda t: group in t).astype(bool)
     return df[mask] if mask.any() else df
 
