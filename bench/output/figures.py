@@ -113,6 +113,15 @@ def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png",)
     return written
 
 
+def _plain_minor_ticks(ax: plt.Axes) -> None:
+    """No labels on the minor ticks of log axes (they overlap over short decades)."""
+    from matplotlib.ticker import NullFormatter
+
+    for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
+        if scale == "log":
+            axis.set_minor_formatter(NullFormatter())
+
+
 def _legend(ax: plt.Axes, **kw: Any) -> None:
     handles, labels = ax.get_legend_handles_labels()
     if handles:
@@ -172,6 +181,7 @@ def work_precision_figure(wp: pd.DataFrame, case: str, error: str) -> Figure:
     ax.set_ylabel("stepping time [s] (min of repeats)")
     ax.set_title(f"work-precision: {case}")
     ax.grid(alpha=0.3, which="both")
+    _plain_minor_ticks(ax)
     _legend(ax)
     return fig
 
@@ -214,6 +224,7 @@ def convergence_figure(refine: pd.DataFrame, dts: pd.DataFrame, case: str,
         ax.set_xlabel(xlabel)
         ax.set_ylabel(f"{error} (relative)")
         ax.grid(alpha=0.3, which="both")
+        _plain_minor_ticks(ax)
         _legend(ax, loc="upper center", bbox_to_anchor=(0.5, -0.16))
     axes[0].set_title(f"convergence in h: {case}")
     axes[1].set_title(f"convergence in dt: {case}")
@@ -246,6 +257,7 @@ def stability_figure(rows: pd.DataFrame, case: str) -> Figure:
     ax.set_yticks(range(len(specs)), specs, fontsize=8)
     ax.set_ylim(len(specs) - 0.5, -0.5)
     ax.set_xlabel("CFL = c dt / h (log scale)")
+    _plain_minor_ticks(ax)
     ax.set_title(f"stability: {case}")
     ax.grid(alpha=0.3, which="both", axis="x")
     return fig
