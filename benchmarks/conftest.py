@@ -1,6 +1,6 @@
 """pytest-benchmark suite (not in the default test run: pyproject's testpaths is tests/).
 
-    python -m pytest benchmarks --benchmark-save=NAME     # saves .benchmarks/<machine>/NNNN_NAME.json
+    python -m pytest benchmarks --benchmark-save=NAME  # .benchmarks/<machine>/NNNN_NAME.json
     pytest-benchmark compare --columns=median,iqr --sort=name   # compare the saved runs
     python -m pytest benchmarks --benchmark-compare --benchmark-compare-fail=median:10%
 

@@ -97,3 +97,24 @@ def test_main_job_leaves_a_fresh_clone_clean(tmp_path):
     status = subprocess.run(["git", "status", "--porcelain"], cwd=clone, capture_output=True,
                             text=True, check=True).stdout
     assert status == "", status
+
+
+def test_sweep_traceback_of_error_rows(monkeypatch, capsys, tmp_path):
+    from contact_bench.schemes.standard import Standard
+
+    def broken(self, semi, dt, nsteps, stride):  # noqa: ANN001, ANN202
+        raise RuntimeError("deliberately broken in a sweep")
+
+    monkeypatch.setattr(Standard, "integrate", broken)
+    argv = ["sweep", "--case", "clamped_bar", "--scheme", "standard", "--nx", "8", "--T", "0.5",
+            "--repeats", "0", "-j", "1", "--no-cache", "--quiet", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "1 error row(s); --traceback" in err and "Traceback" not in err
+    assert main([*argv, "--traceback"]) == 0
+    err = capsys.readouterr().err
+    assert "--- clamped_bar / standard (nx 8)" in err
+    assert "Traceback (most recent call last)" in err and "in broken" in err
+    import pandas as pd
+
+    assert "traceback" not in pd.read_csv(tmp_path / "sweep.csv").columns

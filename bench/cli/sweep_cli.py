@@ -32,6 +32,8 @@ def _runner_options(p: argparse.ArgumentParser) -> None:
                    help="measure the timings again, even those in the cache (the runs and "
                         "their errors still come from the cache)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (CI)")
+    p.add_argument("--traceback", action="store_true",
+                   help="print the full traceback of every 'error' row on stderr")
 
 
 def _figure_options(p: argparse.ArgumentParser) -> None:
@@ -116,6 +118,19 @@ def _check_runner(args: argparse.Namespace) -> None:
         raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
 
 
+def _tracebacks(res, show: bool) -> None:  # noqa: ANN001
+    errors = res.table[res.table["status"] == "error"]
+    if errors.empty:
+        return
+    if not show:
+        print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they were "
+              "raised", file=sys.stderr)
+        return
+    for row in errors.itertuples():
+        tb = res.tracebacks.get(row.key, "(no traceback)")
+        print(f"--- {row.case} / {row.scheme} (nx {row.nx}):\n{tb}", file=sys.stderr)
+
+
 def _summary(res, path: Path, quiet: bool) -> None:  # noqa: ANN001
     counts = res.table["status"].value_counts().to_dict()
     line = (f"{len(res.table)} runs ({res.executed} computed, {res.cached} from the cache, "
@@ -140,6 +155,7 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
                     args.retime)
     written = save_table(res.table, Path(args.out) / "sweep.csv", provenance(argv))
     _summary(res, written[0], args.quiet)
+    _tracebacks(res, args.traceback)
     return 0
 
 
@@ -171,6 +187,7 @@ def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     out = Path(args.out)
     written = save_table(res.table, out / "sweep.csv", provenance(argv))
     _summary(res, written[0], args.quiet)
+    _tracebacks(res, args.traceback)
     files = write_report(res.table, out, argv, args.error, args.fig_format, args.style,
                          args.energy_runs)
     print(f"study: {len(files) + len(written)} files in {out} (open {out / 'index.html'}); "

@@ -31,6 +31,7 @@ import json
 import math
 import multiprocessing as mp
 import time
+import traceback
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field, replace
@@ -113,6 +114,8 @@ class SweepResult:
     timed: int  # timing measurements made by this call
     elapsed: float
     keys: list[str] = field(default_factory=list)
+    #: key -> formatted traceback of each 'error' row (`--traceback`); not a table column
+    tracebacks: dict[str, str] = field(default_factory=dict)
 
 
 def plan(cases: Iterable[str], schemes: Iterable[str], nxs: Sequence[int | None] = (None,),
@@ -223,7 +226,9 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
         row["stability"] = classify(row["status"], row["energy_trait"],
                                     row["energy_growth_max"], row["energy_drift_bound"])
     except Exception as exc:  # noqa: BLE001 - a failing run never stops the sweep
-        row.update(status="error", notes=_one_line(exc), stability=None)
+        row.update(status="error", notes=_one_line(exc), stability=None,
+                   traceback="".join(traceback.format_exception(type(exc), exc,
+                                                                exc.__traceback__)))
     row["run_s"] = time.perf_counter() - start
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
@@ -415,10 +420,15 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
         bar.close()
 
     timed = _timing_pass(order, meta, rows, cache, repeats, quiet, retime)
+    tracebacks: dict[str, str] = {}
     for key in order:
         rows[key].update(group=meta[key]["group"], key=key, code_hash=meta[key]["code"])
+        tb = rows[key].pop("traceback", None)
+        if tb:
+            tracebacks[key] = tb
     table = add_param_columns(_frame([rows[k] for k in order]))
-    return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order)
+    return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order,
+                       tracebacks)
 
 
 def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
