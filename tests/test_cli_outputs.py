@@ -63,6 +63,10 @@ def test_run_progress_on_stderr_and_traceback(monkeypatch, capsys, tmp_path):
     monkeypatch.setattr(Standard, "integrate", broken)
     argv = ["run", "--case", "clamped_bar", "--scheme", "standard", "--scheme", "penalty",
             "--nx", "10", "--T", "0.5", "--out", str(tmp_path / "o")]
+    assert main(argv) == 0  # stderr is not a terminal: no progress lines
+    err = capsys.readouterr().err
+    assert "run 1/2" not in err and "--traceback" in err
+    argv.append("--progress")
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "run 1/2: clamped_bar / standard" in err and "run 2/2" in err

@@ -171,8 +171,9 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
     prov = provenance(argv)
     written = [
         write_text(out / "runs.csv", df.to_csv(index=False)),
-        write_text(out / "runs.csv.json", json.dumps({"provenance": prov, "file": "runs.csv"},
-                                                     indent=1) + "\n"),
+        write_text(out / "runs.csv.json", json.dumps(
+            {"provenance": prov, "file": "runs.csv", "cases": list(dict.fromkeys(df["case"])),
+             "schemes": list(dict.fromkeys(df["scheme"]))}, indent=1) + "\n"),
         write_text(out / "runs.md", f"<!-- {prov} -->\n\n" + _markdown(df) + "\n"),
     ]
     for case_spec in dict.fromkeys(df["case"]):
@@ -191,7 +192,8 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
 
 class Progress:
     """One line on stderr per run ("run 3/20: clamped_bar / hht ..."), telling when a
-    scheme's kernels compile on first use; redrawn in place on a terminal."""
+    scheme's kernels compile on first use; redrawn in place on a terminal. Shown when
+    stderr is a terminal (`--progress`: also when it is not, e.g. a CI log)."""
 
     def __init__(self, enabled: bool) -> None:
         self.enabled = enabled
@@ -227,7 +229,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     case_names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
     scheme_names = args.scheme or schemes().names()
     runs: list[Run] = []
-    progress = Progress(not args.quiet)
+    progress = Progress(not args.quiet and (args.progress or sys.stderr.isatty()))
     try:
         df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
                        args.stride, args.grading, args.allow_unstable, keep=runs,
@@ -249,7 +251,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         for r in errors:
             print(f"--- {r.row['case']} / {r.row['scheme']}:\n{r.traceback or '(no traceback)'}",
                   file=sys.stderr)
-    elif errors:
+    elif errors and args.format == "table":  # machine formats keep stderr for real errors
         print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they "
               "were raised", file=sys.stderr)
     if out:
@@ -297,6 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"folder for CSV, Markdown and figures (default job: {DEFAULT_OUT}/, "
                         "not tracked by git; published results only with --out results/...)")
     r.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    r.add_argument("--progress", action="store_true",
+                   help="progress lines on stderr even when it is not a terminal")
     r.add_argument("--fig-format", default="png", metavar="FORMATS",
                    help="figure formats, comma-separated among png, pdf, svg (default png)")
     r.add_argument("--style", metavar="FILE_OR_NAME", help="matplotlib style for the figures")
