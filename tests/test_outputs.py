@@ -272,3 +272,11 @@ def test_page_renders_in_headless_chromium(tmp_path, study_table):
     assert pixels.std() > 10  # text and figures, not an empty page
     dark = (pixels < 128).mean()
     assert 0.001 < dark < 0.5
+
+
+def test_work_precision_table_shows_the_spread_and_the_flag(study_table):
+    from contact_bench.sweeps import analysis
+
+    wp = analysis.work_precision(analysis.select(study_table, "refine"))
+    assert {"time_median_s", "time_iqr_s", "time_repeats", "time_noisy"} <= set(wp.columns)
+    assert (wp["time_repeats"] == 2).all()
