@@ -61,8 +61,15 @@ def _stepping(case: str, nx: int | None, dt: float | None, same_dt: float
     return out
 
 
+def _config_id(config: tuple) -> str:
+    """The work in the id: scene, nx, dt and T, defaults resolved (`CONFIGS`)."""
+    name, nx, dt = config
+    case = make_case(name)
+    return f"{name}-nx{nx or case.nx}-dt{dt or case.dt:g}-T{case.T:g}"
+
+
 @pytest.mark.parametrize("mode", ["cold", "warm"])
-@pytest.mark.parametrize("config", CONFIGS, ids=lambda c: f"{c[0]}-nx{c[1]}-dt{c[2]}")
+@pytest.mark.parametrize("config", CONFIGS, ids=_config_id)
 def test_norms_vs_stepping(benchmark, config: tuple, mode: str) -> None:
     case_name, nx, dt = config
     run = run_one(case_name, "standard", nx=nx, dt=dt)

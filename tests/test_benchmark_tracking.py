@@ -82,3 +82,13 @@ def test_save_compare_and_fail_on_regression(tmp_path):
     fail = _bench(store, "--benchmark-compare=0001", "--benchmark-compare-fail=median:10%")
     assert fail.returncode != 0
     assert "Performance has regressed" in fail.stdout + fail.stderr
+
+
+def test_every_norms_id_names_its_work():
+    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only",
+                          "-p", "no:cacheprovider", "benchmarks/test_norms.py"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=300)
+    ids = [ln for ln in out.stdout.splitlines() if "::" in ln]
+    assert ids and len(set(ids)) == len(ids)
+    for node in ids:
+        assert re.search(r"\[[a-z_]+-nx\d+-dt[0-9.e-]+-T[0-9.]+-(cold|warm)\]$", node), node

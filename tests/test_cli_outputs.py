@@ -122,3 +122,11 @@ def test_sweep_traceback_of_error_rows(monkeypatch, capsys, tmp_path):
     import pandas as pd
 
     assert "traceback" not in pd.read_csv(tmp_path / "sweep.csv").columns
+
+
+def test_study_checks_its_report_options_before_the_sweep(tmp_path, capsys):
+    for bad in (["--error", "BAD"], ["--fig-format", "tiff"], ["--style", "nosuch"]):
+        out = tmp_path / bad[0].strip("-")
+        assert main(["study", "--quick", "--out", str(out), "--no-cache", *bad]) == 2
+        assert not out.exists()
+        assert repr(bad[1]) in capsys.readouterr().err

@@ -172,6 +172,7 @@ def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
 
 
 def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    from contact_bench.harness.metrics import ERROR_COLUMNS
     from contact_bench.output.figures import check_formats, check_style
     from contact_bench.output.report import write_report
     from contact_bench.sweeps.study import plan_study
@@ -180,6 +181,9 @@ def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     _check_runner(args)
     check_formats(args.fig_format)
     check_style(args.style)
+    if args.error not in ERROR_COLUMNS:  # checked before the sweep, not after it
+        raise BenchError(f"--error must be one of {', '.join(ERROR_COLUMNS)}; "
+                         f"got {args.error!r}")
     start = time.perf_counter()
     tasks = plan_study(args.quick, args.scheme, args.case)
     res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet,
