@@ -29,9 +29,7 @@ construction); energy "conserved": the ODE conserves it (seed, Lemma 4.2) and Ve
 symplectic, but the force has a kink at contact switches, so the discrete energy moves
 by O(dt^2) there: declared drift bound 2 (c dt / h)^2 (measured 2.1e-3 on clamped_bar at
 nx = 80, dt = 0.005, where the bound is 0.32, and 8.9e-4 on dropped_bar at nx = 100, dt
-= 0.0017).
-Order 2 (checked
-against DOP853 in tests/test_schemes_extra.py).
+= 0.0017). Order 2 (checked against DOP853 in tests/test_schemes_extra.py).
 """
 
 from __future__ import annotations
