@@ -1,7 +1,11 @@
 """pytest-benchmark suite (not in the default test run: pyproject's testpaths is tests/).
 
-    python -m pytest benchmarks --benchmark-autosave      # saves .benchmarks/<machine>/NNNN_*.json
+    python -m pytest benchmarks --benchmark-save=NAME  # .benchmarks/<machine>/NNNN_NAME.json
     pytest-benchmark compare --columns=median,iqr --sort=name   # compare the saved runs
+    python -m pytest benchmarks --benchmark-compare --benchmark-compare-fail=median:10%
+
+Every id fixes its work (scene, n, steps in the name), so runs compare like with like
+(docs/benchmarks.md).
 """
 
 from __future__ import annotations

@@ -14,7 +14,9 @@ default-run cases: every step is a sample) in two modes:
   and evaluate these fast references again (contact_bench.harness.metrics keeps the values of slow
   references only).
 
-`extra_info` holds the stepping time of every registered scheme on the same
+Each id fixes the work: the case, nx and dt (None: the case's default), so the number of
+steps and samples. `extra_info` holds `n` (free dofs), `steps`, `ns_per_dof_step` (the
+median norm time per dof and step), the stepping time of every registered scheme on the same
 configuration (`scheme.integrate`, JIT excluded, median of 3: what the harness reports
 as wall_s), the median norm time and `ratio` = norm time / stepping time for the
 fastest scheme (`ratio_fastest`) and for `standard`.
@@ -59,8 +61,15 @@ def _stepping(case: str, nx: int | None, dt: float | None, same_dt: float
     return out
 
 
+def _config_id(config: tuple) -> str:
+    """The work in the id: scene, nx, dt and T, defaults resolved (`CONFIGS`)."""
+    name, nx, dt = config
+    case = make_case(name)
+    return f"{name}-nx{nx or case.nx}-dt{dt or case.dt:g}-T{case.T:g}"
+
+
 @pytest.mark.parametrize("mode", ["cold", "warm"])
-@pytest.mark.parametrize("config", CONFIGS, ids=lambda c: f"{c[0]}-nx{c[1]}-dt{c[2]}")
+@pytest.mark.parametrize("config", CONFIGS, ids=_config_id)
 def test_norms_vs_stepping(benchmark, config: tuple, mode: str) -> None:
     case_name, nx, dt = config
     run = run_one(case_name, "standard", nx=nx, dt=dt)
@@ -81,7 +90,9 @@ def test_norms_vs_stepping(benchmark, config: tuple, mode: str) -> None:
     stepping = _stepping(case_name, nx, dt, run.row["dt"])
     fastest = min(stepping, key=stepping.get)
     benchmark.extra_info.update(
-        case=case_name, nx=run.row["nx"], dt=run.row["dt"], stride=run.row["stride"],
+        case=case_name, n=int(run.semi.nfree), steps=int(run.row["steps"]),
+        ns_per_dof_step=norm_s / (run.semi.nfree * run.row["steps"]) * 1e9,
+        nx=run.row["nx"], dt=run.row["dt"], stride=run.row["stride"],
         samples=int(run.trajectory.t.size), mode=mode, norm_s=norm_s,
         stepping_s={s: round(t, 6) for s, t in stepping.items()},
         fastest=fastest, ratio_fastest=norm_s / stepping[fastest],

@@ -2,12 +2,15 @@
 
 Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped bar:
 assembly (`contact_bench.api.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen
-before
-the timing, the stride is the whole run (two samples), nsteps is chosen for ~0.1 s per
-round (0.5 s at n = 1e6) from the marginal cost of a step in two short probe runs, so
-the per-run set-up (factors, layout: ~0.1 s at 1e6) stays a small part of the median.
-`extra_info` holds `ns_per_dof_step` (median round / (nfree * nsteps)) and the run's
-error `err_u_linf_l2` against the exact solution.
+before the timing, the stride is the whole run (two samples).
+
+Every benchmark does a fixed unit of work, named in its id: the scene, n and the number
+of steps (`steps_for`: STEPS[n], scaled down for the few schemes listed in SLOW), e.g.
+`test_stepping[standard-clamped_bar-n1e3-steps50000]`. So two saved runs compared with
+`pytest-benchmark compare` (or `--benchmark-compare-fail=median:10%`) time the same work
+under the same name (docs/benchmarks.md). `extra_info` holds `n` (free dofs), `steps`,
+`ns_per_dof_step` (median round / (n * steps)) and the run's error `err_u_linf_l2`
+against the exact solution (`nfree`, `nsteps`: the same, for benchmarks/summary.py).
 
 Before every round (`_new_heap_state`) a block of random size is allocated (the last 64
 kept), so that the arrays a run allocates land elsewhere on the heap: at n = 1e3 their
@@ -38,9 +41,24 @@ from contact_bench.harness.scipy_reference import reference_for
 CASE = "clamped_bar"
 MAIN = ["standard", "redistributed", "redistributed[beta=0]"]
 EXTRA = ["taylor_flanagan[mass=lumped]"]  # non-default variants timed at 1e3 and 1e5 only
-TARGET_S = 0.1  # wall time aimed at per round
-TARGET_S_1E6 = 0.5  # at n = 1e6 the set-up (factors, layout) must not weigh in the median
-PROBE_S = 0.005  # length of the two probe runs that size nsteps
+#: steps per round at each n: 5e7 dof-steps at 1e3 and 1e5 (0.03-0.3 s a round at
+#: 0.6-5 ns per dof-step), 1e8 at 1e6 (the set-up, ~0.1 s, must not weigh in the median)
+STEPS = {1_000: 50_000, 100_000: 500, 1_000_000: 100}
+#: schemes two orders of magnitude slower per dof-step get a fixed fraction of STEPS
+SLOW = {"ode_adaptive": 0.01}
+N_ID = {1_000: "n1e3", 100_000: "n1e5", 1_000_000: "n1e6"}
+
+
+def steps_for(spec: str, n: int) -> int:
+    """The fixed number of steps of a benchmark (module docstring)."""
+    return max(5, int(STEPS[n] * SLOW.get(spec.split("[")[0], 1.0)))
+
+
+def _params(specs: list[str], ns: list[int]) -> list:
+    """(spec, n, steps) with the id `spec-scene-nNeK-stepsS`: the work is in the name."""
+    return [pytest.param(spec, n, steps_for(spec, n),
+                         id=f"{spec}-{CASE}-{N_ID[n]}-steps{steps_for(spec, n)}")
+            for spec in specs for n in ns]
 
 
 def _specs() -> list[str]:
@@ -66,21 +84,7 @@ def _rounds(semi: Semidiscrete, dt: float, nsteps: int
     return (semi, dt, nsteps, nsteps), {}
 
 
-def _steps_for(scheme: Scheme, semi: Semidiscrete, dt: float, target_s: float) -> int:
-    """nsteps for a round of ~target_s: the marginal cost of a step from two probe runs
-    (k and 2k steps), so the set-up of a run does not count as stepping."""
-    k = max(5, int(PROBE_S / (5e-9 * semi.nfree)))
-    times = []
-    for steps in (k, 2 * k):
-        start = time.perf_counter()
-        scheme.integrate(semi, dt, steps, steps)
-        times.append(time.perf_counter() - start)
-    per_step = max((times[1] - times[0]) / k, times[1] / (2 * k) / 4, 1e-12)
-    return max(10, int(target_s / per_step))
-
-
-def _setup(spec: str, n: int, target_s: float = TARGET_S
-           ) -> tuple[Scheme, Semidiscrete, float, int]:
+def _setup(spec: str, n: int, steps: int) -> tuple[Scheme, Semidiscrete, float, int]:
     case = make_case(CASE)
     scheme = make_scheme(spec)
     reason = scheme.cannot_run(case) or case.cannot_run(scheme)
@@ -92,41 +96,39 @@ def _setup(spec: str, n: int, target_s: float = TARGET_S
     if limit is not None:
         dt = min(dt, 0.9 * limit)
     scheme.warm_up(semi)  # compile (or load the numba cache) outside the timing
-    return scheme, semi, dt, _steps_for(scheme, semi, dt, target_s)
+    return scheme, semi, dt, steps
 
 
-def _run(benchmark, spec: str, n: int, target_s: float = TARGET_S) -> None:
-    scheme, semi, dt, nsteps = _setup(spec, n, target_s)
+def _run(benchmark, spec: str, n: int, steps: int) -> None:
+    scheme, semi, dt, nsteps = _setup(spec, n, steps)
     traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(semi, dt, nsteps),
                               rounds=5, iterations=1, warmup_rounds=1)
     case = make_case(CASE)
     err = error_metrics(semi, traj, case.exact(nsteps * dt), case.provides)["err_u_linf_l2"]
     median = benchmark.stats.stats.median
     benchmark.extra_info.update(
-        scheme=scheme.spec, nfree=semi.nfree, nsteps=nsteps, dt=dt,
-        ns_per_dof_step=median / (semi.nfree * nsteps) * 1e9, err_u_linf_l2=err,
-        blowup=traj.blowup_time is not None)
+        scheme=scheme.spec, case=CASE, n=semi.nfree, steps=nsteps, nfree=semi.nfree,
+        nsteps=nsteps, dt=dt, ns_per_dof_step=median / (semi.nfree * nsteps) * 1e9,
+        err_u_linf_l2=err, blowup=traj.blowup_time is not None)
 
 
-@pytest.mark.parametrize("n", [1_000, 100_000], ids=["n1e3", "n1e5"])
-@pytest.mark.parametrize("spec", _specs())
-def test_stepping(benchmark, spec: str, n: int) -> None:
-    _run(benchmark, spec, n)
+@pytest.mark.parametrize(("spec", "n", "steps"), _params(_specs(), [1_000, 100_000]))
+def test_stepping(benchmark, spec: str, n: int, steps: int) -> None:
+    _run(benchmark, spec, n, steps)
 
 
-@pytest.mark.parametrize("spec", MAIN)
-def test_stepping_1e6(benchmark, spec: str) -> None:
-    _run(benchmark, spec, 1_000_000, TARGET_S_1E6)
+@pytest.mark.parametrize(("spec", "n", "steps"), _params(MAIN, [1_000_000]))
+def test_stepping_1e6(benchmark, spec: str, n: int, steps: int) -> None:
+    _run(benchmark, spec, n, steps)
 
 
-@pytest.mark.parametrize("n", [1_000, 100_000], ids=["n1e3", "n1e5"])
-@pytest.mark.parametrize("spec", ["standard", "redistributed", "redistributed[beta=0]"])
-def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
+@pytest.mark.parametrize(("spec", "n", "steps"), _params(MAIN, [1_000, 100_000]))
+def test_speedup_over_scipy(benchmark, spec: str, n: int, steps: int) -> None:
     """Times the numba kernel (the benchmark, median of 11 rounds) and the scipy reference
     (median of 5), each round on a new heap state (module docstring): more rounds than
     the other benchmarks, as the ratio of two medians on this VM moved by 20% from run
     to run with 5 and 3."""
-    scheme, semi, dt, nsteps = _setup(spec, n)
+    scheme, semi, dt, nsteps = _setup(spec, n, steps)
     traj = benchmark.pedantic(scheme.integrate, setup=lambda: _rounds(semi, dt, nsteps),
                               rounds=11, iterations=1, warmup_rounds=1)
     ref_steps = max(5, nsteps // 100)
@@ -140,7 +142,8 @@ def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
     ref_ns = statistics.median(times) / (semi.nfree * ref_steps) * 1e9
     short = scheme.integrate(semi, dt, ref_steps, ref_steps)
     benchmark.extra_info.update(
-        scheme=scheme.spec, nfree=semi.nfree, nsteps=nsteps, ref_steps=ref_steps,
+        scheme=scheme.spec, case=CASE, n=semi.nfree, steps=nsteps, nfree=semi.nfree,
+        nsteps=nsteps, ref_steps=ref_steps,
         ns_per_dof_step=kernel_ns, scipy_ns_per_dof_step=ref_ns, speedup=ref_ns / kernel_ns,
         ref_rel_diff=float(np.abs(short.U - ref.U).max() / np.abs(ref.U).max()),
         blowup=traj.blowup_time is not None)

@@ -45,7 +45,8 @@ class OdeVerlet(Scheme):
                       energy=Energy.CONSERVED, order=2)
 
     def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(0.0, 0.5, h, c, lumped=False)
+        return newmark_limit(0.0, 0.5, h, c, lumped=False,
+                             first_element_massless=self.variant == "first_element_massless")
 
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         return 2.0 * (semi.c_max * dt / semi.hmin) ** 2

@@ -40,7 +40,8 @@ class Redistributed(Scheme):
                       order=2 if self.gamma == 0.5 else 1)
 
     def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(self.beta, self.gamma, h, c, lumped=False)
+        return newmark_limit(self.beta, self.gamma, h, c, lumped=False,
+                             first_element_massless=self.variant == "first_element_massless")
 
     def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
         return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))

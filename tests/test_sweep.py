@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -144,11 +145,19 @@ def test_report_renders_from_a_saved_table(tmp_path):
         assert f'src="{name}"' in html
     tex = (out / "convergence_clamped_bar.tex").read_text()
     assert tex.startswith("% made by `contact-bench report") and "\\begin{tabular}" in tex
-    assert "\\end{tabular}" in tex
+    assert "\\end{tabular}" in tex and "\\toprule" in tex and "\\bottomrule" in tex
+    assert "fitted order" in tex and "err\\_u" not in tex  # readable headers
     assert (out / "work_precision_clamped_bar.md").read_text().startswith("<!-- made by")
-    assert (out / "energy_clamped_bar.csv").read_text().startswith("# made by")
-    conv = pd.read_csv(out / "convergence_clamped_bar.csv", comment=None, skiprows=1)
+    # plain CSV: a bare read_csv gets the columns; provenance in the sidecar
+    energy = pd.read_csv(out / "energy_clamped_bar.csv")
+    assert "energy_drift_max" in energy.columns
+    side = json.loads((out / "energy_clamped_bar.csv.json").read_text())
+    assert side["provenance"].startswith("made by `contact-bench report")
+    conv = pd.read_csv(out / "convergence_clamped_bar.csv")
     assert set(conv["against"]) == {"h", "dt"}
+    assert (out / "convergence_clamped_bar.png").exists()
+    assert "<title>contact-bench report" in html and 'href="#clamped_bar-stability"' in html
+    assert 'class="scroll"' in html
     assert Path(out / "stability_map_clamped_bar.tex").exists()
     assert "Time order away from impacts" in html and (out / "time_order.md").exists()
     assert conv.columns.get_loc("smooth order") == conv.columns.get_loc("declared order") + 1

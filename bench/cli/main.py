@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from contact_bench import __version__
 from contact_bench.api.registry import PLUGINS_ENV, cases, checked_plugin_dirs, make_case, schemes
 from contact_bench.cli.sweep_cli import COMMANDS as SWEEP_COMMANDS
 from contact_bench.cli.sweep_cli import add_commands as add_sweep_commands
@@ -20,6 +22,10 @@ from contact_bench.harness.runner import Run, reference, run_table
 
 if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
     import pandas as pd
+
+#: where the default job writes: untracked (.gitignore), so a newcomer's first run leaves
+#: `git status` clean; the published results/default/ is refreshed by --out results/default
+DEFAULT_OUT = "contact-bench-output"
 
 SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
          "err_stress_l2", "energy_drift_max", "penetration_max", "wall_s", "status"]
@@ -44,56 +50,134 @@ def _markdown(df: pd.DataFrame) -> str:
     return view.to_markdown(index=False, floatfmt=".3g")
 
 
-def cmd_list(args: argparse.Namespace) -> int:
-    out = ["Cases (scenes):"]
-    for name, cls in cases().plugins.items():
-        case = cls()
-        ref = case.reference or "none"
-        out.append(f"  {name:<20} {cls.summary}")
-        rho, E = ("x-dep" if callable(v) else f"{v:g}" for v in (case.rho, case.E))
-        gravity = f"g={case.g:g}" if case.g > 0 else "no gravity"
-        stride = f" stride={case.stride}" if case.stride != 1 else ""
-        absent = sorted({"u", "v", "stress", "energy"} - set(cls.provides))
-        out.append(f"  {'':<20} L={case.L:g} rho={rho} E={E} {gravity}"
-                   f" far end={case.far_end}; defaults T={case.T:g} nx={case.nx} dt={case.dt:g}"
-                   f"{stride}; reference={ref}; provides={','.join(sorted(cls.provides)) or '-'}"
-                   + (f" (not: {','.join(absent)})" if absent else ""))
-        for key, p in cls.params.items():
-            out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
-    out.append("Schemes:")
-    for name, cls in schemes().plugins.items():
-        sch = cls()
-        tr = sch.traits()
-        out.append(f"  {name:<20} {cls.summary}")
-        limit = sch.stability_limit(1.0, 1.0)  # every declared limit scales like h / c
-        stab = "none" if limit is None else f"dt <= {limit:.3g} h/c"
-        order = "-" if tr.order is None else str(tr.order)
-        out.append(f"  {'':<20} implicit={tr.implicit} massless_contact_node="
-                   f"{tr.massless_contact_node} contact={tr.contact} energy={tr.energy}"
-                   f" mass={sch.mass_kind()} stability_limit={stab} order={order}")
-        refused = [c for c, ccls in cases().plugins.items()
-                   if sch.cannot_run(ccls()) or ccls().cannot_run(sch)]
-        if refused:
-            out.append(f"  {'':<20} cannot run (defaults): {', '.join(refused)}")
-        for key, p in cls.params.items():
-            out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
+#: `list` output width (text form)
+LIST_WIDTH = 100
+
+
+def _param_records(cls: type) -> list[dict]:
+    return [{"name": key, "default": p.default, "allowed": p.allowed(), "doc": p.doc}
+            for key, p in cls.params.items()]
+
+
+def _case_record(name: str, cls: type) -> dict:
+    case = cls()
+    return {
+        "kind": "case", "name": name, "summary": cls.summary, "L": case.L,
+        "rho": "x-dependent" if callable(case.rho) else case.rho,
+        "E": "x-dependent" if callable(case.E) else case.E, "g": case.g,
+        "far_end": case.far_end, "T": case.T, "nx": case.nx, "dt": case.dt,
+        "stride": case.stride, "reference": case.reference or "none",
+        "provides": sorted(cls.provides), "in_default_run": bool(cls.in_default_run),
+        "params": _param_records(cls),
+    }
+
+
+def _scheme_record(name: str, cls: type) -> dict:
+    sch = cls()
+    tr = sch.traits()
+    limit = sch.stability_limit(1.0, 1.0)  # every declared limit scales like h / c
+    return {
+        "kind": "scheme", "name": name, "summary": cls.summary, "implicit": bool(tr.implicit),
+        "massless_contact_node": bool(tr.massless_contact_node), "contact": tr.contact,
+        "energy": tr.energy, "mass": sch.mass_kind(),
+        "cfl_limit": None if limit is None else float(limit), "order": tr.order,
+        "cannot_run": [c for c, ccls in cases().plugins.items()
+                       if sch.cannot_run(ccls()) or ccls().cannot_run(sch)],
+        "params": _param_records(cls),
+    }
+
+
+def list_records(what: str | None = None) -> list[dict]:
+    """What `list` shows, as plain records: what = None (all), 'schemes', 'cases' or
+    one plugin's name. An unknown name is a BenchError naming it."""
+    out: list[dict] = []
+    if what in (None, "cases"):
+        out += [_case_record(n, c) for n, c in cases().plugins.items()]
+    if what in (None, "schemes"):
+        out += [_scheme_record(n, c) for n, c in schemes().plugins.items()]
+    if what not in (None, "cases", "schemes"):
+        if what in cases().plugins:
+            out.append(_case_record(what, cases().plugins[what]))
+        if what in schemes().plugins:
+            out.append(_scheme_record(what, schemes().plugins[what]))
+        if not out:
+            known = ", ".join([*cases().plugins, *schemes().plugins])
+            raise BenchError(f"list: no scheme or case named {what!r} (known: {known}; "
+                             "or 'schemes', 'cases')")
+    return out
+
+
+def _wrap(text: str, indent: int) -> list[str]:
+    import textwrap
+
+    return textwrap.wrap(text, LIST_WIDTH, initial_indent=" " * indent,
+                         subsequent_indent=" " * (indent + 2), break_on_hyphens=False) or [""]
+
+
+def _list_text(records: list[dict]) -> str:
+    out: list[str] = []
+    for kind, title in (("case", "Cases (scenes):"), ("scheme", "Schemes:")):
+        recs = [r for r in records if r["kind"] == kind]
+        if not recs:
+            continue
+        out.append(title)
+        for r in recs:
+            out += _wrap(f"{r['name']:<18} {r['summary']}", 2)
+            if kind == "case":
+                rho, E = (v if isinstance(v, str) else f"{v:g}" for v in (r["rho"], r["E"]))
+                gravity = f"g={r['g']:g}" if r["g"] > 0 else "no gravity"
+                stride = f" stride={r['stride']}" if r["stride"] != 1 else ""
+                absent = sorted({"u", "v", "stress", "energy"} - set(r["provides"]))
+                out += _wrap(f"defaults T={r['T']:g} nx={r['nx']} dt={r['dt']:g}{stride}; "
+                             f"reference={r['reference']}; provides="
+                             f"{','.join(r['provides']) or '-'}"
+                             + (f" (not: {','.join(absent)})" if absent else ""), 6)
+                out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
+                             6)
+            else:
+                stab = ("none" if r["cfl_limit"] is None
+                        else f"dt <= {r['cfl_limit']:.3g} h/c")
+                order = "-" if r["order"] is None else str(r["order"])
+                out += _wrap(f"implicit={r['implicit']} massless_contact_node="
+                             f"{r['massless_contact_node']} contact={r['contact']}", 6)
+                out += _wrap(f"energy={r['energy']} mass={r['mass']} stability_limit={stab} "
+                             f"order={order}", 6)
+                if r["cannot_run"]:
+                    out += _wrap(f"cannot run (defaults): {', '.join(r['cannot_run'])}", 6)
+            for p in r["params"]:
+                out += _wrap(f"{p['name']} = {p['default']!r} ({p['allowed']}) {p['doc']}", 6)
     for kind, reg in (("case", cases()), ("scheme", schemes())):
         for name, err in reg.broken.items():
-            line = f"  [broken {kind} module {name}: {err}]"
-            if name in cases().broken and name in schemes().broken:  # a plugin file
-                line = f"  [broken plugin module {name}: {err}]"
-            if line not in out:
-                out.append(line)
-    print("\n".join(out))
+            label = "plugin" if name in cases().broken and name in schemes().broken else kind
+            for line in _wrap(f"[broken {label} module {name}: {err}]", 2):
+                if line not in out:  # a plugin file is tried as both kinds
+                    out.append(line)
+    return "\n".join(out)
+
+
+def cmd_list(args: argparse.Namespace) -> int:
+    records = list_records(args.what)
+    if args.format == "json":
+        text = json.dumps(records, indent=1, default=str)
+    else:
+        text = _list_text(records)
+    try:
+        print(text)
+    except BrokenPipeError:  # `contact-bench list | head`
+        sys.stderr.close()
     return 0
 
 
-def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]) -> list[Path]:
-    from contact_bench.output.figures import contact_figure
+def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
+                   formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
+    from contact_bench.output.figures import contact_figure, save_figure, use_style
 
     prov = provenance(argv)
     written = [
         write_text(out / "runs.csv", df.to_csv(index=False)),
+        write_text(out / "runs.csv.json", json.dumps(
+            {"provenance": prov, "file": "runs.csv", "cases": list(dict.fromkeys(df["case"])),
+             "schemes": list(dict.fromkeys(df["scheme"]))}, indent=1) + "\n"),
         write_text(out / "runs.md", f"<!-- {prov} -->\n\n" + _markdown(df) + "\n"),
     ]
     for case_spec in dict.fromkeys(df["case"]):
@@ -102,10 +186,46 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
         T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
         exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
-        written.append(contact_figure(these, exact, case.spec, out / f"{fname}.png"))
+        with use_style(style):
+            fig = contact_figure(these, exact, case.spec)
+        written += save_figure(fig, out / fname, formats, prov)
     listing = "\n".join(f"- `{p.name}`" for p in written)
     write_text(out / "README.md", f"# Results\n\n{prov}\n\nFiles:\n{listing}\n")
     return written
+
+
+class Progress:
+    """One line on stderr per run ("run 3/20: clamped_bar / hht ..."), telling when a
+    scheme's kernels compile on first use; redrawn in place on a terminal. Shown when
+    stderr is a terminal (`--progress`: also when it is not, e.g. a CI log)."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.tty = sys.stderr.isatty()
+        self.seen: set[str] = set()
+        self.width = 0
+
+    def __call__(self, i: int, total: int, case: object, scheme: object) -> None:
+        if not self.enabled:
+            return
+        name = getattr(scheme, "name", str(scheme))
+        first = name not in self.seen
+        self.seen.add(name)
+        note = (" (first run of this scheme: its kernels may compile, up to a minute)"
+                if first else "")
+        line = (f"contact-bench: run {i + 1}/{total}: {getattr(case, 'spec', case)} / "
+                f"{getattr(scheme, 'spec', scheme)}{note}")
+        if self.tty:
+            sys.stderr.write("\r" + line.ljust(self.width))
+            self.width = len(line)
+        else:
+            sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+
+    def done(self) -> None:
+        if self.enabled and self.tty and self.width:
+            sys.stderr.write("\r" + " " * self.width + "\r")
+            sys.stderr.flush()
 
 
 def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
@@ -113,10 +233,15 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     case_names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
     scheme_names = args.scheme or schemes().names()
     runs: list[Run] = []
-    df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
-                   args.stride, args.grading, args.allow_unstable, keep=runs,
-                   explicit_pair=bool(args.case and args.scheme), keep_samples=False)
-    out = args.out or ("results/default" if default_job else None)
+    progress = Progress(not args.quiet and (args.progress or sys.stderr.isatty()))
+    try:
+        df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
+                       args.stride, args.grading, args.allow_unstable, keep=runs,
+                       explicit_pair=bool(args.case and args.scheme), keep_samples=False,
+                       progress=progress)
+    finally:
+        progress.done()
+    out = args.out or (DEFAULT_OUT if default_job else None)
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))
     elif args.format == "json":
@@ -125,8 +250,16 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         print(_markdown(df))
     else:
         print(_fmt_table(df))
+    errors = [r for r in runs if r.row.get("status") == "error"]
+    if args.traceback:
+        for r in errors:
+            print(f"--- {r.row['case']} / {r.row['scheme']}:\n{r.traceback or '(no traceback)'}",
+                  file=sys.stderr)
+    elif errors and args.format == "table":  # machine formats keep stderr for real errors
+        print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they "
+              "were raised", file=sys.stderr)
     if out:
-        written = _write_outputs(Path(out), df, runs, argv)
+        written = _write_outputs(Path(out), df, runs, argv, args.fig_format, args.style)
         if args.format == "table":
             print(f"\nwrote {', '.join(str(p) for p in written)}")
     return 0
@@ -148,7 +281,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="contact-bench", description=__doc__)
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help=PLUGINS_HELP)
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="cases and schemes with their parameters and declarations")
+    p.add_argument("--version", action="version",
+                   version=f"contact-bench {__version__}")
+    li = sub.add_parser("list", help="cases and schemes with their parameters and declarations")
+    li.add_argument("what", nargs="?", metavar="schemes|cases|NAME",
+                    help="only the schemes, only the cases, or one plugin by name")
+    li.add_argument("--format", choices=["text", "json"], default="text")
     r = sub.add_parser("run", help="run cases x schemes x nx x dt (no options: the default job)")
     r.add_argument("--case", action="append", help="case spec (repeatable)")
     r.add_argument("--scheme", action="append",
@@ -163,7 +301,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")
     r.add_argument("--out",
-                   help="folder for CSV, Markdown and figures (default job: results/default/)")
+                   help=f"folder for CSV, Markdown and figures (default job: {DEFAULT_OUT}/, "
+                        "not tracked by git; published results only with --out results/...)")
+    r.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+    r.add_argument("--progress", action="store_true",
+                   help="progress lines on stderr even when it is not a terminal")
+    r.add_argument("--fig-format", default="png", metavar="FORMATS",
+                   help="figure formats, comma-separated among png, pdf, svg (default png)")
+    r.add_argument("--style", metavar="FILE_OR_NAME", help="matplotlib style for the figures")
+    r.add_argument("--traceback", action="store_true",
+                   help="print the full traceback of every 'error' row on stderr")
     add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
     for command in sub.choices.values():  # --plugins after the subcommand too
         command.add_argument("--plugins", action="append", default=[], metavar="DIR",
@@ -225,6 +372,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.T = _numbers([args.T], float, "T")[0] if args.T else None
         args.stride = (_numbers([args.stride], int, "stride")[0]
                        if args.stride is not None else None)
+        from contact_bench.output.figures import check_formats, check_style
+
+        args.fig_format = check_formats(args.fig_format)
+        check_style(args.style)
         return cmd_run(args, argv)
     except (BenchError, UsageError) as exc:
         print(f"contact-bench: error: {' '.join(str(exc).split())}", file=sys.stderr)

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from contact_bench.core.errors import BenchError
+from contact_bench.harness.environment import provenance
 
 COMMANDS = ("sweep", "report", "study")
 
@@ -27,7 +28,23 @@ def _runner_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeats", type=int, default=None,
                    help="timed repeats per run in the serial timing pass (0: no timing; "
                         "default 5, 2 with --quick)")
+    p.add_argument("--retime", action="store_true",
+                   help="measure the timings again, even those in the cache (the runs and "
+                        "their errors still come from the cache)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (CI)")
+    p.add_argument("--traceback", action="store_true",
+                   help="print the full traceback of every 'error' row on stderr")
+
+
+def _figure_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fig-format", default="png", metavar="FORMATS",
+                   help="figure formats, comma-separated among png, pdf, svg (PNG at 300 dpi; "
+                        "default png)")
+    p.add_argument("--style", metavar="FILE_OR_NAME",
+                   help="matplotlib style for the figures: a name (e.g. seaborn-v0_8-paper) "
+                        "or a .mplstyle file")
+    p.add_argument("--energy-runs", choices=["finest", "all"], default="finest",
+                   help="energy figure: the finest run per scheme (default) or every run")
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -55,14 +72,16 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                                  "beside it (written by study) is shown too")
     r.add_argument("--out", required=True, help="folder for the report")
     r.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
+    _figure_options(r)
 
     st = sub.add_parser("study", help="the published default study: sweep + report")
     st.add_argument("--out", default="results/study", help="folder (default: results/study)")
     st.add_argument("--quick", action="store_true", help="tiny grids (smoke test)")
     st.add_argument("--scheme", action="append",
                     help="scheme specs (default: every registered scheme)")
-    st.add_argument("--case", action="append", help="scenes (default: the scenes of the main job)")
+    st.add_argument("--case", action="append", help="scenes (default: the seed scenes)")
     st.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
+    _figure_options(st)
     _runner_options(st)
 
 
@@ -100,6 +119,19 @@ def _check_runner(args: argparse.Namespace) -> None:
         raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
 
 
+def _tracebacks(res, show: bool) -> None:  # noqa: ANN001
+    errors = res.table[res.table["status"] == "error"]
+    if errors.empty:
+        return
+    if not show:
+        print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they were "
+              "raised", file=sys.stderr)
+        return
+    for row in errors.itertuples():
+        tb = res.tracebacks.get(row.key, "(no traceback)")
+        print(f"--- {row.case} / {row.scheme} (nx {row.nx}):\n{tb}", file=sys.stderr)
+
+
 def _summary(res, path: Path, quiet: bool) -> None:  # noqa: ANN001
     counts = res.table["status"].value_counts().to_dict()
     line = (f"{len(res.table)} runs ({res.executed} computed, {res.cached} from the cache, "
@@ -120,18 +152,22 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
     scheme_specs = args.scheme or schemes().names()
     tasks = plan(case_specs, scheme_specs, nxs, dts, cfls, args.T, args.stride,
                  args.max_samples, args.grading)
-    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet)
-    written = save_table(res.table, Path(args.out) / "sweep.csv")
+    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet,
+                    args.retime)
+    written = save_table(res.table, Path(args.out) / "sweep.csv", provenance(argv))
     _summary(res, written[0], args.quiet)
+    _tracebacks(res, args.traceback)
     return 0
 
 
 def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
-    from contact_bench.output.report import write_report
+    from contact_bench.output.report import check_report_options, write_report
     from contact_bench.sweeps.sweep import load_table
 
     df = load_table(args.table)
-    written = write_report(df, args.out, argv, args.error, _saved_time_orders(args.table))
+    check_report_options(df, args.error, args.fig_format, args.style, args.energy_runs)
+    written = write_report(df, args.out, argv, args.error, args.fig_format, args.style,
+                           args.energy_runs, _saved_time_orders(args.table))
     print(f"wrote {len(written)} files to {args.out} (open {Path(args.out) / 'index.html'})")
     return 0
 
@@ -147,21 +183,31 @@ def _saved_time_orders(table: str):  # noqa: ANN202 - pandas is imported lazily
 
 
 def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
+    from contact_bench.harness.metrics import ERROR_COLUMNS
+    from contact_bench.output.figures import check_formats, check_style
     from contact_bench.output.report import write_report
     from contact_bench.sweeps.study import plan_study
     from contact_bench.sweeps.sweep import run_sweep, save_table
     from contact_bench.sweeps.time_order import time_order_table
 
     _check_runner(args)
+    check_formats(args.fig_format)
+    check_style(args.style)
+    if args.error not in ERROR_COLUMNS:  # checked before the sweep, not after it
+        raise BenchError(f"--error must be one of {', '.join(ERROR_COLUMNS)}; "
+                         f"got {args.error!r}")
     start = time.perf_counter()
     tasks = plan_study(args.quick, args.scheme, args.case)
-    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet)
+    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet,
+                    args.retime)
     out = Path(args.out)
-    written = save_table(res.table, out / "sweep.csv")
+    written = save_table(res.table, out / "sweep.csv", provenance(argv))
     _summary(res, written[0], args.quiet)
+    _tracebacks(res, args.traceback)
     # declared against measured time order for every scheme spec of the study's tables
     time_orders = time_order_table(list(res.table["scheme"].dropna()))
-    files = write_report(res.table, out, argv, args.error, time_orders)
+    files = write_report(res.table, out, argv, args.error, args.fig_format, args.style,
+                         args.energy_runs, time_orders)
     print(f"study: {len(files) + len(written)} files in {out} (open {out / 'index.html'}); "
           f"{time.perf_counter() - start:.0f} s")
     return 0

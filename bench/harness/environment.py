@@ -55,24 +55,41 @@ def git_commit() -> str:
     return out.stdout.strip() if out.returncode == 0 and out.stdout.strip() else "unknown"
 
 
+def git_dirty() -> str:
+    """'yes' when the checkout holding this package has uncommitted changes to tracked
+    files (`git status --porcelain --untracked-files=no`), 'no' when clean, 'unknown'
+    outside git. Untracked output folders do not count."""
+    try:
+        out = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                             cwd=ROOT, capture_output=True, text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    if out.returncode != 0:
+        return "unknown"
+    return "yes" if out.stdout.strip() else "no"
+
+
 @cache
 def environment() -> dict[str, str | int]:
     """The `env_*` columns of a sweep row (cached for the life of the process)."""
     env: dict[str, str | int] = {"env_python": platform.python_version()}
     env.update({f"env_{col}": _version(dist) for dist, col in PACKAGES.items()})
     env.update(env_cpu=cpu_model(), env_ncpu=os.cpu_count() or 1,
-               env_platform=platform.platform(terse=True), env_git=git_commit())
+               env_platform=platform.platform(terse=True), env_git=git_commit(),
+               env_git_dirty=git_dirty())
     return env
 
 
 def provenance(argv: Sequence[str] | None = None) -> str:
-    """One line: the command, the date (UTC), the versions and the git commit."""
+    """One line: the command, the date (UTC), the versions and the git commit (with
+    ' (dirty)' when tracked files have uncommitted changes)."""
     env = environment()
     cmd = "contact-bench " + " ".join(shlex.quote(a) for a in (argv or []))
     versions = ", ".join(f"{dist} {env[f'env_{col}']}" for dist, col in PACKAGES.items())
     return (f"made by `{cmd.strip()}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
             f"python {env['env_python']}, {versions}; CPU {env['env_cpu']} "
-            f"({env['env_ncpu']} cores); git {env['env_git']}")
+            f"({env['env_ncpu']} cores); git {env['env_git']}"
+            + (" (dirty)" if env["env_git_dirty"] == "yes" else ""))
 
 
 #: arrays above this size are mapped and unmapped one by one (glibc's M_MMAP_THRESHOLD)

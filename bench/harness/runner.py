@@ -11,7 +11,8 @@ import dataclasses
 import math
 import threading
 import time
-from collections.abc import Iterable
+import traceback
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -62,6 +63,8 @@ class Run:
     trajectory: Trajectory | None = None
     semi: Any = None
     norm_s: float | None = None
+    #: the formatted traceback of an 'error' row (`contact-bench run --traceback`)
+    traceback: str | None = None
 
     def without_samples(self) -> Run:
         """The same run without what grows with the mesh: the semi-discrete problem and
@@ -70,7 +73,7 @@ class Run:
         tr = self.trajectory
         if tr is not None:
             tr = dataclasses.replace(tr, U=np.empty((tr.t.size, 0)), V=np.empty((tr.t.size, 0)))
-        return Run(self.row, tr, None, self.norm_s)
+        return Run(self.row, tr, None, self.norm_s, self.traceback)
 
 
 _reference_lock = threading.Lock()
@@ -312,7 +315,8 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
     if out.get("notes"):
         reason = f"{reason}; {out['notes']}"
     out.update(status="error", notes=reason, wall_s=None)
-    return Run(out)
+    tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+    return Run(out, traceback=tb)
 
 
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
@@ -337,7 +341,9 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
               stride: int | None = None,
               grading: float = 1.0, allow_unstable: bool = False,
               keep: list[Run] | None = None, *, explicit_pair: bool = False,
-              keep_samples: bool = True) -> pd.DataFrame:
+              keep_samples: bool = True,
+              progress: Callable[[int, int, Case, Scheme], None] | None = None
+              ) -> pd.DataFrame:
     """The product cases x schemes x nx x dt as one DataFrame (one row per run).
 
     Every configuration is checked before any is run, so a bad input (BenchError) fails
@@ -346,7 +352,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
     `explicit_pair`: the user named one case and one scheme, so a pair that cannot run
     is an error rather than a 'not applicable' row. `keep` collects the runs; with
     `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
-    grow with the number of runs (one run's samples at a time).
+    grow with the number of runs (one run's samples at a time). `progress(i, total,
+    case, scheme)` is called before each run (the CLI's progress line).
     """
     case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
     scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
@@ -380,6 +387,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
     rows = []
     for i, plan in enumerate(plans):
         plans[i] = None  # each run's memory goes with it
+        if progress is not None and isinstance(plan, _Plan):
+            progress(i, len(plans), plan.case, plan.scheme)
         if isinstance(plan, Run):
             run = plan
         else:

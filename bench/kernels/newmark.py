@@ -34,18 +34,33 @@ from contact_bench.kernels.newmark_vec import explicit_kernel, implicit_kernel
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
 GAMMA = Param(0.5, "Newmark gamma", low=0.5, high=1.0)
+#: omega_max h / c of the first_element_massless mass in contact (see `newmark_limit`)
+EDGE_MODE_OMEGA = float(np.sqrt(6.0 + 4.0 * np.sqrt(3.0)))
 
 
-def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool) -> float | None:
+def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool,
+                  first_element_massless: bool = False) -> float | None:
     """Largest stable dt of undamped Newmark on P1 elements (None: unconditionally stable).
 
     Stable iff omega_max dt <= 1 / sqrt(gamma/2 - beta) when 2 beta < gamma, with
-    omega_max = 2 c / h (lumped mass) or 2 sqrt(3) c / h (consistent or redistributed):
-    the central difference limits h / c and h / (c sqrt 3).
+    omega_max = 2 c / h (lumped mass) or 2 sqrt(3) c / h (consistent, or a massless
+    contact node with the getfem or conservative mass): the central difference limits
+    h / c and h / (c sqrt 3).
+
+    `first_element_massless`: that mass (Dabaghi et al.'s M^mod) takes the first
+    element's mass away from node 1, and
+    while the contact node sits on the obstacle (u0 = 0) node 1 keeps its full
+    stiffness 2 E / h with mass rho h / 3 only. That gives an edge mode u_j ~ r^j,
+    r = 1 - sqrt 3, above the interior band: omega_max^2 = (6 + 4 sqrt 3) c^2 / h^2
+    (`EDGE_MODE_OMEGA`; from node 1's row, 6 (2 - r) = w (2 + r), and the interior rows,
+    6 (2 - r - 1/r) = w (4 + r + 1/r), w = omega^2 h^2 / c^2), so the central
+    difference limit is 0.556 h / c, not 0.577 h / c (tests/test_schemes_extra.py
+    checks it against the generalized eigenvalues of both contact states).
     """
     if 2.0 * beta >= gamma:
         return None
-    omega_max = (2.0 if lumped else 2.0 * np.sqrt(3.0)) * c / h
+    factor = 2.0 if lumped else (EDGE_MODE_OMEGA if first_element_massless else 2.0 * np.sqrt(3.0))
+    omega_max = factor * c / h
     return float(1.0 / (np.sqrt(gamma / 2.0 - beta) * omega_max))
 
 

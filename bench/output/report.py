@@ -1,39 +1,77 @@
-"""`contact-bench report`: tables (CSV, Markdown, LaTeX), PNG figures and one HTML page,
-all drawn from a saved sweep table without recomputing anything.
+"""`contact-bench report`: tables (CSV, Markdown, LaTeX), figures (PNG, PDF, SVG) and one
+HTML page, all drawn from a saved sweep table without recomputing anything.
 
-Every file records the command, versions and date that made it (`provenance`): a
-`#` line in CSV, an HTML comment in Markdown, a `%` line in LaTeX, PNG text metadata
-plus a footer line, and the page's header.
+Every file records the command, versions and date that made it (`provenance`): CSV
+files are plain (one header line, raw column names) with the provenance and the
+columns' readable names and units in a sidecar `<name>.csv.json`; Markdown has an HTML
+comment, LaTeX a `%` line (a booktabs table made by pandas' Styler: `\\usepackage{booktabs}`),
+figures carry it in their metadata and `<stem>.fig.json`, the page in its header.
 """
 
 from __future__ import annotations
 
 import html
+import json
 import math
 import re
 from collections.abc import Sequence
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib.colors import ListedColormap  # noqa: E402
+from contact_bench.core.errors import BenchError
+from contact_bench.harness.environment import provenance
+from contact_bench.harness.io import write_text
+from contact_bench.output.figures import (
+    check_formats,
+    check_style,
+    convergence_figure,
+    energy_figure,
+    save_figure,
+    stability_figure,
+    use_style,
+    work_precision_figure,
+)
+from contact_bench.sweeps import analysis
 
-from contact_bench.harness.environment import provenance  # noqa: E402
-from contact_bench.harness.io import atomic_write, write_text  # noqa: E402
-from contact_bench.sweeps import analysis  # noqa: E402
-
-CLASS_COLORS = {"stable": "#4daf4a", "energy-growing": "#ff7f00", "blown up": "#e41a1c"}
 #: columns shown with 2 decimals (orders); other floats get 3 significant digits
 DECIMAL_COLUMNS = {"order", "measured order", "smooth order"}
-INT_COLUMNS = {"nx", "points", "floor points", "declared order", "steps"}
+INT_COLUMNS = {"nx", "points", "floor points", "declared order", "steps", "time_repeats"}
+#: raw column -> readable header with its unit (Markdown, LaTeX, HTML); CSV keeps raw names
+HEADERS = {
+    "case": "scene", "scheme": "scheme", "curve": "curve", "nx": "elements",
+    "h": "h", "dt": "dt", "cfl": "CFL (c dt/h)", "cfl_limit": "declared CFL limit",
+    "T": "T (final time)", "steps": "steps",
+    "err_u_linf_l2": "error u, Linf(L2) (rel.)", "err_u_linf_h1": "error u, Linf(H1) (rel.)",
+    "err_v_linf_l2": "error v, Linf(L2) (rel.)", "err_u_l2_l2": "error u, L2(L2) (rel.)",
+    "err_u_l2_h1": "error u, L2(H1) (rel.)", "err_v_l2_l2": "error v, L2(L2) (rel.)",
+    "err_stress_l2": "error stress, L2 (rel.)",
+    "time_s": "stepping time [s] (min)", "time_median_s": "stepping time [s] (median)",
+    "time_iqr_s": "stepping time IQR [s]", "time_repeats": "timed repeats",
+    "time_noisy": "noisy timing", "wall_s": "wall time [s]", "pareto": "Pareto front",
+    "stability": "class", "blowup_time": "blow-up time", "energy_trait": "declared energy",
+    "energy_growth_max": "max growth (E-E0)/|E0|", "energy_drift_max": "max |E-E0|/|E0|",
+    "energy_drift_bound": "declared drift bound", "energy_final_drift": "final (E-E0)/|E0|",
+    "against": "against", "at": "at", "points": "points", "order": "fitted order",
+    "local orders": "local orders", "declared order": "declared order",
+    "floor points": "round-off points", "error": "error norm", "status": "status",
+    "runs": "runs", "penetration_max": "max penetration", "notes": "notes",
+}
 
 
 def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.-]+", "_", str(text)).strip("_")
+
+
+def header(col: str) -> str:
+    """The readable header of a column (its raw name when there is none)."""
+    if col in HEADERS:
+        return HEADERS[col]
+    if col.startswith(("scheme_", "case_")) and col not in ("scheme_name", "case_name"):
+        kind, _, param = col.partition("_")
+        return f"{kind} {param}"
+    return col
 
 
 def _fmt(value: object, col: str) -> str:
@@ -54,236 +92,226 @@ def _fmt(value: object, col: str) -> str:
 
 
 def display(df: pd.DataFrame) -> pd.DataFrame:
-    """Strings with sensible significant digits (3; orders with 2 decimals)."""
+    """Strings with sensible significant digits (3; orders with 2 decimals), readable
+    headers."""
     out = df.copy()
     for col in out.columns:
         out[col] = [_fmt(v, str(col)) for v in out[col]]
-    out.columns = [str(c) for c in out.columns]
+        if col == "error":  # the name of an error column, as a value
+            out[col] = out[col].map(header)
+    out.columns = [header(str(c)) for c in out.columns]
     return out
 
 
-_TEX = {"&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_", "{": r"\{", "}": r"\}",
-        "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
-
-
 def to_latex(df: pd.DataFrame) -> str:
-    """A plain `tabular` (no packages needed) of the display strings."""
+    """A booktabs table (\\toprule, \\midrule, \\bottomrule) of the display strings,
+    made by pandas' Styler with LaTeX escaping of cells and headers."""
     shown = display(df)
-
-    def esc(s: str) -> str:
-        return "".join(_TEX.get(ch, ch) for ch in s)
-
-    align = "".join("l" if shown[c].map(lambda s: bool(re.search("[A-Za-z]", s))
-                                        and not re.fullmatch(r"[-+0-9.e]+", s)).any()
-                    else "r" for c in shown.columns)
-    lines = [f"\\begin{{tabular}}{{{align}}}", "\\hline",
-             " & ".join(esc(c) for c in shown.columns) + r" \\", "\\hline"]
-    lines += [" & ".join(esc(v) for v in row) + r" \\" for row in shown.itertuples(index=False)]
-    lines += ["\\hline", "\\end{tabular}"]
-    return "\n".join(lines) + "\n"
+    if shown.empty:
+        return "% (no rows)\n"
+    numeric = [not shown[c].map(lambda s: bool(re.search("[A-Za-z]", s))
+                                and not re.fullmatch(r"[-+0-9.e]+", s)).any()
+               for c in shown.columns]
+    styler = shown.style.hide(axis="index").format(escape="latex") \
+        .format_index(escape="latex", axis=1)
+    return styler.to_latex(hrules=True,
+                           column_format="".join("r" if n else "l" for n in numeric))
 
 
 def write_tables(df: pd.DataFrame, out: Path, stem: str, prov: str) -> list[Path]:
-    """stem.csv (4 significant digits), stem.md and stem.tex, each with its provenance."""
-    csv = df.to_csv(index=False, float_format="%.4g")
+    """stem.csv (plain, 6 significant digits) with stem.csv.json (provenance, headers,
+    units), stem.md and stem.tex, each with its provenance."""
+    csv = df.to_csv(index=False, float_format="%.6g")
     md = display(df).to_markdown(index=False) if not df.empty else "(no rows)"
+    side = {"provenance": prov, "file": f"{stem}.csv",
+            "columns": {str(c): header(str(c)) for c in df.columns}}
     return [
-        write_text(out / f"{stem}.csv", f"# {prov}\n{csv}"),
+        write_text(out / f"{stem}.csv", csv),
+        write_text(out / f"{stem}.csv.json", json.dumps(side, indent=1) + "\n"),
         write_text(out / f"{stem}.md", f"<!-- {prov} -->\n\n{md}\n"),
-        write_text(out / f"{stem}.tex", f"% {prov}\n{to_latex(df)}"),
+        write_text(out / f"{stem}.tex", f"% {prov}\n% needs \\usepackage{{booktabs}}\n"
+                                        f"{to_latex(df)}"),
     ]
-
-
-def _save(fig: plt.Figure, path: Path, prov: str) -> Path:
-    short = prov.split(";")[0]
-    fig.text(0.005, 0.003, short, fontsize=5, color="0.4", ha="left", va="bottom")
-    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png",
-                                               metadata={"Description": prov,
-                                                         "Software": "contact-bench"}))
-    plt.close(fig)
-    return path
-
-
-# --------------------------------------------------------------------- figures
-
-
-def work_precision_figure(wp: pd.DataFrame, case: str, error: str, path: Path,
-                          prov: str) -> Path:
-    """Error (x) against stepping time (y), log-log; one curve per scheme; Pareto front."""
-    fig, ax = plt.subplots(figsize=(7, 5))
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    for i, (curve, g) in enumerate(wp.groupby("curve", sort=False)):
-        g = g.sort_values("time_s")
-        ax.loglog(g[error], g["time_s"], "o-", color=colors[i % 10], ms=4, lw=1, label=curve)
-    front = wp[wp["pareto"]].sort_values("time_s")
-    if not front.empty:
-        ax.loglog(front[error], front["time_s"], "k:", lw=1)
-        ax.scatter(front[error], front["time_s"], s=70, facecolors="none", edgecolors="k",
-                   label="Pareto front", zorder=3)
-    ax.set_xlabel(f"{error} (relative)")
-    ax.set_ylabel("stepping time [s] (min of repeats, serial)")
-    ax.set_title(f"work-precision: {case}")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
-    return _save(fig, path, prov)
-
-
-def stability_figure(table: pd.DataFrame, case: str, path: Path, prov: str) -> Path:
-    """Scheme x CFL, colour = class (white: not run)."""
-    classes = list(CLASS_COLORS)
-    codes = table.apply(lambda col: col.map(lambda v: classes.index(v) if v in classes
-                                            else np.nan)).to_numpy(float)
-    fig, ax = plt.subplots(figsize=(4.5 + 0.55 * table.shape[1],
-                                    1.6 + 0.38 * max(1, table.shape[0])))
-    cmap = ListedColormap([CLASS_COLORS[c] for c in classes]).with_extremes(bad="white")
-    ax.imshow(np.ma.masked_invalid(codes), cmap=cmap, vmin=-0.5, vmax=len(classes) - 0.5,
-              aspect="auto")
-    ax.set_xticks(range(table.shape[1]), [f"{c:g}" for c in table.columns], rotation=60,
-                  fontsize=7)
-    ax.set_yticks(range(table.shape[0]), list(table.index), fontsize=7)
-    ax.set_xlabel("CFL = c dt / h")
-    ax.set_title(f"stability: {case}", fontsize=9)
-    handles = [plt.Rectangle((0, 0), 1, 1, color=CLASS_COLORS[c]) for c in classes]
-    ax.legend(handles, classes, fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1))
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
-    return _save(fig, path, prov)
-
-
-def energy_figure(rows: pd.DataFrame, case: str, path: Path, prov: str) -> Path:
-    """(E(t) - E(0)) / |E(0)| for one run per scheme (its finest energy run)."""
-    fig, ax = plt.subplots(figsize=(9.5, 4.5))
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    for i, (scheme, g) in enumerate(rows.groupby("scheme", sort=False)):
-        row = g.sort_values("nx").iloc[-1]
-        tr = analysis.energy_trace(row)
-        if tr is None:
-            continue
-        t, E = tr
-        scale = abs(E[0]) if E[0] else 1.0
-        rel = (E - E[0]) / scale
-        ax.plot(t, rel, color=colors[i % 10], lw=1,
-                label=f"{scheme} (nx {int(row['nx'])}, CFL {row['cfl']:.2g})")
-    ax.set_yscale("symlog", linthresh=1e-4)
-    ax.set_xlabel("t")
-    ax.set_ylabel("(E(t) - E(0)) / |E(0)|")
-    ax.set_title(f"energy: {case}")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1))
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
-    return _save(fig, path, prov)
-
-
 # ------------------------------------------------------------------------- page
 
 
 def _html_table(df: pd.DataFrame) -> str:
     if df.empty:
         return "<p><em>no rows</em></p>"
-    return display(df).to_html(index=False, escape=True, border=0, classes="t")
+    table = display(df).to_html(index=False, escape=True, border=0, classes="t")
+    return f'<div class="scroll">{table}</div>'
+
+
+def check_report_options(df: pd.DataFrame, error: str, fig_format: str | Sequence[str],
+                         style: str | None, energy_runs: str) -> list[str]:
+    """Every option of `report` checked against the table before anything is written;
+    returns the figure formats. A bad one is a one-line BenchError naming it."""
+    if error not in df.columns or not error.startswith("err_"):
+        errs = ", ".join(c for c in df.columns if str(c).startswith("err_"))
+        raise BenchError(f"--error must be an error column of the table ({errs}); got {error!r}")
+    formats = check_formats(fig_format)
+    check_style(style)
+    if energy_runs not in ("finest", "all"):
+        raise BenchError(f"--energy-runs must be finest or all; got {energy_runs!r}")
+    return formats
+
+
+def command_title(argv: Sequence[str] | None) -> str:
+    """The page's title: the command that made it."""
+    import shlex
+
+    return "contact-bench " + " ".join(shlex.quote(a) for a in (argv or [])) if argv \
+        else "contact-bench report"
 
 
 def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None = None,
-                 error: str = "err_u_linf_l2",
+                 error: str = "err_u_linf_l2", fig_format: str | Sequence[str] = "png",
+                 style: str | None = None, energy_runs: str = "finest",
                  time_orders: pd.DataFrame | None = None) -> list[Path]:
     """All tables, figures and index.html for the table df, into out.
 
+    Options are checked first (`check_report_options`): a bad one writes nothing.
     time_orders: the declared and measured orders away from impacts
     (`contact_bench.sweeps.time_order.time_order_table`), if measured: a table of its own
     and a "smooth order" column in the convergence tables.
     """
+    formats = check_report_options(df, error, fig_format, style, energy_runs)
     out = Path(out)
     prov = provenance(argv)
     written: list[Path] = []
     sections: list[str] = []
+    toc: list[str] = []
+    shown_fmt = next((f for f in ("png", "svg") if f in formats), None)
 
     def links(paths: list[Path]) -> str:
-        return " ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.suffix[1:])}</a>'
+        return " ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.name)}</a>'
                         for p in paths)
 
-    written += write_tables(df.drop(columns=["energy_trace"], errors="ignore"), out, "runs", prov)
-    wp_all = analysis.work_precision(analysis.select(df, "refine"), error)
-    conv_all = pd.concat([
-        analysis.convergence_table(analysis.select(df, "refine"), error, against=("h",)),
-        analysis.convergence_table(analysis.select(df, "dt"), error, against=("dt",))])
+    def figure(fig: object, stem: str, alt: str) -> str:
+        files = save_figure(fig, out / stem, formats, prov)  # type: ignore[arg-type]
+        written.extend(files)
+        img = (f'<img src="{stem}.{shown_fmt}" alt="{html.escape(alt)}">' if shown_fmt
+               else "")
+        return f"{img}<p>figure: {links(files)}</p>"
+
+    def section(case: str, key: str, title: str, body: str) -> None:
+        anchor = f"{slug(case)}-{key}"
+        toc.append(f'<li><a href="#{anchor}">{html.escape(title)}</a></li>')
+        parts.append(f'<h3 id="{anchor}">{html.escape(title)} '
+                     f'<a class="anchor" href="#{anchor}">#</a></h3>{body}')
+
+    runs_table = df.drop(columns=["energy_trace"], errors="ignore")
+    written += write_tables(runs_table, out, "runs", prov)
+    refine, dts = analysis.select(df, "refine"), analysis.select(df, "dt")
+    wp_all = analysis.work_precision(refine, error)
+    conv_all = pd.concat([analysis.convergence_table(refine, error, against=("h",)),
+                          analysis.convergence_table(dts, error, against=("dt",))])
     conv_all = analysis.with_time_orders(conv_all, time_orders)
     if time_orders is not None and not time_orders.empty:
         tabs = write_tables(time_orders, out, "time_order", prov)
         written += tabs
+        toc.append('<li><a href="#time-order">Time order away from impacts</a></li>')
         sections.append(
-            "<h2>Time order away from impacts</h2><p>Declared (<code>Traits.order</code>) "
-            "against measured: least-squares slope of log error against log dt on a smooth "
-            "motion without contact, the error of a dt being the difference with the same "
-            "scheme at dt / 2 (docs/order.md). 'dt only samples': the output does not "
-            "change with dt.</p>"
+            '<h2 id="time-order">Time order away from impacts</h2><p>Declared '
+            "(<code>Traits.order</code>) against measured: least-squares slope of log error "
+            "against log dt on a smooth motion without contact, the error of a dt being the "
+            "difference with the same scheme at dt / 2 (docs/order.md). 'dt only samples': "
+            "the output does not change with dt.</p>"
             f"<p>tables: {links(tabs)}</p>" + _html_table(time_orders))
     energy_rows = analysis.select(df, "energy")
     energy_all = analysis.energy_table(energy_rows)
     stab_rows = analysis.select(df, "stability")
-    for case in dict.fromkeys(df["case"]):
-        s = slug(case)
-        parts = [f"<h2>{html.escape(case)}</h2>"]
-        wp = wp_all[wp_all["case"] == case]
-        if not wp.empty:
-            fig = work_precision_figure(wp, case, error, out / f"work_precision_{s}.png", prov)
-            tabs = write_tables(wp.drop(columns=["case"]), out, f"work_precision_{s}", prov)
-            written += [fig, *tabs]
-            parts.append(f"<h3>Work-precision ({html.escape(error)} against stepping time)</h3>"
-                         f'<img src="{fig.name}" alt="work-precision {html.escape(case)}">'
-                         f"<p>tables: {links(tabs)}</p>" + _html_table(wp.drop(columns=["case"])))
-        conv = conv_all[conv_all["case"] == case] if not conv_all.empty else conv_all
-        if not conv.empty:
-            tabs = write_tables(conv.drop(columns=["case"]), out, f"convergence_{s}", prov)
-            written += tabs
-            parts.append(f"<h3>Convergence orders ({html.escape(error)}; local orders between "
-                         f"neighbouring refinements; round-off floor points left out; "
-                         f"declared order and smooth order: away from impacts)</h3>"
-                         f"<p>tables: {links(tabs)}</p>"
-                         + _html_table(conv.drop(columns=["case"])))
-        smap = analysis.stability_map(stab_rows, case)
-        if not smap.empty:
-            fig = stability_figure(smap, case, out / f"stability_{s}.png", prov)
-            tab_map = smap.reset_index().rename(columns=lambda c: c if c == "scheme"
-                                                else f"CFL {c:g}")
-            tabs = write_tables(tab_map, out, f"stability_map_{s}", prov)
-            long = analysis.stability_table(stab_rows[stab_rows["case"] == case])
-            tabs += write_tables(long.drop(columns=["case"]), out, f"stability_runs_{s}", prov)
-            written += [fig, *tabs]
-            parts.append("<h3>Stability (worst class per scheme and CFL)</h3>"
-                         f'<img src="{fig.name}" alt="stability map {html.escape(case)}">'
-                         f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
-        en = energy_all[energy_all["case"] == case]
-        if not en.empty:
-            fig = energy_figure(energy_rows[energy_rows["case"] == case], case,
-                                out / f"energy_{s}.png", prov)
-            tabs = write_tables(en.drop(columns=["case"]), out, f"energy_{s}", prov)
-            written += [fig, *tabs]
-            parts.append("<h3>Energy</h3>"
-                         f'<img src="{fig.name}" alt="energy {html.escape(case)}">'
-                         f"<p>tables: {links(tabs)}</p>" + _html_table(en.drop(columns=["case"])))
-        sections.append("\n".join(parts))
+    with use_style(style):
+        for case in dict.fromkeys(df["case"]):
+            s = slug(case)
+            parts: list[str] = []
+            toc.append(f'<li><a href="#{s}">{html.escape(case)}</a><ul>')
+            wp = wp_all[wp_all["case"] == case]
+            if not wp.empty:
+                body = figure(work_precision_figure(wp, case, error), f"work_precision_{s}",
+                              f"work-precision {case}")
+                tabs = write_tables(wp.drop(columns=["case"]), out, f"work_precision_{s}",
+                                    prov)
+                written.extend(tabs)
+                section(case, "work-precision",
+                        f"Work-precision ({header(error)} against stepping time)",
+                        body + f"<p>tables: {links(tabs)}</p>"
+                        + _html_table(wp.drop(columns=["case"])))
+            conv = conv_all[conv_all["case"] == case] if not conv_all.empty else conv_all
+            if not conv.empty:
+                body = figure(convergence_figure(refine[refine["case"] == case],
+                                                 dts[dts["case"] == case], case, error),
+                              f"convergence_{s}", f"convergence {case}")
+                tabs = write_tables(conv.drop(columns=["case"]), out, f"convergence_{s}", prov)
+                written.extend(tabs)
+                section(case, "convergence",
+                        f"Convergence ({header(error)}; fitted and local orders; round-off "
+                        "floor points left out; declared order and smooth order: away from "
+                        "impacts)",
+                        body + f"<p>tables: {links(tabs)}</p>"
+                        + _html_table(conv.drop(columns=["case"])))
+            smap = analysis.stability_map(stab_rows, case)
+            if not smap.empty:
+                body = figure(stability_figure(stab_rows[stab_rows["case"] == case], case),
+                              f"stability_{s}", f"stability {case}")
+                tab_map = smap.reset_index().rename(columns=lambda c: c if c == "scheme"
+                                                    else f"CFL {c:g}")
+                tabs = write_tables(tab_map, out, f"stability_map_{s}", prov)
+                long = analysis.stability_table(stab_rows[stab_rows["case"] == case])
+                tabs += write_tables(long.drop(columns=["case"]), out, f"stability_runs_{s}",
+                                     prov)
+                written.extend(tabs)
+                section(case, "stability", "Stability (worst class per scheme and CFL)",
+                        body + f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
+            en = energy_all[energy_all["case"] == case]
+            if not en.empty:
+                fig = energy_figure(energy_rows[energy_rows["case"] == case], case,
+                                    energy_runs)
+                body = "" if fig is None else figure(fig, f"energy_{s}", f"energy {case}")
+                tabs = write_tables(en.drop(columns=["case"]), out, f"energy_{s}", prov)
+                written.extend(tabs)
+                section(case, "energy", "Energy", body + f"<p>tables: {links(tabs)}</p>"
+                        + _html_table(en.drop(columns=["case"])))
+            toc.append("</ul></li>")
+            sections.append(f'<h2 id="{s}">{html.escape(case)} '
+                            f'<a class="anchor" href="#{s}">#</a></h2>' + "\n".join(parts))
     status = df.groupby(["case", "status"]).size().rename("runs").reset_index()
-    page = _PAGE.format(prov=html.escape(prov), sections="\n".join(sections),
-                        status=_html_table(status), runs=links(written[:3]))
+    title = command_title(argv)
+    page = _PAGE.format(title=html.escape(title), prov=html.escape(prov),
+                        sections="\n".join(sections), toc="\n".join(toc),
+                        status=_html_table(status), runs=links(written[:1]))
     written.append(write_text(out / "index.html", f"<!-- {html.escape(prov)} -->\n{page}"))
     return written
 
 
 _PAGE = """<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>contact-bench study</title>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<meta name="viewport" content="width=device-width, initial-scale=1">
 <style>
-body {{ font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }}
-img {{ max-width: 100%; display: block; margin: 0.5em 0; }}
-table.t {{ border-collapse: collapse; font-size: 12px; margin-bottom: 1em; }}
-table.t td, table.t th {{ padding: 2px 8px; border-bottom: 1px solid #ddd; text-align: right; }}
-.prov {{ font-size: 11px; color: #555; }}
+body {{ font-family: sans-serif; max-width: 1200px; margin: 2em auto; padding: 0 1em;
+       color: #222; }}
+img {{ width: 100%; max-width: 1100px; height: auto; display: block; margin: 0.5em 0; }}
+div.scroll {{ overflow-x: auto; max-width: 100%; margin-bottom: 1em; }}
+table.t {{ border-collapse: collapse; font-size: 13px; }}
+table.t td, table.t th {{ padding: 2px 8px; border-bottom: 1px solid #ddd; text-align: right;
+                          white-space: nowrap; }}
+table.t th {{ position: sticky; top: 0; background: #f4f4f4; }}
+a.anchor {{ color: #bbb; text-decoration: none; font-size: 0.8em; }}
+nav ul {{ margin: 0.2em 0; }}
+.prov {{ font-size: 12px; color: #555; overflow-wrap: anywhere; }}
 </style></head><body>
-<h1>contact-bench study</h1>
+<h1>{title}</h1>
 <p class="prov">{prov}</p>
+<nav><h2 id="contents">Contents</h2><ul>
+<li><a href="#runs">Runs</a></li>
+{toc}
+</ul></nav>
+<h2 id="runs">Runs <a class="anchor" href="#runs">#</a></h2>
 <p>Errors are relative norms against the exact solution. Stepping times are measured
 apart from the error runs, serially, with nothing else running from the sweep: one
 discarded warm-up call of <code>scheme.integrate</code> (JIT compilation before it), then
-the minimum of the repeats, garbage collector off. All runs: {runs}.</p>
+the repeats with the garbage collector off: minimum, median and interquartile range.
+All runs: {runs}.</p>
 {status}
 {sections}
 <hr><p class="prov">{prov}</p>

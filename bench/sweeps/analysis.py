@@ -41,7 +41,7 @@ def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
     """Rows tagged with `group` (the ';'-separated `group` column); all rows if none is."""
     if "group" not in df or df.empty:
         return df
-    tags = df["group"].fillna("").astype(str).str.split(";")
+    tags = df["group"].astype("string").fillna("").str.split(";")
     mask = tags.map(lambda t: group in t).astype(bool)
     return df[mask] if mask.any() else df
 
@@ -166,6 +166,8 @@ def work_precision(df: pd.DataFrame, error: str = "err_u_linf_l2") -> pd.DataFra
     ok = _ok(df, error)
     ok = ok[np.isfinite(ok["time_s"].astype(float))].copy()
     cols = ["case", "curve", "scheme", "nx", "dt", "cfl", error, "time_s", "pareto"]
+    cols += [c for c in ("time_median_s", "time_iqr_s", "time_repeats", "time_noisy")
+             if c in df.columns]  # the spread of the repeats, and the flag of a noisy one
     if ok.empty:
         return pd.DataFrame(columns=cols)
     ok["_cfl"] = ok["cfl"].map(lambda v: _sig(float(v), 2))

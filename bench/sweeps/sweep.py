@@ -11,9 +11,12 @@ them and returns one DataFrame:
    once, so an interrupted sweep continues where it stopped;
 3. then, with nothing else running, a *serial timing pass* in this process: for every
    ok row of a timed task, one warm-up call of `scheme.integrate` (discarded; JIT
-   compilation is done before it by `scheme.warm_up`), then the minimum of `repeats`
-   timed calls with the garbage collector off -> `time_s`. Timings are cached too,
-   keyed on the run and the CPU model.
+   compilation is done before it by `scheme.warm_up`), then `repeats` timed calls with
+   the garbage collector off -> `timing_stats`: `time_s` (the minimum), `time_median_s`,
+   `time_iqr_s` (interquartile range), `time_repeats` and `time_noisy` (IQR above
+   NOISY_SPREAD x the median: re-time it). Timings are cached too, keyed on the run and
+   the CPU model; `retime` measures them again (the runs themselves, errors included,
+   still come from the cache).
 
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
@@ -28,6 +31,7 @@ import json
 import math
 import multiprocessing as mp
 import time
+import traceback
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field, replace
@@ -56,7 +60,10 @@ DEFAULT_GROWTH_TOL = 1e-2
 TRACE_POINTS = 200
 STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
 #: columns that vary from one execution of the same run to the next
-TIMING_COLUMNS = ("wall_s", "time_s", "time_repeats", "run_s")
+TIMING_COLUMNS = ("wall_s", "time_s", "time_median_s", "time_iqr_s", "time_repeats",
+                  "time_noisy", "run_s")
+#: a timing whose interquartile range exceeds this fraction of its median is flagged noisy
+NOISY_SPREAD = 0.1
 VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
 
 COLUMNS = (
@@ -107,6 +114,8 @@ class SweepResult:
     timed: int  # timing measurements made by this call
     elapsed: float
     keys: list[str] = field(default_factory=list)
+    #: key -> formatted traceback of each 'error' row (`--traceback`); not a table column
+    tracebacks: dict[str, str] = field(default_factory=dict)
 
 
 def plan(cases: Iterable[str], schemes: Iterable[str], nxs: Sequence[int | None] = (None,),
@@ -218,7 +227,9 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
         row["stability"] = classify(row["status"], row["energy_trait"],
                                     row["energy_growth_max"], row["energy_drift_bound"])
     except Exception as exc:  # noqa: BLE001 - a failing run never stops the sweep
-        row.update(status="error", notes=_one_line(exc), stability=None)
+        row.update(status="error", notes=_one_line(exc), stability=None,
+                   traceback="".join(traceback.format_exception(type(exc), exc,
+                                                                exc.__traceback__)))
     row["run_s"] = time.perf_counter() - start
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
@@ -249,11 +260,26 @@ def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
 TIME_BUDGET_S = 3.0
 
 
-def time_integrate(row: dict[str, Any], repeats: int) -> tuple[float, int]:
-    """Minimum over `repeats` timed `scheme.integrate` calls, after a discarded warm-up.
+def timing_stats(samples: Sequence[float], name: str = "time") -> dict[str, Any]:
+    """The table's columns for one timing from its repeated measurements: `<name>_s`
+    (minimum), `<name>_median_s`, `<name>_iqr_s` (75th - 25th percentile, linear),
+    `<name>_repeats` and `<name>_noisy` (IQR > NOISY_SPREAD x median). The same for
+    every timing column (e.g. name = 'step' gives step_s, step_median_s, ...)."""
+    x = np.asarray([v for v in samples if _finite(v)], float)
+    if x.size == 0:
+        return {f"{name}_s": None, f"{name}_median_s": None, f"{name}_iqr_s": None,
+                f"{name}_repeats": 0, f"{name}_noisy": None}
+    med = float(np.median(x))
+    iqr = float(np.percentile(x, 75) - np.percentile(x, 25))
+    return {f"{name}_s": float(x.min()), f"{name}_median_s": med, f"{name}_iqr_s": iqr,
+            f"{name}_repeats": int(x.size), f"{name}_noisy": bool(iqr > NOISY_SPREAD * med)}
 
-    Returns (minimum, calls made): a run whose calls exceed TIME_BUDGET_S in total
-    stops after two calls (one when repeats = 1).
+
+def time_integrate(row: dict[str, Any], repeats: int) -> list[float]:
+    """`repeats` timed `scheme.integrate` calls after a discarded warm-up: their times.
+
+    A run whose calls exceed TIME_BUDGET_S in total stops after two calls (one when
+    repeats = 1).
     """
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = discretise(case, mesh_nodes(float(case.L), int(row["nx"]), float(row["grading"])),
@@ -261,20 +287,20 @@ def time_integrate(row: dict[str, Any], repeats: int) -> tuple[float, int]:
     dt, steps, stride = float(row["dt"]), int(row["steps"]), int(row["stride"])
     scheme.warm_up(semi)  # JIT compilation
     scheme.integrate(semi, dt, steps, stride)  # discarded warm-up call
-    best, spent, calls = math.inf, 0.0, 0
+    times: list[float] = []
     gc.collect()
     enabled = gc.isenabled()
     gc.disable()
     try:
-        while calls < max(1, repeats) and not (calls >= 2 and spent > TIME_BUDGET_S):
+        while len(times) < max(1, repeats) and not (len(times) >= 2
+                                                    and sum(times) > TIME_BUDGET_S):
             t0 = time.perf_counter()
             scheme.integrate(semi, dt, steps, stride)
-            elapsed = time.perf_counter() - t0
-            best, spent, calls = min(best, elapsed), spent + elapsed, calls + 1
+            times.append(time.perf_counter() - t0)
     finally:
         if enabled:
             gc.enable()
-    return best, calls
+    return times
 
 
 # ------------------------------------------------------------------ executors
@@ -336,8 +362,11 @@ def _progress(total: int, initial: int, desc: str, quiet: bool) -> Any:
 
 
 def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
-              cache: Cache | None = None, repeats: int = 5, quiet: bool = False) -> SweepResult:
-    """Run the tasks (see the module docstring); the table has one row per distinct run."""
+              cache: Cache | None = None, repeats: int = 5, quiet: bool = False,
+              retime: bool = False) -> SweepResult:
+    """Run the tasks (see the module docstring); the table has one row per distinct run.
+    `retime`: measure the timings again even when cached (runs still come from the cache).
+    """
     start = time.perf_counter()
     cache = cache if cache is not None else Cache(None)
     # canonical inputs and keys; bad specs raise BenchError here, before anything runs
@@ -393,15 +422,20 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
     finally:
         bar.close()
 
-    timed = _timing_pass(order, meta, rows, cache, repeats, quiet)
+    timed = _timing_pass(order, meta, rows, cache, repeats, quiet, retime)
+    tracebacks: dict[str, str] = {}
     for key in order:
         rows[key].update(group=meta[key]["group"], key=key, code_hash=meta[key]["code"])
-    table = _frame([rows[k] for k in order])
-    return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order)
+        tb = rows[key].pop("traceback", None)
+        if tb:
+            tracebacks[key] = tb
+    table = add_param_columns(_frame([rows[k] for k in order]))
+    return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order,
+                       tracebacks)
 
 
 def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
-                 cache: Cache, repeats: int, quiet: bool) -> int:
+                 cache: Cache, repeats: int, quiet: bool, retime: bool = False) -> int:
     """Serial timings in this process, after all parallel work is over (see module doc)."""
     if repeats <= 0:
         return 0
@@ -411,23 +445,23 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     for key in wanted:
         tkey = run_key({"run": key, "cpu": machine, "repeats": repeats}, meta[key]["code"],
                        kind="timing")
-        hit = cache.get(tkey)
-        if hit is not None:
-            rows[key].update(time_s=hit["time_s"], time_repeats=hit["time_repeats"])
+        hit = None if retime else cache.get(tkey)
+        if hit is not None and "times" in hit:
+            rows[key].update(timing_stats(hit["times"]))
         else:
             todo.append((key, tkey))
     bar = _progress(len(todo), 0, "timing (serial)", quiet or not todo)
     try:
         for key, tkey in todo:
             try:
-                best, calls = time_integrate(rows[key], repeats)
+                times = time_integrate(rows[key], repeats)
             except Exception as exc:  # noqa: BLE001 - a failing timing is a note, not a crash
                 rows[key]["notes"] = "; ".join(
                     n for n in (rows[key].get("notes"), f"timing failed: {_one_line(exc)}") if n)
                 bar.update(1)
                 continue
-            rows[key].update(time_s=best, time_repeats=calls)
-            cache.put(tkey, {"time_s": best, "time_repeats": calls})
+            rows[key].update(timing_stats(times))
+            cache.put(tkey, {"times": times})
             bar.update(1)
     finally:
         bar.close()
@@ -444,29 +478,108 @@ def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
     for col in ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
                 "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
-                "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", *TIMING_COLUMNS):
+                "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound",
+                *(c for c in TIMING_COLUMNS if c.endswith("_s"))):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
-    for col in ("implicit", "massless_contact_node", "from_cache"):
+    for col in ("implicit", "massless_contact_node", "from_cache",
+                *(c for c in df.columns if str(c).endswith("_noisy"))):
         if col in df:
             df[col] = df[col].astype("boolean")
     return df
 
 
+def add_param_columns(df: pd.DataFrame) -> pd.DataFrame:
+    """One column per scheme parameter (`scheme_<name>`) and scene parameter
+    (`case_<name>`), read from the specs (defaults filled in), next to them; a spec that
+    does not parse leaves its cells empty. Columns already there are kept."""
+    if df.empty:
+        return df
+    new: dict[str, list[Any]] = {}
+    for kind, make in (("case", make_case), ("scheme", make_scheme)):
+        values: dict[str, dict[str, Any]] = {}
+        for spec in dict.fromkeys(df[kind].dropna()):
+            try:
+                obj = make(spec)
+            except Exception:  # noqa: BLE001 - an error row keeps its spec only
+                values[spec] = {}
+                continue
+            values[spec] = {f"{kind}_{k}": getattr(obj, k, None) for k in type(obj).params}
+        cols = list(dict.fromkeys(c for v in values.values() for c in v))
+        for col in cols:
+            if col in df.columns or col in (f"{kind}_name",):
+                continue
+            new[col] = [values.get(spec, {}).get(col) for spec in df[kind]]
+    if not new:
+        return df
+    out = df.copy()
+    at = list(out.columns).index("scheme_name") + 1 if "scheme_name" in out else len(out.columns)
+    for i, (col, vals) in enumerate(new.items()):
+        out.insert(at + i, col, pd.Series(vals, index=out.index, dtype=object))
+    return out
+
+
 # ------------------------------------------------------------------ table files
 
 
-def save_table(df: pd.DataFrame, path: str | Path) -> list[Path]:
-    """Write df as CSV (and Parquet next to it when pyarrow is installed), atomically."""
+def save_table(df: pd.DataFrame, path: str | Path, prov: str | None = None) -> list[Path]:
+    """Write df as plain CSV (and Parquet next to it when pyarrow is installed),
+    atomically; `prov` (the provenance line) goes to `<name>.csv.json` and into the
+    Parquet file's metadata (key b"contact_bench_provenance")."""
     path = Path(path)
     written = [write_text(path, df.to_csv(index=False))]
+    if prov is not None:
+        side = {"provenance": prov, "file": path.name}
+        written.append(write_text(path.with_name(path.name + ".json"),
+                                  json.dumps(side, indent=1) + "\n"))
     try:
-        import pyarrow  # noqa: F401
+        import pyarrow as pa
+        import pyarrow.parquet as pq
     except ImportError:
         return written
-    pq = path.with_suffix(".parquet")
-    written.append(atomic_write(pq, lambda tmp: df.to_parquet(tmp, index=False)))
+
+    def write_parquet(tmp: str) -> None:
+        table = pa.Table.from_pandas(_parquet_safe(df), preserve_index=False)
+        if prov is not None:
+            meta = dict(table.schema.metadata or {})
+            meta[b"contact_bench_provenance"] = prov.encode()
+            table = table.replace_schema_metadata(meta)
+        pq.write_table(table, tmp)
+
+    written.append(atomic_write(path.with_suffix(".parquet"), write_parquet))
     return written
+
+
+def _parquet_safe(df: pd.DataFrame) -> pd.DataFrame:
+    """Object columns holding mixed types (parameter columns: a float for one scheme, a
+    string for another) as strings, so that Arrow takes them; None stays missing."""
+    out = df
+    for col in df.columns:
+        if df[col].dtype == object:
+            kinds = {type(v) for v in df[col] if v is not None and not
+                     (isinstance(v, float) and math.isnan(v))}
+            if len(kinds) > 1:
+                if out is df:
+                    out = df.copy()
+                out[col] = [None if v is None or (isinstance(v, float) and math.isnan(v))
+                            else str(v) for v in df[col]]
+    return out
+
+
+def read_provenance(path: str | Path) -> str | None:
+    """The provenance saved with a table (`save_table`), from Parquet metadata or the
+    CSV's sidecar; None when there is none."""
+    path = Path(path)
+    if path.suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        meta = pq.read_schema(path).metadata or {}
+        raw = meta.get(b"contact_bench_provenance")
+        return None if raw is None else raw.decode()
+    side = path.with_name(path.name + ".json")
+    if side.exists():
+        return json.loads(side.read_text(encoding="utf-8")).get("provenance")
+    return None
 
 
 def load_table(path: str | Path) -> pd.DataFrame:
@@ -486,4 +599,4 @@ def load_table(path: str | Path) -> pd.DataFrame:
         df = pd.read_csv(path, skiprows=skip, keep_default_na=True)
     if "case" not in df or "scheme" not in df:
         raise BenchError(f"{path} is not a sweep table: it has no 'case' and 'scheme' columns")
-    return _frame(df.to_dict("records"))
+    return add_param_columns(_frame(df.to_dict("records")))
