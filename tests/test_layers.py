@@ -91,7 +91,7 @@ def _violations(name: str, path: Path, modules: dict[str, Path]) -> list[str]:
                 if target != f"{PKG}.{mine}" and theirs == mine:
                     out.append(f"{at}: a plugin imports another plugin")
             continue
-        if name == f"{PKG}.__main__":
+        if name == f"{PKG}.__main__" or target == PKG:  # the root imports no project module
             continue
         if mine in PLUGIN_PACKAGES:
             if theirs not in PLUGIN_MAY_IMPORT:

@@ -166,7 +166,7 @@ def test_sweep_table_param_columns_and_provenance(tmp_path):
                          cfls=[0.5], T=0.5), repeats=0, quiet=True)
     df = res.table
     assert list(df["scheme_beta"][:2]) == [0.25, 0.0]
-    assert list(df["scheme_variant"][:2]) == ["seed", "seed"]
+    assert list(df["scheme_variant"][:2]) == ["first_element_massless"] * 2
     assert df["scheme"].iloc[2] == "penalty" and df["scheme_gamma_p"].iloc[2] > 0
     assert pd.isna(df["scheme_gamma_p"].iloc[0]) and pd.isna(df["scheme_variant"].iloc[2])
     files = save_table(df, tmp_path / "sweep.csv", PROV)
