@@ -28,8 +28,9 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.core.sampling import energy_of
 from contact_bench.core.spike import L, Spike, lane_zeros, spike_factor, stencil_solve
-from contact_bench.core.tridiag import eliminate_contact_node
+from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve
 from contact_bench.kernels.common import allocate, initial_acceleration, trajectory
+from contact_bench.kernels.newmark_serial import serial_explicit, serial_implicit
 from contact_bench.kernels.newmark_vec import explicit_kernel, implicit_kernel
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
@@ -65,6 +66,22 @@ def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool) -
 _FM = {"contract"}
 #: rows per lane block the vector kernels need (smaller systems are padded)
 MIN_ROWS = 3
+#: systems with fewer unknowns step with the serial Thomas kernels
+#: (`contact_bench.kernels.newmark_serial`), larger ones with the SPIKE vector kernels:
+#: the crossover measured on the project's machine (docs/performance-small-grids.md)
+SERIAL_BELOW = 64
+#: the kernel forms `run_newmark` can be asked for (None: chosen by size)
+FORMS = ("serial", "spike")
+
+
+def kernel_form(n: int, form: str | None = None) -> str:
+    """The form that steps a system of n unknowns: `form` if given, else "serial" below
+    `SERIAL_BELOW` unknowns (and at least 3), "spike" above."""
+    if form is not None:
+        if form not in FORMS:
+            raise ValueError(f"kernel form must be one of {FORMS}, got {form!r}")
+        return form if n >= 3 else "spike"
+    return "serial" if 3 <= n < SERIAL_BELOW else "spike"
 
 
 @njit(cache=True, fastmath=_FM)
@@ -119,11 +136,11 @@ def h_diagonals(sp: Spike) -> tuple[np.ndarray, ...]:
 
 
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
-                beta: float, gamma: float) -> Trajectory:
-    """Factor outside the loop (interleaved SPIKE factors), then call the vector kernel.
-
-    The kernel's state lives only in the interleaved layout; nothing in node order is
-    kept alive while it steps beyond the problem itself and the sample buffers.
+                beta: float, gamma: float, form: str | None = None) -> Trajectory:
+    """Factor outside the loop, then call the kernel of the form `kernel_form` picks:
+    the serial Thomas kernel on small systems, the SPIKE vector kernel on large ones
+    (interleaved factors; its state lives only in the interleaved layout, nothing in node
+    order is kept alive while it steps beyond the problem and the sample buffers).
     """
     M, K, F = semi.M, semi.K, semi.F
     n = semi.nfree
@@ -140,6 +157,9 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     A = initial_acceleration(semi)
     dt2 = dt * dt
+    if kernel_form(n, form) == "serial":
+        res = _run_serial(semi, dt, nsteps, stride, beta, gamma, A, bufs)
+        return trajectory(out, *res, dt)
     if beta > 0.0:
         bdt2 = beta * dt2
         sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off, MIN_ROWS)
@@ -173,3 +193,34 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         1.0 / (beta * dt2) if beta > 0.0 else 0.0, dt, bool(semi.massless), int(nsteps),
         int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)
+
+
+def _run_serial(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: float,
+                gamma: float, A: np.ndarray, bufs: tuple) -> tuple:
+    """The serial kernels' factors (LAPACK dpttrf) and state (X, Q) in node order; returns
+    the kernel's (samples, steps, min u0, blow-up step)."""
+    M, K, F = semi.M, semi.K, semi.F
+    U, V = semi.U0, semi.V0
+    dt2 = dt * dt
+    Q = dt * V + dt2 * (1.0 - gamma) * A
+    z, Vs = np.zeros(semi.nfree), np.zeros(semi.nfree)
+    if beta > 0.0:
+        bdt2 = beta * dt2
+        df, ef = factor_pt(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off)
+        w = np.zeros(semi.nfree)
+        w[0] = 1.0
+        pt_solve(df, ef, w)
+        X = U + dt * V + (0.5 - beta) * dt2 * A
+        return serial_implicit(
+            M.diag, M.off, K.diag, K.off, F, bdt2 * F, ef, 1.0 / df, w, float(w[0]), X, Q, z,
+            Vs, float(U[0]), (gamma + 0.5 - beta) / beta, 1.0 / beta, gamma / (beta * dt),
+            1.0 / bdt2, dt, bool(semi.massless), int(nsteps), int(stride),
+            semi.energy_offset, *bufs)
+    d, e = M.diag.copy(), M.off.copy()
+    d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_r on nodes 1.. plus an identity row
+    df, ef = factor_pt(d, e)
+    X = U + dt * V + 0.5 * dt2 * A
+    return serial_explicit(
+        M.diag, M.off, K.diag, K.off, F, -dt2 * K.diag, -dt2 * K.off, dt2 * F, ef, 1.0 / df,
+        X, Q, z, Vs, float(U[0]), gamma + 0.5, 1.0, gamma / dt, dt, int(nsteps), int(stride),
+        semi.energy_offset, *bufs)

@@ -1,0 +1,96 @@
+"""Stepping and recording cost on the grids the study plots, in ns per dof-step, in one run.
+
+    python benchmarks/small_grids.py [--nx 20 40 80 160 320 640 1000] [--repeats 7]
+
+For each nx (clamped bar, dt = 0.5 h, `nsteps` steps) and each scheme it prints the
+minimum over `repeats` calls (after a warm-up call) of `scheme.integrate` with stride =
+nsteps (stepping: two samples) and with stride 1 (every step recorded, as the error
+norms need), per dof-step; `rec` is their difference. `spec@serial` and `spec@spike`
+force one form of the Newmark kernels (`contact_bench.kernels.newmark.kernel_form`),
+the plain rows use the form chosen by size: the crossover `SERIAL_BELOW` is where the
+two forced rows cross. All timings of one nx are taken interleaved (scheme by scheme in
+every repeat), so a load change of the shared machine hits them alike; ratios within a
+line are what to read. A scheme whose run at stride 1 stopped early (a blow-up of the
+energy, which only sampled steps detect) is marked `blew up` and its rec1 is not a cost.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from contact_bench.api.fem import mesh_nodes  # noqa: E402
+from contact_bench.api.problem import discretise  # noqa: E402
+from contact_bench.api.registry import make_case, make_scheme  # noqa: E402
+from contact_bench.kernels import newmark  # noqa: E402
+
+SPECS = ["redistributed", "redistributed@serial", "redistributed@spike", "standard",
+         "standard@serial", "standard@spike", "redistributed[beta=0]",
+         "redistributed[beta=0]@serial", "redistributed[beta=0]@spike", "nitsche",
+         "restitution"]
+DOF_STEPS = 4e6  # dof-steps per call: ~4-40 ms, far above the per-call set-up
+
+
+def _runner(spec: str, nx: int):
+    """(call(stride) -> None, nfree, nsteps) for one scheme, form forced if asked."""
+    name, _, form = spec.partition("@")
+    form = form or None
+    case = make_case("clamped_bar")
+    scheme = make_scheme(name)
+    semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
+    dt = 0.5 * semi.hmin / semi.c_max
+    nsteps = max(100, int(DOF_STEPS / semi.nfree))
+    scheme.warm_up(semi)
+
+    def call(stride: int) -> int:
+        if form is None:
+            traj = scheme.integrate(semi, dt, nsteps, stride)
+        else:
+            traj = newmark.run_newmark(semi, dt, nsteps, stride, scheme.beta, scheme.gamma,
+                                       form)
+        return traj.steps_done
+
+    return call, semi.nfree, nsteps
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--nx", type=int, nargs="+", default=[20, 40, 80, 160, 320, 640, 1000])
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--specs", nargs="+", default=SPECS)
+    args = ap.parse_args(argv)
+    print(f"SERIAL_BELOW = {newmark.SERIAL_BELOW}; min of {args.repeats} calls; "
+          "ns per dof-step: step (stride = nsteps), rec1 (stride 1), rec = rec1 - step")
+    print("| nx | scheme | step | rec1 | rec |")
+    print("|---|---|---|---|---|")
+    for nx in args.nx:
+        runs = {spec: _runner(spec, nx) for spec in args.specs}
+        best: dict[tuple[str, int], float] = {}
+        blew: set[str] = set()
+        for spec, (call, _, nsteps) in runs.items():
+            call(nsteps)
+            if call(1) < nsteps:
+                blew.add(spec)
+        for _ in range(args.repeats):
+            for spec, (call, _, nsteps) in runs.items():
+                for stride in (nsteps, 1):
+                    start = time.perf_counter()
+                    call(stride)
+                    el = time.perf_counter() - start
+                    key = (spec, stride)
+                    best[key] = min(best.get(key, el), el)
+        for spec, (_, nfree, nsteps) in runs.items():
+            step = best[(spec, nsteps)] / (nfree * nsteps) * 1e9
+            rec1 = best[(spec, 1)] / (nfree * nsteps) * 1e9
+            rec = "blew up" if spec in blew else f"{rec1 - step:.2f}"
+            print(f"| {nx} | {spec} | {step:.2f} | {rec1:.2f} | {rec} |")
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
