@@ -10,10 +10,17 @@ them and returns one DataFrame:
    (`dask` = an address or "local"); each finished row is written to the cache at
    once, so an interrupted sweep continues where it stopped;
 3. then, with nothing else running, a *serial timing pass* in this process: for every
-   ok row of a timed task, one warm-up call of `scheme.integrate` (discarded; JIT
-   compilation is done before it by `scheme.warm_up`), then the minimum of `repeats`
-   timed calls with the garbage collector off -> `time_s`. Timings are cached too,
-   keyed on the run and the CPU model.
+   ok row of a timed task, two measurements, each one warm-up call of
+   `scheme.integrate` (discarded; JIT compilation is done before it by
+   `scheme.warm_up`), then the minimum of `repeats` timed calls with the garbage
+   collector off: `step_s`, the stepping alone (stride = steps: samples at the first
+   and the last step only), and `time_s`, the run with the row's recording (its
+   stride). Timings are cached too, keyed on the run and the CPU model.
+
+Time columns (`TIMING_COLUMNS`): `step_s` and `time_s` from the timing pass (without
+it, `step_s` is the harness's own, measured in the worker: `contact_bench.harness.runner`);
+`run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
+(assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
@@ -56,7 +63,7 @@ DEFAULT_GROWTH_TOL = 1e-2
 TRACE_POINTS = 200
 STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
 #: columns that vary from one execution of the same run to the next
-TIMING_COLUMNS = ("wall_s", "time_s", "time_repeats", "run_s")
+TIMING_COLUMNS = ("step_s", "time_s", "time_repeats", "run_s", "wall_s", "task_s")
 VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
 
 COLUMNS = (
@@ -218,7 +225,7 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
                                     row["energy_growth_max"], row["energy_drift_bound"])
     except Exception as exc:  # noqa: BLE001 - a failing run never stops the sweep
         row.update(status="error", notes=_one_line(exc), stability=None)
-    row["run_s"] = time.perf_counter() - start
+    row["task_s"] = time.perf_counter() - start
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
     return row
@@ -248,8 +255,10 @@ def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
 TIME_BUDGET_S = 3.0
 
 
-def time_integrate(row: dict[str, Any], repeats: int) -> tuple[float, int]:
-    """Minimum over `repeats` timed `scheme.integrate` calls, after a discarded warm-up.
+def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
+                   ) -> tuple[float, int]:
+    """Minimum over `repeats` timed `scheme.integrate` calls, after a discarded warm-up,
+    with the row's stride, or (`stepping`) with stride = steps (the stepping alone).
 
     Returns (minimum, calls made): a run whose calls exceed TIME_BUDGET_S in total
     stops after two calls (one when repeats = 1).
@@ -257,7 +266,8 @@ def time_integrate(row: dict[str, Any], repeats: int) -> tuple[float, int]:
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = discretise(case, mesh_nodes(float(case.L), int(row["nx"]), float(row["grading"])),
                       scheme.mass_kind())
-    dt, steps, stride = float(row["dt"]), int(row["steps"]), int(row["stride"])
+    dt, steps = float(row["dt"]), int(row["steps"])
+    stride = steps if stepping else int(row["stride"])
     scheme.warm_up(semi)  # JIT compilation
     scheme.integrate(semi, dt, steps, stride)  # discarded warm-up call
     best, spent, calls = math.inf, 0.0, 0
@@ -406,11 +416,12 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     machine = cpu_model()
     todo = []
     for key in wanted:
-        tkey = run_key({"run": key, "cpu": machine, "repeats": repeats}, meta[key]["code"],
-                       kind="timing")
+        tkey = run_key({"run": key, "cpu": machine, "repeats": repeats,
+                        "measures": ["time_s", "step_s"]}, meta[key]["code"], kind="timing")
         hit = cache.get(tkey)
         if hit is not None:
-            rows[key].update(time_s=hit["time_s"], time_repeats=hit["time_repeats"])
+            rows[key].update(time_s=hit["time_s"], step_s=hit["step_s"],
+                             time_repeats=hit["time_repeats"])
         else:
             todo.append((key, tkey))
     bar = _progress(len(todo), 0, "timing (serial)", quiet or not todo)
@@ -418,13 +429,14 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
         for key, tkey in todo:
             try:
                 best, calls = time_integrate(rows[key], repeats)
+                step, _ = time_integrate(rows[key], repeats, stepping=True)
             except Exception as exc:  # noqa: BLE001 - a failing timing is a note, not a crash
                 rows[key]["notes"] = "; ".join(
                     n for n in (rows[key].get("notes"), f"timing failed: {_one_line(exc)}") if n)
                 bar.update(1)
                 continue
-            rows[key].update(time_s=best, time_repeats=calls)
-            cache.put(tkey, {"time_s": best, "time_repeats": calls})
+            rows[key].update(time_s=best, step_s=step, time_repeats=calls)
+            cache.put(tkey, {"time_s": best, "step_s": step, "time_repeats": calls})
             bar.update(1)
     finally:
         bar.close()
