@@ -35,7 +35,7 @@ SPECS = ["redistributed", "redistributed@serial", "redistributed@spike", "standa
 DOF_STEPS = 4e6  # dof-steps per call: ~4-40 ms, far above the per-call set-up
 
 
-def _runner(spec: str, nx: int):
+def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS):
     """(call(stride) -> None, nfree, nsteps) for one scheme, form forced if asked."""
     name, _, form = spec.partition("@")
     form = form or None
@@ -43,7 +43,7 @@ def _runner(spec: str, nx: int):
     scheme = make_scheme(name)
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     dt = 0.5 * semi.hmin / semi.c_max
-    nsteps = max(100, int(DOF_STEPS / semi.nfree))
+    nsteps = max(100, int(dof_steps / semi.nfree))
     scheme.warm_up(semi)
 
     def call(stride: int) -> int:
@@ -62,13 +62,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--nx", type=int, nargs="+", default=[20, 40, 80, 160, 320, 640, 1000])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--specs", nargs="+", default=SPECS)
+    ap.add_argument("--dof-steps", type=float, default=DOF_STEPS,
+                    help="dof-steps per call (steps = this / nfree, at least 100)")
     args = ap.parse_args(argv)
     print(f"SERIAL_BELOW = {newmark.SERIAL_BELOW}; min of {args.repeats} calls; "
           "ns per dof-step: step (stride = nsteps), rec1 (stride 1), rec = rec1 - step")
     print("| nx | scheme | step | rec1 | rec |")
     print("|---|---|---|---|---|")
     for nx in args.nx:
-        runs = {spec: _runner(spec, nx) for spec in args.specs}
+        runs = {spec: _runner(spec, nx, args.dof_steps) for spec in args.specs}
         best: dict[tuple[str, int], float] = {}
         blew: set[str] = set()
         for spec, (call, _, nsteps) in runs.items():
