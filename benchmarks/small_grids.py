@@ -2,7 +2,8 @@
 
     python benchmarks/small_grids.py [--nx 20 40 80 160 320 640 1000] [--repeats 7]
 
-For each nx (clamped bar, dt = 0.5 h, `nsteps` steps) and each scheme it prints the
+For each nx (clamped bar, dt = 0.5 h, nsteps = dof-steps / nfree, or T / dt with
+`--T`: the study's runs, their per-call set-up included) and each scheme it prints the
 minimum over `repeats` calls (after a warm-up call) of `scheme.integrate` with stride =
 nsteps (stepping: two samples) and with stride 1 (every step recorded, as the error
 norms need), per dof-step; `rec` is their difference. `spec@serial` and `spec@spike`
@@ -17,6 +18,7 @@ energy, which only sampled steps detect) is marked `blew up` and its rec1 is not
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -35,7 +37,7 @@ SPECS = ["redistributed", "redistributed@serial", "redistributed@spike", "standa
 DOF_STEPS = 4e6  # dof-steps per call: ~4-40 ms, far above the per-call set-up
 
 
-def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS):
+def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = None):
     """(call(stride) -> None, nfree, nsteps) for one scheme, form forced if asked."""
     name, _, form = spec.partition("@")
     form = form or None
@@ -43,7 +45,8 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS):
     scheme = make_scheme(name)
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     dt = 0.5 * semi.hmin / semi.c_max
-    nsteps = max(100, int(dof_steps / semi.nfree))
+    nsteps = (max(100, int(dof_steps / semi.nfree)) if T is None
+              else max(1, math.ceil(T / dt - 1e-9)))
     scheme.warm_up(semi)
 
     def call(stride: int) -> int:
@@ -64,13 +67,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--specs", nargs="+", default=SPECS)
     ap.add_argument("--dof-steps", type=float, default=DOF_STEPS,
                     help="dof-steps per call (steps = this / nfree, at least 100)")
+    ap.add_argument("--T", type=float, default=None,
+                    help="instead: one run of the scene to time T (the study's run: the "
+                         "per-call set-up, factors and buffers, counts in every dof-step)")
     args = ap.parse_args(argv)
-    print(f"SERIAL_BELOW = {newmark.SERIAL_BELOW}; min of {args.repeats} calls; "
+    work = (f"T = {args.T:g} per call" if args.T is not None
+            else f"{args.dof_steps:g} dof-steps per call")
+    print(f"SERIAL_BELOW = {newmark.SERIAL_BELOW}; {work}; min of {args.repeats} calls; "
           "ns per dof-step: step (stride = nsteps), rec1 (stride 1), rec = rec1 - step")
     print("| nx | scheme | step | rec1 | rec |")
     print("|---|---|---|---|---|")
     for nx in args.nx:
-        runs = {spec: _runner(spec, nx, args.dof_steps) for spec in args.specs}
+        runs = {spec: _runner(spec, nx, args.dof_steps, args.T) for spec in args.specs}
         best: dict[tuple[str, int], float] = {}
         blew: set[str] = set()
         for spec, (call, _, nsteps) in runs.items():

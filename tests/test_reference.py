@@ -36,7 +36,13 @@ from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.harness.scipy_reference import _energy, reference_for
-from contact_bench.kernels.newmark import FORMS, SERIAL_BELOW, kernel_form, run_newmark
+from contact_bench.kernels.newmark import (
+    FORMS,
+    SERIAL_BELOW,
+    SPIKE_MIN_DOF_STEPS,
+    kernel_form,
+    run_newmark,
+)
 
 TOL = 1e-12
 
@@ -176,9 +182,12 @@ FORM_SIZES = [20, 100]  # below and above the crossover newmark.SERIAL_BELOW
 def test_form_sizes_straddle_the_crossover():
     assert min(FORM_SIZES) < SERIAL_BELOW <= max(FORM_SIZES)
     assert kernel_form(20) == "serial" and kernel_form(SERIAL_BELOW) == "spike"
-    assert kernel_form(2) == "spike" and kernel_form(2, "serial") == "spike"  # n >= 3
+    assert kernel_form(2) == "spike" and kernel_form(2, form="serial") == "spike"  # n >= 3
+    assert kernel_form(100, SPIKE_MIN_DOF_STEPS // 100) == "spike"
+    assert kernel_form(100, SPIKE_MIN_DOF_STEPS // 100 - 1) == "serial"  # set-up not paid back
+    assert kernel_form(100, 10, form="spike") == "spike"
     with pytest.raises(ValueError, match="kernel form"):
-        kernel_form(100, "thomas")
+        kernel_form(100, form="thomas")
 
 
 @pytest.mark.parametrize("form", FORMS)

@@ -68,20 +68,30 @@ _FM = {"contract"}
 MIN_ROWS = 3
 #: systems with fewer unknowns step with the serial Thomas kernels
 #: (`contact_bench.kernels.newmark_serial`), larger ones with the SPIKE vector kernels:
-#: the crossover measured on the project's machine (docs/performance-small-grids.md)
+#: the crossover of their cost per dof-step, measured on the project's machine
+#: (docs/performance-small-grids.md)
 SERIAL_BELOW = 64
+#: ... and runs of fewer dof-steps (unknowns x steps) stay serial whatever their size:
+#: the SPIKE form's set-up (its factors, the reduced system, the interleaved layout) costs
+#: about as much as this many dof-steps save (docs/performance-small-grids.md)
+SPIKE_MIN_DOF_STEPS = 250_000
 #: the kernel forms `run_newmark` can be asked for (None: chosen by size)
 FORMS = ("serial", "spike")
 
 
-def kernel_form(n: int, form: str | None = None) -> str:
-    """The form that steps a system of n unknowns: `form` if given, else "serial" below
-    `SERIAL_BELOW` unknowns (and at least 3), "spike" above."""
+def kernel_form(n: int, nsteps: int | None = None, form: str | None = None) -> str:
+    """The form that steps n unknowns over nsteps steps: `form` if given; else "serial"
+    below `SERIAL_BELOW` unknowns or `SPIKE_MIN_DOF_STEPS` dof-steps, "spike" above.
+    The serial form needs n >= 3 (smaller systems always take the SPIKE form)."""
     if form is not None:
         if form not in FORMS:
             raise ValueError(f"kernel form must be one of {FORMS}, got {form!r}")
         return form if n >= 3 else "spike"
-    return "serial" if 3 <= n < SERIAL_BELOW else "spike"
+    if n < 3:
+        return "spike"
+    if n < SERIAL_BELOW or (nsteps is not None and n * nsteps < SPIKE_MIN_DOF_STEPS):
+        return "serial"
+    return "spike"
 
 
 @njit(cache=True, fastmath=_FM)
@@ -115,24 +125,24 @@ def h_diagonals(sp: Spike) -> tuple[np.ndarray, ...]:
     """
     m = sp.m
     cols = np.where(sp.Hpos < L, sp.Hpos, sp.Hpos - (m - 1) * L + L)  # 0..2L-1: (s, t)
-    diags: dict[tuple[int, int, int], np.ndarray] = {}
-    x0pos, x0val = [], []
-    for r, c, v in zip(sp.Hrow, cols, sp.Hval, strict=True):
-        if r == 2 * L:
-            x0pos.append(L + c)
-            x0val.append(v)
-            continue
-        dst, lane = divmod(int(r), L)
-        src, col_lane = divmod(int(c), L)
-        key = (dst, src, col_lane - lane)
-        diags.setdefault(key, np.zeros(L))[lane] = v
-    keys = sorted(diags)
-    Dg = lane_zeros(L * len(keys))
-    if keys:
-        Dg[:] = np.concatenate([diags[k] for k in keys])
-    Dsrc = np.array([L + L * src + d for (_, src, d) in keys], np.int64)
-    Ddst = np.array([dst for (dst, _, _) in keys], np.int64)
-    return Dg, Dsrc, Ddst, np.array(x0pos, np.int64), np.array(x0val, float)
+    rows = np.asarray(sp.Hrow, np.int64)
+    at_x0 = rows == 2 * L
+    x0pos = (L + cols[at_x0]).astype(np.int64)
+    x0val = np.asarray(sp.Hval[at_x0], float)
+    r, c, v = rows[~at_x0], cols[~at_x0], sp.Hval[~at_x0]
+    dst, lane = np.divmod(r, L)
+    src, col_lane = np.divmod(c, L)
+    d = col_lane - lane
+    # one diagonal per (dst, src, d), in that (sorted) order: an integer key sorts alike
+    key = (dst * 2 + src) * (2 * L) + (d + L)
+    keys, which = np.unique(key, return_inverse=True)
+    Dg = lane_zeros(L * keys.size)
+    Dg[which * L + lane] = v
+    kd = keys % (2 * L) - L
+    ks = (keys // (2 * L)) % 2
+    Dsrc = (L + L * ks + kd).astype(np.int64)
+    Ddst = (keys // (4 * L)).astype(np.int64)
+    return Dg, Dsrc, Ddst, x0pos, x0val
 
 
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
@@ -157,7 +167,7 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     A = initial_acceleration(semi)
     dt2 = dt * dt
-    if kernel_form(n, form) == "serial":
+    if kernel_form(n, nsteps, form) == "serial":
         res = _run_serial(semi, dt, nsteps, stride, beta, gamma, A, bufs)
         return trajectory(out, *res, dt)
     if beta > 0.0:

@@ -26,25 +26,25 @@ _FM = {"contract"}
 
 @njit(cache=True, fastmath=_FM)
 def _forward(Td, Te, G, X, ef, invd, z, first):  # pragma: no cover - compiled
-    """z <- D^-1 L^-1 (G + T X) on rows first .. n-1 (rows below first: z = 0). T X is
-    summed before G is added: a rigid translation X makes T X small by cancellation,
-    and a small load added first would lose its low bits in the large partial sums."""
+    """z <- D^-1 L^-1 (G + T X) on rows first .. n-1 (first 0 or 1; row 0 of first = 1
+    is set to 0), each row summed as the fused passes of the kernels sum it, so that a
+    step after a sample step gives the same bits. T X is summed before G is added: a
+    rigid translation X makes T X small by cancellation, and a small load added first
+    would lose its low bits in the large partial sums."""
     n = X.size
-    for i in range(first):
-        z[i] = 0.0
-    y = 0.0
-    for i in range(first, n):
-        r = Td[i] * X[i]
-        if i > 0:
-            r += Te[i - 1] * X[i - 1]
-        if i + 1 < n:
-            r += Te[i] * X[i + 1]
-        r = G[i] + r
-        if i > 0:
-            y = r - ef[i - 1] * y
-        else:
-            y = r
+    if first == 0:
+        y = G[0] + (Td[0] * X[0] + Te[0] * X[1])
+        z[0] = y * invd[0]
+    else:
+        z[0] = 0.0
+        y = 0.0
+    for i in range(1, n - 1):
+        r = G[i] + ((Td[i] * X[i] + Te[i - 1] * X[i - 1]) + Te[i] * X[i + 1])
+        y = r - ef[i - 1] * y
         z[i] = y * invd[i]
+    r = G[n - 1] + (Td[n - 1] * X[n - 1] + Te[n - 2] * X[n - 2])
+    y = r - ef[n - 2] * y
+    z[n - 1] = y * invd[n - 1]
 
 
 @njit(cache=True, fastmath=_FM)
