@@ -60,6 +60,58 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
     return call, semi.nfree, nsteps
 
 
+def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) -> None:
+    """What a recorded step costs beyond stepping, part by part, in ns per dof-step: the
+    shared `energy_of` and `record_sample` of `contact_bench.core.sampling` in a compiled
+    loop (sample buffers already written once), and the first write of fresh sample
+    buffers (`np.zeros`, as `contact_bench.kernels.common.allocate` makes them: the page
+    faults). Minimum of `repeats`."""
+    import numpy as np
+    from numba import njit
+
+    from contact_bench.core.sampling import energy_of, record_sample
+
+    @njit
+    def energies(Md, Me, Kd, Ke, F, U, V, reps):
+        s = 0.0
+        for _ in range(reps):
+            U[0] += 1e-300
+            s += energy_of(Md, Me, Kd, Ke, F, U, V, 0.0)
+        return s
+
+    @njit
+    def records(U, V, reps, t, Uo, Vo, cu, so, Eo):
+        for r in range(reps):
+            record_sample(r, 0.1, U, V, 0.0, 1.0, t, Uo, Vo, cu, so, Eo)
+
+    print("| nx | energy_of | record_sample (warm) | fresh buffers (first write) |")
+    print("|---|---|---|---|")
+    rng = np.random.default_rng(0)
+    for nx in nxs:
+        a = [rng.random(nx) for _ in range(7)]
+        reps = max(100, int(dof_steps / nx))
+        bufs = (np.zeros(reps), np.zeros((reps, nx)), np.zeros((reps, nx)), np.zeros(reps),
+                np.zeros(reps), np.zeros(reps))
+        energies(*a, 2)
+        records(a[0], a[1], 2, *bufs)
+        best = [np.inf, np.inf, np.inf]
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            energies(*a, reps)
+            t1 = time.perf_counter()
+            records(a[0], a[1], reps, *bufs)
+            t2 = time.perf_counter()
+            U, V = np.zeros((reps, nx)), np.zeros((reps, nx))
+            U[:] = 1.0
+            V[:] = 1.0
+            t3 = time.perf_counter()
+            del U, V
+            for j, el in enumerate((t1 - t0, t2 - t1, t3 - t2)):
+                best[j] = min(best[j], el)
+        e, r, f = (b / (reps * nx) * 1e9 for b in best)
+        print(f"| {nx} | {e:.2f} | {r:.2f} | {f:.2f} |")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nx", type=int, nargs="+", default=[20, 40, 80, 160, 320, 640, 1000])
@@ -70,7 +122,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--T", type=float, default=None,
                     help="instead: one run of the scene to time T (the study's run: the "
                          "per-call set-up, factors and buffers, counts in every dof-step)")
+    ap.add_argument("--recording-parts", action="store_true",
+                    help="time the parts of recording (energy_of, record_sample, fresh "
+                         "buffers) instead of the schemes")
     args = ap.parse_args(argv)
+    if args.recording_parts:
+        recording_parts(args.nx, args.repeats, args.dof_steps)
+        return 0
     work = (f"T = {args.T:g} per call" if args.T is not None
             else f"{args.dof_steps:g} dof-steps per call")
     print(f"SERIAL_BELOW = {newmark.SERIAL_BELOW}; {work}; min of {args.repeats} calls; "
