@@ -2,12 +2,14 @@
 
     python benchmarks/small_grids.py [--nx 20 40 80 160 320 640 1000] [--repeats 7]
 
-For each nx (clamped bar, dt = 0.5 h, nsteps = dof-steps / nfree, or T / dt with
+For each nx (clamped bar, dt = 0.5 h or 0.9 x a lower stability limit, nsteps =
+dof-steps / nfree, or T / dt with
 `--T`: the study's runs, their per-call set-up included) and each scheme it prints the
 minimum over `repeats` calls (after a warm-up call) of `scheme.integrate` with stride =
 nsteps (stepping: two samples) and with stride 1 (every step recorded, as the error
 norms need), per dof-step; `rec` is their difference. `spec@serial` and `spec@spike`
-force one form of the Newmark kernels (`contact_bench.kernels.newmark.kernel_form`),
+force one form of the Newmark kernels (`contact_bench.kernels.newmark.kernel_form`), or
+of ode_verlet and taylor_flanagan (`fast`: serial = their natural-order kernels),
 the plain rows use the form chosen by size: the crossover `SERIAL_BELOW` is where the
 two forced rows cross. All timings of one nx are taken interleaved (scheme by scheme in
 every repeat), so a load change of the shared machine hits them alike; ratios within a
@@ -29,11 +31,13 @@ from contact_bench.api.fem import mesh_nodes  # noqa: E402
 from contact_bench.api.problem import discretise  # noqa: E402
 from contact_bench.api.registry import make_case, make_scheme  # noqa: E402
 from contact_bench.kernels import newmark  # noqa: E402
+from contact_bench.schemes import ode_verlet, taylor_flanagan  # noqa: E402
 
 SPECS = ["redistributed", "redistributed@serial", "redistributed@spike", "standard",
          "standard@serial", "standard@spike", "redistributed[beta=0]",
          "redistributed[beta=0]@serial", "redistributed[beta=0]@spike", "nitsche",
-         "restitution"]
+         "restitution", "ode_verlet", "ode_verlet@serial", "ode_verlet@spike",
+         "taylor_flanagan", "taylor_flanagan@serial", "taylor_flanagan@spike"]
 DOF_STEPS = 4e6  # dof-steps per call: ~4-40 ms, far above the per-call set-up
 
 
@@ -45,6 +49,9 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
     scheme = make_scheme(name)
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     dt = 0.5 * semi.hmin / semi.c_max
+    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    if limit is not None:
+        dt = min(dt, 0.9 * limit)
     nsteps = (max(100, int(dof_steps / semi.nfree)) if T is None
               else max(1, math.ceil(T / dt - 1e-9)))
     scheme.warm_up(semi)
@@ -52,6 +59,11 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
     def call(stride: int) -> int:
         if form is None:
             traj = scheme.integrate(semi, dt, nsteps, stride)
+        elif scheme.name == "ode_verlet":
+            traj = ode_verlet.run_ode_verlet(semi, dt, nsteps, stride, form == "spike")
+        elif scheme.name == "taylor_flanagan":
+            traj = taylor_flanagan.run_taylor_flanagan(semi, dt, nsteps, stride,
+                                                       form == "spike")
         else:
             traj = newmark.run_newmark(semi, dt, nsteps, stride, scheme.beta, scheme.gamma,
                                        form)

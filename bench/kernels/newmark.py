@@ -79,17 +79,19 @@ SPIKE_MIN_DOF_STEPS = 250_000
 FORMS = ("serial", "spike")
 
 
-def kernel_form(n: int, nsteps: int | None = None, form: str | None = None) -> str:
+def kernel_form(n: int, nsteps: int | None = None, form: str | None = None,
+                serial_below: int = SERIAL_BELOW) -> str:
     """The form that steps n unknowns over nsteps steps: `form` if given; else "serial"
-    below `SERIAL_BELOW` unknowns or `SPIKE_MIN_DOF_STEPS` dof-steps, "spike" above.
-    The serial form needs n >= 3 (smaller systems always take the SPIKE form)."""
+    below `serial_below` unknowns (the crossover of a kernel pair, `SERIAL_BELOW` for
+    Newmark's) or `SPIKE_MIN_DOF_STEPS` dof-steps, "spike" above. The serial form needs
+    n >= 3 (smaller systems always take the SPIKE form)."""
     if form is not None:
         if form not in FORMS:
             raise ValueError(f"kernel form must be one of {FORMS}, got {form!r}")
         return form if n >= 3 else "spike"
     if n < 3:
         return "spike"
-    if n < SERIAL_BELOW or (nsteps is not None and n * nsteps < SPIKE_MIN_DOF_STEPS):
+    if n < serial_below or (nsteps is not None and n * nsteps < SPIKE_MIN_DOF_STEPS):
         return "serial"
     return "spike"
 
