@@ -22,8 +22,9 @@ registry; a scheme that cannot run the clamped bar is skipped with its reason.
 every scheme, with the stepping (`step`: stride = steps, samples at the first and last
 step only) and the recording the error norms need (`rec1`: stride 1) as separate ids.
 Each id is a fixed unit of work: n and steps are in the id (`SIZE_STEPS`, about 4e6
-dof-steps per round), and `extra_info` holds n, steps, stride and ns_per_dof_step
-(median round / (nfree * steps done): a run that blows up stops early).
+dof-steps per round; a hundredth for the adaptive integrator, `SLOW`), and
+`extra_info` holds n, steps, stride and ns_per_dof_step (median round / (nfree * steps
+done): a run that blows up stops early).
 """
 
 from __future__ import annotations
@@ -156,11 +157,22 @@ def test_speedup_over_scipy(benchmark, spec: str, n: int) -> None:
 #: (n, steps) of `test_sizes`: ~4e6 dof-steps per round (4-40 ms at 1-10 ns per dof-step)
 SIZE_STEPS = [(20, 200_000), (40, 100_000), (160, 25_000), (640, 6_250), (1_000, 4_000),
               (100_000, 40)]
+#: schemes whose step costs ~100x more (an adaptive integrator): steps / 100 (at least 4)
+SLOW = {"ode_adaptive": 100}
+
+
+def _size_cases() -> list[Any]:
+    out = []
+    for spec in _specs():
+        div = SLOW.get(spec.split("[")[0], 1)
+        for n, steps in SIZE_STEPS:
+            s = max(4, steps // div)
+            out.append(pytest.param(spec, n, s, id=f"{spec}-n{n}-s{s}"))
+    return out
 
 
 @pytest.mark.parametrize("mode", ["step", "rec1"])
-@pytest.mark.parametrize("n,steps", SIZE_STEPS, ids=[f"n{n}-s{s}" for n, s in SIZE_STEPS])
-@pytest.mark.parametrize("spec", _specs())
+@pytest.mark.parametrize("spec,n,steps", _size_cases())
 def test_sizes(benchmark, spec: str, n: int, steps: int, mode: str) -> None:
     case = make_case(CASE)
     scheme = make_scheme(spec)

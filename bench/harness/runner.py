@@ -266,8 +266,9 @@ def _check_length(case: Case) -> float:
     return L
 
 
-def _execute(plan: _Plan) -> Run:
-    """Integrate a prepared configuration and fill in its metrics."""
+def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
+    """Integrate a prepared configuration and fill in its metrics (`step_s`: the minimum
+    of `step_repeats` timed stepping calls, `step_time`)."""
     row, notes = plan.row, plan.notes
     if plan.semi is None:  # not applicable
         return Run(row)
@@ -282,12 +283,12 @@ def _execute(plan: _Plan) -> Run:
         _warmed.add(key)
     # the stepping alone first: its arrays are freed before the recorded run allocates
     # its samples, so a run's memory peak stays the recorded run's
-    row["step_s"] = step_time(scheme, semi, dt, plan.steps)
+    row["step_s"] = step_time(scheme, semi, dt, plan.steps, step_repeats)
     start = time.perf_counter()
     traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
     row["run_s"] = row["wall_s"] = time.perf_counter() - start
     if traj.steps_done < plan.steps:  # stopped (blow-up): time the steps it made
-        row["step_s"] = step_time(scheme, semi, dt, traj.steps_done)
+        row["step_s"] = step_time(scheme, semi, dt, traj.steps_done, step_repeats)
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
@@ -360,7 +361,8 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
 
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
-            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False) -> Run:
+            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
+            step_repeats: int = STEP_REPEATS) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -369,10 +371,12 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     run on the same grid can reuse (`contact_bench.harness.metrics`): a sweep's worker runs its
     tasks
     one after the other. `run_table` knows its runs and keeps only for a later one.
+    `step_repeats`: the timed calls of `step_s` (`step_time`).
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict))
+    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict),
+                    step_repeats)
 
 
 def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),
