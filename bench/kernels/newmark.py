@@ -3,7 +3,8 @@
 Shared by `standard` (consistent mass) and `redistributed` (massless contact node).
 
 Implicit (beta > 0), displacement form: S U^{n+1} = M U~ + beta dt^2 (F + lambda e0)
-with S = M + beta dt^2 K factored once (`contact_bench.core.spike`, on LAPACK dpttrf) and the
+with S = M + beta dt^2 K factored once (`contact_bench.core.spike`, on LAPACK dpttrf; small
+problems: plain LDL^T factors and the serial kernels of `newmark_serial`, `kernel_form`) and the
 predictor U~ = U^n + dt V^n + (1/2 - beta) dt^2 A^n. The response to a unit contact
 force, w = S^{-1} e0, is known from the factors: when the contact-free solution U_f
 penetrates, U^{n+1} = U_f + mu w with mu = -U_f[0] / w[0], folded into the solve's

@@ -2,9 +2,10 @@
 
 The same steps as the vector kernels of `contact_bench.kernels.newmark_vec` (state (X, Q),
 see that module's docstring), in node order, for systems below `newmark.SERIAL_BELOW`
-unknowns: there the 16 interleaved SPIKE blocks of one or two rows each cost more (the
-reduced system, the spike corrections, the padded rows) than the latency of one serial
-forward-backward sweep. Per step, two passes over the nodes:
+unknowns and short runs (`newmark.kernel_form`): there the 16 interleaved SPIKE blocks
+of one or two rows each cost more (the reduced system, the spike corrections, the padded
+rows, the set-up) than the latency of one serial forward-backward sweep. Per step, two
+passes over the nodes:
 
 - backward sweep (rows n-1 .. 0) of the LDL^T factors, the recurrence in a register;
 - one ascending pass that finishes row i + 1 (contact correction mu w, Newmark update)
