@@ -20,6 +20,14 @@ with the heap changed between calls). Without it every round of a benchmark repe
 draw and its median was that draw's (the speedup over scipy at n = 1e3 moved from 36x to
 56x between runs); with it the median is over heap states. New schemes are picked up from the
 registry; a scheme that cannot run the clamped bar is skipped with its reason.
+
+`test_sizes` covers the grids the study plots (n = 20, 40, 160, 640) and 1e3, 1e5, for
+every scheme, with the stepping (`step`: stride = steps, samples at the first and last
+step only) and the recording the error norms need (`rec1`: stride 1) as separate ids.
+Each id is a fixed unit of work: n and steps are in the id (`SIZE_STEPS`, about 4e6
+dof-steps per round; a hundredth for the adaptive integrator, `SLOW`), and
+`extra_info` holds n, steps, stride and ns_per_dof_step (median round / (nfree * steps
+done): a run that blows up stops early).
 """
 
 from __future__ import annotations
@@ -146,4 +154,50 @@ def test_speedup_over_scipy(benchmark, spec: str, n: int, steps: int) -> None:
         nsteps=nsteps, ref_steps=ref_steps,
         ns_per_dof_step=kernel_ns, scipy_ns_per_dof_step=ref_ns, speedup=ref_ns / kernel_ns,
         ref_rel_diff=float(np.abs(short.U - ref.U).max() / np.abs(ref.U).max()),
+        blowup=traj.blowup_time is not None)
+
+
+#: (n, steps) of `test_sizes`: ~4e6 dof-steps per round (4-40 ms at 1-10 ns per dof-step)
+SIZE_STEPS = [(20, 200_000), (40, 100_000), (160, 25_000), (640, 6_250), (1_000, 4_000),
+              (100_000, 40)]
+#: schemes whose step costs ~100x more (an adaptive integrator): steps / 100 (at least 4)
+SLOW = {"ode_adaptive": 100}
+
+
+def _size_cases() -> list[Any]:
+    out = []
+    for spec in _specs():
+        div = SLOW.get(spec.split("[")[0], 1)
+        for n, steps in SIZE_STEPS:
+            s = max(4, steps // div)
+            out.append(pytest.param(spec, n, s, id=f"{spec}-n{n}-s{s}"))
+    return out
+
+
+@pytest.mark.parametrize("mode", ["step", "rec1"])
+@pytest.mark.parametrize("spec,n,steps", _size_cases())
+def test_sizes(benchmark, spec: str, n: int, steps: int, mode: str) -> None:
+    case = make_case(CASE)
+    scheme = make_scheme(spec)
+    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+    if reason:
+        pytest.skip(f"{spec} cannot run {CASE}: {reason}")
+    semi = discretise(case, mesh_nodes(case.L, n), scheme.mass_kind())
+    dt = 0.5 * semi.hmin / semi.c_max  # CFL 0.5
+    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    if limit is not None:
+        dt = min(dt, 0.9 * limit)
+    scheme.warm_up(semi)
+    stride = steps if mode == "step" else 1
+
+    def setup() -> tuple[tuple[Any, ...], dict[str, Any]]:
+        _new_heap_state()
+        return (semi, dt, steps, stride), {}
+
+    traj = benchmark.pedantic(scheme.integrate, setup=setup, rounds=5, iterations=1,
+                              warmup_rounds=1)
+    benchmark.extra_info.update(
+        scheme=scheme.spec, n=n, nfree=semi.nfree, steps=steps, stride=stride, dt=dt,
+        steps_done=traj.steps_done,
+        ns_per_dof_step=benchmark.stats.stats.median / (semi.nfree * traj.steps_done) * 1e9,
         blowup=traj.blowup_time is not None)

@@ -26,7 +26,13 @@ from contact_bench.core.sampling import blown_up, energy_of, is_sample, record_s
 from contact_bench.core.spike import L, lane_position, record_lane_sample, spike_factor
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
-from contact_bench.kernels.newmark import massless_acceleration, newmark_limit
+from contact_bench.kernels.newmark import kernel_form, massless_acceleration, newmark_limit
+
+#: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
+#: dof-steps) `integrate` takes the natural-order `verlet_kernel`, a plain serial sweep
+#: that is faster there than the SPIKE form and its set-up: the crossover measured on
+#: the project's machine (docs/performance-small-grids.md)
+SERIAL_BELOW = 160
 
 
 class OdeVerlet(Scheme):
@@ -52,7 +58,8 @@ class OdeVerlet(Scheme):
         return 2.0 * (semi.c_max * dt / semi.hmin) ** 2
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return run_ode_verlet(semi, dt, nsteps, stride)
+        fast = kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike"
+        return run_ode_verlet(semi, dt, nsteps, stride, fast)
 
 
 @njit(cache=True)

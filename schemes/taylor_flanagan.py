@@ -42,7 +42,13 @@ from contact_bench.kernels.common import (
     trajectory,
 )
 from contact_bench.kernels.lumped import tf_lumped_kernel
-from contact_bench.kernels.newmark import newmark_limit
+from contact_bench.kernels.newmark import kernel_form, newmark_limit
+
+#: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
+#: dof-steps) a consistent mass steps with the natural-order `taylor_flanagan_kernel`,
+#: faster there than the SPIKE form and its set-up: the crossover measured on the
+#: project's machine (docs/performance-small-grids.md)
+SERIAL_BELOW = 160
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
@@ -70,7 +76,11 @@ class TaylorFlanagan(MassiveContactNodeScheme):
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         self.check_massive(semi)
-        return run_taylor_flanagan(semi, dt, nsteps, stride)
+        # a lumped M always takes its fused kernel; a banded one the serial natural-order
+        # kernel on small problems (`SERIAL_BELOW`), the SPIKE kernel on large ones
+        fast = (not np.any(semi.M.off)
+                or kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike")
+        return run_taylor_flanagan(semi, dt, nsteps, stride, fast)
 
 
 @njit(cache=True)

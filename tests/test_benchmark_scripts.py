@@ -160,3 +160,14 @@ def test_summary_speedups_refuses_files_without_speedups_in_one_line(tmp_path, c
     assert capsys.readouterr().err.strip() == (
         f"summary.py: error: {bad} is not a pytest-benchmark JSON file of benchmarks/ "
         "(KeyError: 'benchmarks')")
+
+
+def test_small_grids_prints_step_and_recording_per_scheme(capsys):
+    specs = ["nitsche", "redistributed@serial", "redistributed@spike"]
+    argv = ["--nx", "20", "--repeats", "1", "--dof-steps", "4000", "--specs", *specs]
+    assert _script("small_grids").main(argv) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("| 20 |")]
+    cells = [[c.strip() for c in ln.strip("|").split("|")] for ln in lines]
+    assert [c[1] for c in cells] == specs
+    for c in cells:
+        assert float(c[2]) > 0 and float(c[3]) > 0

@@ -34,7 +34,7 @@ from contact_bench.exact.characteristics import CharacteristicsSolution
 from contact_bench.harness import metrics
 from contact_bench.harness import runner as harness
 from contact_bench.harness.metrics import ERROR_COLUMNS, error_metrics
-from contact_bench.harness.runner import run_one, run_table
+from contact_bench.harness.runner import TIMING_COLUMNS, run_one, run_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -119,7 +119,7 @@ def test_table_keeps_one_runs_samples_when_asked():
     a = run_table(["clamped_bar"], ["standard", "redistributed"], [20], T=0.5, keep=full)
     b = run_table(["clamped_bar"], ["standard", "redistributed"], [20], T=0.5, keep=light,
                   keep_samples=False)
-    cols = [c for c in a.columns if c != "wall_s"]
+    cols = [c for c in a.columns if c not in TIMING_COLUMNS]
     assert a[cols].equals(b[cols])
     for f, g in zip(full, light, strict=True):
         assert g.semi is None and g.trajectory.U.shape == (f.trajectory.t.size, 0)
@@ -143,7 +143,7 @@ def test_semi_not_kept_from_the_checks_is_rebuilt_identically(monkeypatch):
     monkeypatch.setattr(harness, "KEEP_SEMI_BYTES", 0)  # only the first plan's is kept
     rebuilt = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
     assert len(calls) == 2 + 3
-    cols = [c for c in kept.columns if c != "wall_s"]
+    cols = [c for c in kept.columns if c not in TIMING_COLUMNS]
     assert kept[cols].equals(rebuilt[cols])
 
 

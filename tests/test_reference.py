@@ -19,7 +19,9 @@ round-off scale (max|U| / dt, and max|U| (K00 + M00 / (beta dt^2)) for the stres
   steps, at 1e-5 after two impacts), so only its step map is a meaningful check.
 Also: larger grids (n = 100 .. 1000, every row segment of the vector kernels' fused pass)
 on step maps, with sampling every 7th step giving the values of sampling every step; and
-the smallest systems (n = 1 .. 49: the kernels pad to 3 rows per lane block).
+the smallest systems (n = 1 .. 49: the SPIKE kernels pad to 3 rows per lane block). Both
+kernel forms (`contact_bench.kernels.newmark.kernel_form`: serial Thomas below the
+crossover, SPIKE above) are also forced at sizes on both sides of the crossover.
 """
 
 from __future__ import annotations
@@ -34,6 +36,13 @@ from contact_bench.api.plugin import Scheme, Semidiscrete, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness.scipy_reference import _energy, reference_for
+from contact_bench.kernels.newmark import (
+    FORMS,
+    SERIAL_BELOW,
+    SPIKE_MIN_DOF_STEPS,
+    kernel_form,
+    run_newmark,
+)
 
 TOL = 1e-12
 
@@ -156,11 +165,67 @@ def test_reference_covers_only_newmark_schemes():
     assert declared  # the built-in Newmark schemes declare it
 
 
+@pytest.mark.parametrize("form", FORMS)
 @pytest.mark.parametrize("spec", ["standard", "redistributed", "redistributed[beta=0]"])
 @pytest.mark.parametrize("nx", [2, 3, 8, 31, 32, 33, 48, 49])
-def test_small_systems_agree(nx, spec):
-    """Systems smaller than 3 rows of 16 lanes (padded) and around the row boundaries."""
+def test_small_systems_agree(nx, spec, form):
+    """Systems smaller than 3 rows of 16 lanes (padded by the SPIKE form) and around the
+    row boundaries, in both kernel forms (the serial one needs n >= 3)."""
     scheme, semi, dt = _setup("clamped_bar", spec, nx, 0.5 / nx)
     nsteps = 30
-    _assert_agree(scheme.integrate(semi, dt, nsteps, 1), reference_for(scheme, semi, dt, nsteps, 1),
+    _assert_agree(run_newmark(semi, dt, nsteps, 1, scheme.beta, scheme.gamma, form),
+                  reference_for(scheme, semi, dt, nsteps, 1),
                   semi, dt, scheme.beta, energy_directly=False)
+
+
+FORM_SIZES = [20, 100]  # below and above the crossover newmark.SERIAL_BELOW
+
+
+def test_form_sizes_straddle_the_crossover():
+    assert min(FORM_SIZES) < SERIAL_BELOW <= max(FORM_SIZES)
+    assert kernel_form(20) == "serial" and kernel_form(SERIAL_BELOW) == "spike"
+    assert kernel_form(2) == "spike" and kernel_form(2, form="serial") == "spike"  # n >= 3
+    assert kernel_form(100, SPIKE_MIN_DOF_STEPS // 100) == "spike"
+    assert kernel_form(100, SPIKE_MIN_DOF_STEPS // 100 - 1) == "serial"  # set-up not paid back
+    assert kernel_form(100, 10, form="spike") == "spike"
+    with pytest.raises(ValueError, match="kernel form"):
+        kernel_form(100, form="thomas")
+
+
+@pytest.mark.parametrize("form", FORMS)
+@pytest.mark.parametrize("nx", FORM_SIZES)
+@pytest.mark.parametrize("spec", ["redistributed", "redistributed[beta=0.3,gamma=0.7]",
+                                  "redistributed[beta=0]"])
+def test_both_forms_agree_on_trajectories(spec, nx, form):
+    """Each kernel form, forced at sizes on both sides of the crossover, against the
+    reference on whole trajectories (massless node), stride 1 and stride 7."""
+    scheme, semi, dt = _setup("clamped_bar", spec, nx, 1.0 / nx)
+    nsteps = int(np.ceil(2.5 / dt))
+    a = run_newmark(semi, dt, nsteps, 1, scheme.beta, scheme.gamma, form)
+    b = reference_for(scheme, semi, dt, nsteps, 1)
+    assert (b.stress < 0).sum() >= 5
+    _assert_agree(a, b, semi, dt, scheme.beta, energy_directly=nx <= 20)
+    c = run_newmark(semi, dt, nsteps, 7, scheme.beta, scheme.gamma, form)
+    rows = np.unique(np.r_[0:nsteps + 1:7, nsteps])
+    for name in ("U", "V", "contact_u", "stress", "energy"):
+        np.testing.assert_array_equal(getattr(c, name), getattr(a, name)[rows], name)
+
+
+@pytest.mark.parametrize("form", FORMS)
+@pytest.mark.parametrize("nx", FORM_SIZES)
+@pytest.mark.parametrize("spec", ["standard", "standard[beta=0.3,gamma=0.6]",
+                                  "redistributed[variant=getfem]"])
+def test_both_forms_agree_on_step_maps(spec, nx, form):
+    """Each kernel form against the reference on step maps from states along a reference
+    trajectory (before, during and after contact)."""
+    scheme, semi, dt = _setup("clamped_bar", spec, nx, 1.0 / nx)
+    nsteps = int(np.ceil(4.0 / dt))
+    ref = reference_for(scheme, semi, dt, nsteps, 1)
+    in_contact = np.nonzero(ref.stress < 0)[0]
+    assert in_contact.size >= 3
+    picks = np.unique(np.r_[0, in_contact[:: max(1, in_contact.size // 4)], in_contact + 1])
+    for k in picks[picks < nsteps - 3][:12]:
+        start = dataclasses.replace(semi, U0=ref.U[k].copy(), V0=ref.V[k].copy())
+        _assert_agree(run_newmark(start, dt, 3, 1, scheme.beta, scheme.gamma, form),
+                      reference_for(scheme, start, dt, 3, 1), start, dt, scheme.beta,
+                      energy_directly=nx <= 20)

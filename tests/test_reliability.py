@@ -24,7 +24,7 @@ from contact_bench.cli.bad_inputs import BadInput, bad_inputs, demo_plugins
 from contact_bench.cli.main import INTERRUPTED, main
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.io import atomic_write, write_text
-from contact_bench.harness.runner import run_one, run_table
+from contact_bench.harness.runner import TIMING_COLUMNS, run_one, run_table
 from contact_bench.schemes.standard import Standard
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -193,10 +193,10 @@ DET_ARGS = ["run", "--case", "clamped_bar", "--case", "dropped_bar", "--scheme",
 
 
 def _metrics_csv(text: str) -> list[list[str]]:
-    """The CSV text cell by cell without the timing column (no float parsing: exact)."""
+    """The CSV text cell by cell without the timing columns (no float parsing: exact)."""
     rows = list(csv.reader(io.StringIO(text)))
-    drop = rows[0].index("wall_s")
-    return [r[:drop] + r[drop + 1:] for r in rows]
+    keep = [i for i, c in enumerate(rows[0]) if c not in TIMING_COLUMNS]
+    return [[r[i] for i in keep] for r in rows]
 
 
 def test_same_command_bit_identical_in_separate_processes(tmp_path):
@@ -214,14 +214,14 @@ def test_same_command_bit_identical_in_separate_processes(tmp_path):
 
 
 def _table(case: str, scheme: str) -> pd.DataFrame:
-    return run_table([case], [scheme], [16], T=1.0).drop(columns=["wall_s"])
+    return run_table([case], [scheme], [16], T=1.0).drop(columns=list(TIMING_COLUMNS))
 
 
 def test_run_table_identical_serial_and_in_two_worker_processes():
     pairs = [(c, s) for c in ("clamped_bar", "dropped_bar")
              for s in ("standard", "redistributed[beta=0]")]
     serial = run_table([c for c, _ in pairs[::2]], ["standard", "redistributed[beta=0]"],
-                       [16], T=1.0).drop(columns=["wall_s"])
+                       [16], T=1.0).drop(columns=list(TIMING_COLUMNS))
     with ProcessPoolExecutor(2, mp_context=get_context("spawn")) as pool:
         parts = list(pool.map(_table, *zip(*pairs, strict=True)))  # pickled: exact floats
     pooled = pd.concat(parts, ignore_index=True)

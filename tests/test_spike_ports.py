@@ -140,11 +140,17 @@ def test_spike_kernels_blow_up_at_the_same_step():
         np.testing.assert_allclose(fast.U[:-1], ref.U[:-1], rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("spec, kernel", [
-    ("ode_verlet", "verlet_spike_kernel"), ("ode_verlet[variant=getfem]", "verlet_spike_kernel"),
-    ("taylor_flanagan", "tf_spike_kernel"), ("taylor_flanagan[mass=lumped]", "tf_lumped_kernel"),
+@pytest.mark.parametrize("spec, nx, nsteps, kernel", [
+    ("ode_verlet", 200, 1300, "verlet_spike_kernel"),
+    ("ode_verlet[variant=getfem]", 200, 1300, "verlet_spike_kernel"),
+    ("ode_verlet", 20, 10, "verlet_kernel"),  # small: the serial natural-order kernel
+    ("ode_verlet", 200, 10, "verlet_kernel"),  # too short to pay back the SPIKE set-up
+    ("taylor_flanagan", 200, 1300, "tf_spike_kernel"),
+    ("taylor_flanagan", 20, 10, "taylor_flanagan_kernel"),
+    ("taylor_flanagan[mass=lumped]", 20, 10, "tf_lumped_kernel"),
+    ("taylor_flanagan[mass=lumped]", 200, 1300, "tf_lumped_kernel"),
 ])
-def test_integrate_takes_the_fast_kernel(monkeypatch, spec, kernel):
+def test_integrate_takes_the_fastest_kernel(monkeypatch, spec, nx, nsteps, kernel):
     calls = []
     mod = ode_verlet if spec.startswith("ode_verlet") else taylor_flanagan
     names = ("verlet_spike_kernel", "verlet_kernel") if mod is ode_verlet else (
@@ -154,6 +160,7 @@ def test_integrate_takes_the_fast_kernel(monkeypatch, spec, kernel):
         monkeypatch.setattr(mod, name, lambda *a, _k=k, _n=name: calls.append(_n) or _k(*a))
     scheme = make_scheme(spec)
     c = make_case("clamped_bar")
-    semi = discretise(c, mesh_nodes(c.L, 20), scheme.mass_kind())
-    scheme.integrate(semi, 0.5 * semi.hmin / semi.c_max, 10, 5)
+    semi = discretise(c, mesh_nodes(c.L, nx), scheme.mass_kind())
+    assert 20 < ode_verlet.SERIAL_BELOW == taylor_flanagan.SERIAL_BELOW <= 200
+    scheme.integrate(semi, 0.5 * semi.hmin / semi.c_max, nsteps, nsteps)
     assert calls == [kernel]

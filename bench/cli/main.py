@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
 DEFAULT_OUT = "contact-bench-output"
 
 SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
-         "err_stress_l2", "energy_drift_max", "penetration_max", "wall_s", "status"]
+         "err_stress_l2", "energy_drift_max", "penetration_max", "step_s", "run_s", "status"]
 
 
 def _fmt_table(df: pd.DataFrame) -> str:

@@ -3,6 +3,14 @@
 The harness reads only what plugins declare: the case's reference and the quantities
 it provides, the scheme's traits, stability limit and `cannot_run`. What a scene does
 not provide is left empty (NaN) and the row's `notes` say why.
+
+Two times per run (`TIMING_COLUMNS`), JIT compilation and the error norms excluded:
+- `run_s`: the run itself, recording every `stride`-th step as the norms need
+  (`wall_s` is the same value under its former name, so `wall_s / (nx * steps)` still
+  reads as ns per dof-step, recording included);
+- `step_s`: the stepping alone, the same scheme, grid and dt with samples only where
+  the scheme needs them (stride = steps: the first and the last), the minimum of up to
+  `STEP_REPEATS` calls after a warm-up call (`step_time`). Work-precision compares it.
 """
 
 from __future__ import annotations
@@ -37,9 +45,15 @@ if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs ste
 
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
-    "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "wall_s",
-    "status", "notes", "stride", "grading", "blowup_time", "reference",
+    "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
+    "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time", "reference",
 )
+#: the columns that vary from one execution of the same run to the next (module docstring)
+TIMING_COLUMNS = ("step_s", "run_s", "wall_s")
+#: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
+STEP_REPEATS = 3
+#: ... and no more once they have taken this long (at least one timed call)
+STEP_BUDGET_S = 1.0
 
 _warmed: set[tuple[type, str]] = set()
 _warmed_metrics: list[bool] = []
@@ -56,7 +70,7 @@ class Run:
     """One finished run: its metrics row and, unless it did not start, its trajectory.
 
     `norm_s`: the time spent on the error norms (`contact_bench.harness.metrics.error_metrics`, JIT
-    compilation excluded), None when there were none; compare with row["wall_s"].
+    compilation excluded), None when there were none; compare with row["run_s"].
     """
 
     row: dict[str, Any]
@@ -255,8 +269,9 @@ def _check_length(case: Case) -> float:
     return L
 
 
-def _execute(plan: _Plan) -> Run:
-    """Integrate a prepared configuration and fill in its metrics."""
+def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
+    """Integrate a prepared configuration and fill in its metrics (`step_s`: the minimum
+    of `step_repeats` timed stepping calls, `step_time`)."""
     row, notes = plan.row, plan.notes
     if plan.semi is None:  # not applicable
         return Run(row)
@@ -267,11 +282,16 @@ def _execute(plan: _Plan) -> Run:
                           scheme.mass_kind())
     key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
     if key not in _warmed:
-        scheme.warm_up(semi)  # JIT compilation stays out of wall_s
+        scheme.warm_up(semi)  # JIT compilation stays out of run_s and step_s
         _warmed.add(key)
+    # the stepping alone first: its arrays are freed before the recorded run allocates
+    # its samples, so a run's memory peak stays the recorded run's
+    row["step_s"] = step_time(scheme, semi, dt, plan.steps, step_repeats)
     start = time.perf_counter()
     traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
-    row["wall_s"] = time.perf_counter() - start
+    row["run_s"] = row["wall_s"] = time.perf_counter() - start
+    if traj.steps_done < plan.steps:  # stopped (blow-up): time the steps it made
+        row["step_s"] = step_time(scheme, semi, dt, traj.steps_done, step_repeats)
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
@@ -303,6 +323,30 @@ def _execute(plan: _Plan) -> Run:
     return Run(row, traj, semi, norm_s)
 
 
+def step_time(scheme: Scheme, semi: Any, dt: float, steps: int,
+              repeats: int = STEP_REPEATS, budget_s: float = STEP_BUDGET_S) -> float | None:
+    """The stepping alone: `scheme.integrate(semi, dt, steps, steps)` (samples at the first
+    and the last step only), the minimum over up to `repeats` timed calls after a
+    discarded warm-up call, stopping once the timed calls took `budget_s` (at least one
+    call). A warm-up call longer than `budget_s` is the measurement (JIT compilation is
+    done before, by `scheme.warm_up`: a long call is not dominated by cold caches).
+    None for 0 steps."""
+    if steps < 1:
+        return None
+    start = time.perf_counter()
+    scheme.integrate(semi, dt, steps, steps)
+    first = time.perf_counter() - start
+    if first > budget_s:
+        return first
+    best, spent, calls = math.inf, 0.0, 0
+    while calls < max(1, repeats) and not (calls >= 1 and spent > budget_s):
+        start = time.perf_counter()
+        scheme.integrate(semi, dt, steps, steps)
+        elapsed = time.perf_counter() - start
+        best, spent, calls = min(best, elapsed), spent + elapsed, calls + 1
+    return best
+
+
 def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
                grading: Any, exc: BaseException, row: dict[str, Any] | None = None) -> Run:
     """The row of a run that raised an unexpected exception (a bug, not a bad input)."""
@@ -314,14 +358,15 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
     reason = " ".join(f"{type(exc).__name__}: {exc}".split())
     if out.get("notes"):
         reason = f"{reason}; {out['notes']}"
-    out.update(status="error", notes=reason, wall_s=None)
+    out.update(status="error", notes=reason, **dict.fromkeys(TIMING_COLUMNS))
     tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
     return Run(out, traceback=tb)
 
 
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
-            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False) -> Run:
+            grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
+            step_repeats: int = STEP_REPEATS) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -330,10 +375,12 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     run on the same grid can reuse (`contact_bench.harness.metrics`): a sweep's worker runs its
     tasks
     one after the other. `run_table` knows its runs and keeps only for a later one.
+    `step_repeats`: the timed calls of `step_s` (`step_time`).
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict))
+    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict),
+                    step_repeats)
 
 
 def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),

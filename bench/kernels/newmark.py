@@ -3,7 +3,8 @@
 Shared by `standard` (consistent mass) and `redistributed` (massless contact node).
 
 Implicit (beta > 0), displacement form: S U^{n+1} = M U~ + beta dt^2 (F + lambda e0)
-with S = M + beta dt^2 K factored once (`contact_bench.core.spike`, on LAPACK dpttrf) and the
+with S = M + beta dt^2 K factored once (`contact_bench.core.spike`, on LAPACK dpttrf; small
+problems: plain LDL^T factors and the serial kernels of `newmark_serial`, `kernel_form`) and the
 predictor U~ = U^n + dt V^n + (1/2 - beta) dt^2 A^n. The response to a unit contact
 force, w = S^{-1} e0, is known from the factors: when the contact-free solution U_f
 penetrates, U^{n+1} = U_f + mu w with mu = -U_f[0] / w[0], folded into the solve's
@@ -28,8 +29,9 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.core.sampling import energy_of
 from contact_bench.core.spike import L, Spike, lane_zeros, spike_factor, stencil_solve
-from contact_bench.core.tridiag import eliminate_contact_node
+from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve
 from contact_bench.kernels.common import allocate, initial_acceleration, trajectory
+from contact_bench.kernels.newmark_serial import serial_explicit, serial_implicit
 from contact_bench.kernels.newmark_vec import explicit_kernel, implicit_kernel
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
@@ -80,6 +82,34 @@ def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool,
 _FM = {"contract"}
 #: rows per lane block the vector kernels need (smaller systems are padded)
 MIN_ROWS = 3
+#: systems with fewer unknowns step with the serial Thomas kernels
+#: (`contact_bench.kernels.newmark_serial`), larger ones with the SPIKE vector kernels:
+#: the crossover of their cost per dof-step, measured on the project's machine
+#: (docs/performance-small-grids.md)
+SERIAL_BELOW = 64
+#: ... and runs of fewer dof-steps (unknowns x steps) stay serial whatever their size:
+#: the SPIKE form's set-up (its factors, the reduced system, the interleaved layout) costs
+#: about as much as this many dof-steps save (docs/performance-small-grids.md)
+SPIKE_MIN_DOF_STEPS = 250_000
+#: the kernel forms `run_newmark` can be asked for (None: chosen by size)
+FORMS = ("serial", "spike")
+
+
+def kernel_form(n: int, nsteps: int | None = None, form: str | None = None,
+                serial_below: int = SERIAL_BELOW) -> str:
+    """The form that steps n unknowns over nsteps steps: `form` if given; else "serial"
+    below `serial_below` unknowns (the crossover of a kernel pair, `SERIAL_BELOW` for
+    Newmark's) or `SPIKE_MIN_DOF_STEPS` dof-steps, "spike" above. The serial form needs
+    n >= 3 (smaller systems always take the SPIKE form)."""
+    if form is not None:
+        if form not in FORMS:
+            raise ValueError(f"kernel form must be one of {FORMS}, got {form!r}")
+        return form if n >= 3 else "spike"
+    if n < 3:
+        return "spike"
+    if n < serial_below or (nsteps is not None and n * nsteps < SPIKE_MIN_DOF_STEPS):
+        return "serial"
+    return "spike"
 
 
 @njit(cache=True, fastmath=_FM)
@@ -113,32 +143,32 @@ def h_diagonals(sp: Spike) -> tuple[np.ndarray, ...]:
     """
     m = sp.m
     cols = np.where(sp.Hpos < L, sp.Hpos, sp.Hpos - (m - 1) * L + L)  # 0..2L-1: (s, t)
-    diags: dict[tuple[int, int, int], np.ndarray] = {}
-    x0pos, x0val = [], []
-    for r, c, v in zip(sp.Hrow, cols, sp.Hval, strict=True):
-        if r == 2 * L:
-            x0pos.append(L + c)
-            x0val.append(v)
-            continue
-        dst, lane = divmod(int(r), L)
-        src, col_lane = divmod(int(c), L)
-        key = (dst, src, col_lane - lane)
-        diags.setdefault(key, np.zeros(L))[lane] = v
-    keys = sorted(diags)
-    Dg = lane_zeros(L * len(keys))
-    if keys:
-        Dg[:] = np.concatenate([diags[k] for k in keys])
-    Dsrc = np.array([L + L * src + d for (_, src, d) in keys], np.int64)
-    Ddst = np.array([dst for (dst, _, _) in keys], np.int64)
-    return Dg, Dsrc, Ddst, np.array(x0pos, np.int64), np.array(x0val, float)
+    rows = np.asarray(sp.Hrow, np.int64)
+    at_x0 = rows == 2 * L
+    x0pos = (L + cols[at_x0]).astype(np.int64)
+    x0val = np.asarray(sp.Hval[at_x0], float)
+    r, c, v = rows[~at_x0], cols[~at_x0], sp.Hval[~at_x0]
+    dst, lane = np.divmod(r, L)
+    src, col_lane = np.divmod(c, L)
+    d = col_lane - lane
+    # one diagonal per (dst, src, d), in that (sorted) order: an integer key sorts alike
+    key = (dst * 2 + src) * (2 * L) + (d + L)
+    keys, which = np.unique(key, return_inverse=True)
+    Dg = lane_zeros(L * keys.size)
+    Dg[which * L + lane] = v
+    kd = keys % (2 * L) - L
+    ks = (keys // (2 * L)) % 2
+    Dsrc = (L + L * ks + kd).astype(np.int64)
+    Ddst = (keys // (4 * L)).astype(np.int64)
+    return Dg, Dsrc, Ddst, x0pos, x0val
 
 
 def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
-                beta: float, gamma: float) -> Trajectory:
-    """Factor outside the loop (interleaved SPIKE factors), then call the vector kernel.
-
-    The kernel's state lives only in the interleaved layout; nothing in node order is
-    kept alive while it steps beyond the problem itself and the sample buffers.
+                beta: float, gamma: float, form: str | None = None) -> Trajectory:
+    """Factor outside the loop, then call the kernel of the form `kernel_form` picks:
+    the serial Thomas kernel on small systems, the SPIKE vector kernel on large ones
+    (interleaved factors; its state lives only in the interleaved layout, nothing in node
+    order is kept alive while it steps beyond the problem and the sample buffers).
     """
     M, K, F = semi.M, semi.K, semi.F
     n = semi.nfree
@@ -155,6 +185,9 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     A = initial_acceleration(semi)
     dt2 = dt * dt
+    if kernel_form(n, nsteps, form) == "serial":
+        res = _run_serial(semi, dt, nsteps, stride, beta, gamma, A, bufs)
+        return trajectory(out, *res, dt)
     if beta > 0.0:
         bdt2 = beta * dt2
         sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off, MIN_ROWS)
@@ -188,3 +221,34 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         1.0 / (beta * dt2) if beta > 0.0 else 0.0, dt, bool(semi.massless), int(nsteps),
         int(stride), semi.energy_offset, *bufs)
     return trajectory(out, k, done, min_u0, blow, dt)
+
+
+def _run_serial(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: float,
+                gamma: float, A: np.ndarray, bufs: tuple) -> tuple:
+    """The serial kernels' factors (LAPACK dpttrf) and state (X, Q) in node order; returns
+    the kernel's (samples, steps, min u0, blow-up step)."""
+    M, K, F = semi.M, semi.K, semi.F
+    U, V = semi.U0, semi.V0
+    dt2 = dt * dt
+    Q = dt * V + dt2 * (1.0 - gamma) * A
+    z, Vs = np.zeros(semi.nfree), np.zeros(semi.nfree)
+    if beta > 0.0:
+        bdt2 = beta * dt2
+        df, ef = factor_pt(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off)
+        w = np.zeros(semi.nfree)
+        w[0] = 1.0
+        pt_solve(df, ef, w)
+        X = U + dt * V + (0.5 - beta) * dt2 * A
+        return serial_implicit(
+            M.diag, M.off, K.diag, K.off, F, bdt2 * F, ef, 1.0 / df, w, float(w[0]), X, Q, z,
+            Vs, float(U[0]), (gamma + 0.5 - beta) / beta, 1.0 / beta, gamma / (beta * dt),
+            1.0 / bdt2, dt, bool(semi.massless), int(nsteps), int(stride),
+            semi.energy_offset, *bufs)
+    d, e = M.diag.copy(), M.off.copy()
+    d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_r on nodes 1.. plus an identity row
+    df, ef = factor_pt(d, e)
+    X = U + dt * V + 0.5 * dt2 * A
+    return serial_explicit(
+        M.diag, M.off, K.diag, K.off, F, -dt2 * K.diag, -dt2 * K.off, dt2 * F, ef, 1.0 / df,
+        X, Q, z, Vs, float(U[0]), gamma + 0.5, 1.0, gamma / dt, dt, int(nsteps), int(stride),
+        semi.energy_offset, *bufs)

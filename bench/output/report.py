@@ -311,7 +311,9 @@ nav ul {{ margin: 0.2em 0; }}
 apart from the error runs, serially, with nothing else running from the sweep: one
 discarded warm-up call of <code>scheme.integrate</code> (JIT compilation before it), then
 the repeats with the garbage collector off: minimum, median and interquartile range.
-All runs: {runs}.</p>
+Work-precision plots <code>step_s</code>, the stepping alone (samples at the first and
+last step only); its tables also give <code>time_s</code>, the same run recording the
+samples the error norms need. All runs: {runs}.</p>
 {status}
 {sections}
 <hr><p class="prov">{prov}</p>

@@ -10,13 +10,20 @@ them and returns one DataFrame:
    (`dask` = an address or "local"); each finished row is written to the cache at
    once, so an interrupted sweep continues where it stopped;
 3. then, with nothing else running, a *serial timing pass* in this process: for every
-   ok row of a timed task, one warm-up call of `scheme.integrate` (discarded; JIT
-   compilation is done before it by `scheme.warm_up`), then `repeats` timed calls with
-   the garbage collector off -> `timing_stats`: `time_s` (the minimum), `time_median_s`,
-   `time_iqr_s` (interquartile range), `time_repeats` and `time_noisy` (IQR above
-   NOISY_SPREAD x the median: re-time it). Timings are cached too, keyed on the run and
-   the CPU model; `retime` measures them again (the runs themselves, errors included,
-   still come from the cache).
+   ok row of a timed task, two timings, each one warm-up call of `scheme.integrate`
+   (discarded; JIT compilation is done before it by `scheme.warm_up`), then `repeats`
+   timed calls with the garbage collector off: `time_s`, the run with the row's
+   recording (its stride), and `step_s`, the stepping alone (stride = steps: samples at
+   the first and the last step only). Each gives its minimum and, through
+   `timing_stats`, `<name>_median_s`, `<name>_iqr_s` (interquartile range),
+   `<name>_repeats` and `<name>_noisy` (IQR above NOISY_SPREAD x the median: re-time
+   it). Timings are cached too, keyed on the run and the CPU model; `retime` measures
+   them again (the runs themselves, errors included, still come from the cache).
+
+Time columns (`TIMING_COLUMNS`): `step_s` and `time_s` from the timing pass (without
+it, `step_s` is the harness's own, measured in the worker: `contact_bench.harness.runner`);
+`run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
+(assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
@@ -60,8 +67,9 @@ DEFAULT_GROWTH_TOL = 1e-2
 TRACE_POINTS = 200
 STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
 #: columns that vary from one execution of the same run to the next
-TIMING_COLUMNS = ("wall_s", "time_s", "time_median_s", "time_iqr_s", "time_repeats",
-                  "time_noisy", "run_s")
+TIMING_COLUMNS = ("step_s", "step_median_s", "step_iqr_s", "step_repeats", "step_noisy",
+                  "time_s", "time_median_s", "time_iqr_s", "time_repeats", "time_noisy",
+                  "run_s", "wall_s", "task_s")
 #: a timing whose interquartile range exceeds this fraction of its median is flagged noisy
 NOISY_SPREAD = 0.1
 VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
@@ -217,7 +225,9 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
             row.update(h=h, dt_limit=limit, cfl_limit=None if limit is None else c * limit / h)
             dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * h / c
             stride = _stride_for(task, dt, case, limit, T)
-            run = run_one(case, scheme, nx, dt, T, stride, grading, True)
+            # step_s here is a first measurement (one timed call): the timing pass measures
+            # it again, serially, for the timed tasks
+            run = run_one(case, scheme, nx, dt, T, stride, grading, True, step_repeats=1)
             row.update(run.row)
             row["cfl"] = c * float(row["dt"]) / h
             traj = run.trajectory
@@ -230,7 +240,7 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
         row.update(status="error", notes=_one_line(exc), stability=None,
                    traceback="".join(traceback.format_exception(type(exc), exc,
                                                                 exc.__traceback__)))
-    row["run_s"] = time.perf_counter() - start
+    row["task_s"] = time.perf_counter() - start
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
     return row
@@ -275,8 +285,10 @@ def timing_stats(samples: Sequence[float], name: str = "time") -> dict[str, Any]
             f"{name}_repeats": int(x.size), f"{name}_noisy": bool(iqr > NOISY_SPREAD * med)}
 
 
-def time_integrate(row: dict[str, Any], repeats: int) -> list[float]:
-    """`repeats` timed `scheme.integrate` calls after a discarded warm-up: their times.
+def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
+                   ) -> list[float]:
+    """`repeats` timed `scheme.integrate` calls after a discarded warm-up: their times,
+    with the row's stride, or (`stepping`) with stride = steps (the stepping alone).
 
     A run whose calls exceed TIME_BUDGET_S in total stops after two calls (one when
     repeats = 1).
@@ -284,7 +296,8 @@ def time_integrate(row: dict[str, Any], repeats: int) -> list[float]:
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = discretise(case, mesh_nodes(float(case.L), int(row["nx"]), float(row["grading"])),
                       scheme.mass_kind())
-    dt, steps, stride = float(row["dt"]), int(row["steps"]), int(row["stride"])
+    dt, steps = float(row["dt"]), int(row["steps"])
+    stride = steps if stepping else int(row["stride"])
     scheme.warm_up(semi)  # JIT compilation
     scheme.integrate(semi, dt, steps, stride)  # discarded warm-up call
     times: list[float] = []
@@ -443,11 +456,12 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     machine = cpu_model()
     todo = []
     for key in wanted:
-        tkey = run_key({"run": key, "cpu": machine, "repeats": repeats}, meta[key]["code"],
-                       kind="timing")
+        tkey = run_key({"run": key, "cpu": machine, "repeats": repeats,
+                        "measures": ["time_s", "step_s"]}, meta[key]["code"], kind="timing")
         hit = None if retime else cache.get(tkey)
-        if hit is not None and "times" in hit:
+        if hit is not None and "times" in hit and "step_times" in hit:
             rows[key].update(timing_stats(hit["times"]))
+            rows[key].update(timing_stats(hit["step_times"], "step"))
         else:
             todo.append((key, tkey))
     bar = _progress(len(todo), 0, "timing (serial)", quiet or not todo)
@@ -455,13 +469,15 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
         for key, tkey in todo:
             try:
                 times = time_integrate(rows[key], repeats)
+                step_times = time_integrate(rows[key], repeats, stepping=True)
             except Exception as exc:  # noqa: BLE001 - a failing timing is a note, not a crash
                 rows[key]["notes"] = "; ".join(
                     n for n in (rows[key].get("notes"), f"timing failed: {_one_line(exc)}") if n)
                 bar.update(1)
                 continue
             rows[key].update(timing_stats(times))
-            cache.put(tkey, {"times": times})
+            rows[key].update(timing_stats(step_times, "step"))
+            cache.put(tkey, {"times": times, "step_times": step_times})
             bar.update(1)
     finally:
         bar.close()

@@ -1,0 +1,55 @@
+"""Stepping timed apart from recording: `step_s` (the stepping alone) next to `run_s`
+(the run with its recording, `wall_s` its former name), and work-precision on `step_s`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from contact_bench.harness import runner
+from contact_bench.harness.runner import TIMING_COLUMNS, run_one, step_time
+from contact_bench.sweeps.analysis import WP_TIME, work_precision
+
+
+def test_a_run_records_step_s_and_run_s():
+    row = run_one("clamped_bar", "redistributed", 20, T=1.0).row
+    assert row["status"] == "ok"
+    assert row["run_s"] == row["wall_s"] > 0
+    assert math.isfinite(row["step_s"]) and row["step_s"] > 0
+    assert set(TIMING_COLUMNS) <= set(runner.COLUMNS)
+
+
+class _Counting:
+    """A stand-in scheme that records the (steps, stride) of every integrate call."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[int, int]] = []
+
+    def integrate(self, semi, dt, steps, stride):
+        self.calls.append((steps, stride))
+
+
+def test_step_time_samples_only_the_last_step_after_a_warm_up():
+    s = _Counting()
+    assert step_time(s, None, 0.1, 50, repeats=3) >= 0.0
+    assert s.calls == [(50, 50)] * 4  # warm-up + 3 timed, stride = steps
+    s = _Counting()
+    step_time(s, None, 0.1, 50, repeats=3, budget_s=-1.0)  # a "long" warm-up is the timing
+    assert s.calls == [(50, 50)]
+    assert step_time(_Counting(), None, 0.1, 0) is None
+
+
+def test_work_precision_front_is_over_step_s_and_keeps_time_s():
+    # b is faster than a in recording time (time_s) but slower in stepping (step_s)
+    df = pd.DataFrame({
+        "case": ["c"] * 2, "scheme": ["a", "b"], "nx": [10, 10], "dt": [0.1, 0.1],
+        "cfl": [0.5, 0.5], "status": ["ok", "ok"], "err_u_linf_l2": [0.1, 0.2],
+        "step_s": [1.0, 2.0], "time_s": [5.0, 3.0]})
+    wp = work_precision(df)
+    assert WP_TIME == "step_s" and {"step_s", "time_s"} <= set(wp.columns)
+    front = dict(zip(wp["scheme"], wp["pareto"], strict=True))
+    assert front == {"a": True, "b": False}  # over time_s, b would be on the front too
+    old = work_precision(df.drop(columns=["step_s"]))  # a table from before step_s
+    assert old.empty and np.isin(["step_s", "time_s"], old.columns).all()
