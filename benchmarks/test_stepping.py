@@ -161,17 +161,19 @@ def test_speedup_over_scipy(benchmark, spec: str, n: int, steps: int) -> None:
 SIZE_STEPS = [(20, 200_000), (40, 100_000), (160, 25_000), (640, 6_250), (1_000, 4_000),
               (100_000, 40)]
 #: schemes whose step costs ~100x more (an adaptive integrator): steps / 100 (at least 4)
-SLOW = {"ode_adaptive": 100}
+SIZE_SLOW = {"ode_adaptive": 100}
+
+
+def size_steps_for(spec: str, n: int) -> int:
+    """The fixed number of steps of a `test_sizes` benchmark at n unknowns."""
+    return max(4, dict(SIZE_STEPS)[n] // SIZE_SLOW.get(spec.split("[")[0], 1))
 
 
 def _size_cases() -> list[Any]:
-    out = []
-    for spec in _specs():
-        div = SLOW.get(spec.split("[")[0], 1)
-        for n, steps in SIZE_STEPS:
-            s = max(4, steps // div)
-            out.append(pytest.param(spec, n, s, id=f"{spec}-n{n}-s{s}"))
-    return out
+    """(spec, n, steps) with the id `spec-scene-nN-stepsS`: the work is in the name."""
+    return [pytest.param(spec, n, size_steps_for(spec, n),
+                         id=f"{spec}-{CASE}-n{n}-steps{size_steps_for(spec, n)}")
+            for spec in _specs() for n, _ in SIZE_STEPS]
 
 
 @pytest.mark.parametrize("mode", ["step", "rec1"])

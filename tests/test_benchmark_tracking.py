@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-ID = re.compile(r"\[(?P<spec>.+)-(?P<case>[a-z_]+)-n(?P<n>1e\d)-steps(?P<steps>\d+)\]$")
+ID = re.compile(r"::(?P<test>\w+)\[(?P<spec>.+)-(?P<case>[a-z_]+)"
+                r"-n(?P<n>1e\d|\d+)-steps(?P<steps>\d+)(?:-(?P<mode>step|rec1))?\]$")
 
 
 def _collect() -> list[str]:
@@ -37,7 +38,8 @@ def test_every_stepping_id_names_its_work():
         assert m, node
         n = int(float(m["n"]))
         assert m["case"] == bench.CASE
-        assert int(m["steps"]) == bench.steps_for(m["spec"], n), node
+        steps_for = bench.size_steps_for if m["test"] == "test_sizes" else bench.steps_for
+        assert int(m["steps"]) == steps_for(m["spec"], n), node
     assert len(set(ids)) == len(ids)
 
 
