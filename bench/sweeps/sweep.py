@@ -367,7 +367,7 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
 
     rows: dict[str, dict[str, Any]] = {}
     for key in order:
-        hit = cache.get(key)
+        hit = cache.get(key, lambda row, key=key: _check_run_row(row, meta[key]["inputs"]))
         if hit is not None:
             rows[key] = dict(hit, from_cache=True)
     todo = [(key, meta[key]["inputs"]) for key in order if key not in rows]
@@ -397,6 +397,55 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
     return SweepResult(table, len(todo), n_cached, timed, time.perf_counter() - start, order)
 
 
+STATUSES = ("ok", "unstable", "error", "not applicable")
+_INT_COLUMNS = ("nx", "steps", "stride", "order_declared")
+_FLOAT_COLUMNS = ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
+                  "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
+                  "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", "wall_s",
+                  "run_s")
+_TEXT_COLUMNS = ("case", "scheme", "case_name", "scheme_name", "status", "stability", "notes",
+                 "reference", "energy_trait", "contact", "energy_trace", "key", "code_hash",
+                 "run_date")
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _check_run_row(row: dict[str, Any], inputs: dict[str, Any]) -> str | None:
+    """Why a cached run row cannot be served for these inputs (None: it can)."""
+    missing = [c for c in COLUMNS if c not in row and c not in VOLATILE_COLUMNS]
+    if missing:
+        return f"column {missing[0]!r} missing"
+    if row["status"] not in STATUSES:
+        return f"status {row['status']!r}"
+    for col in _INT_COLUMNS:
+        if row[col] is not None and (not _number(row[col]) or row[col] != int(row[col])):
+            return f"{col} = {row[col]!r} is not an integer"
+    for col in _FLOAT_COLUMNS:
+        if row.get(col) is not None and not _number(row[col]):
+            return f"{col} = {row[col]!r} is not a number"
+    for col in _TEXT_COLUMNS:
+        if row.get(col) is not None and not isinstance(row[col], str):
+            return f"{col} = {row[col]!r} is not text"
+    for col in ("case", "scheme", "nx"):
+        if row[col] != inputs[col]:
+            return f"{col} = {row[col]!r}, this run's is {inputs[col]!r}"
+    return None
+
+
+def _check_timing_row(row: dict[str, Any]) -> str | None:
+    """Why a cached timing cannot be served (None: it can)."""
+    t, n = row.get("time_s"), row.get("time_repeats")
+    if set(row) != {"time_s", "time_repeats"}:
+        return "not a timing entry"
+    if not (_number(t) and math.isfinite(t) and t > 0):
+        return f"time_s = {t!r}"
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 1):
+        return f"time_repeats = {n!r}"
+    return None
+
+
 def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
                  cache: Cache, repeats: int, quiet: bool) -> int:
     """Serial timings in this process, after all parallel work is over (see module doc)."""
@@ -408,7 +457,7 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     for key in wanted:
         tkey = run_key({"run": key, "cpu": machine, "repeats": repeats}, meta[key]["code"],
                        kind="timing")
-        hit = cache.get(tkey)
+        hit = cache.get(tkey, _check_timing_row)
         if hit is not None:
             rows[key].update(time_s=hit["time_s"], time_repeats=hit["time_repeats"])
         else:
