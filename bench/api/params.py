@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -71,6 +72,9 @@ class Param:
             return value
         if isinstance(value, float) and not math.isfinite(value):
             raise BenchError(f"{where}: must be finite; allowed: {self.allowed()}")
+        if isinstance(value, float) and value != 0.0 and abs(value) < sys.float_info.min:
+            raise BenchError(f"{where}: subnormal (0 < |value| < {sys.float_info.min:.3g}), "
+                             f"too small to compute with; allowed: {self.allowed()}")
         if self.low is not None and (value < self.low or (self.low_open and value == self.low)):
             raise BenchError(f"{where}: out of range; allowed: {self.allowed()}")
         if self.high is not None and (value > self.high or (self.high_open and value == self.high)):
@@ -96,10 +100,14 @@ def _to_int(raw: Any) -> int:
 
 
 def format_value(value: Any) -> str:
-    """A parameter value as spec text that parses back to the same value: floats as the
-    shortest repr that round-trips (never rounded), the rest as str."""
+    """A parameter value as spec text that parses back to the same value: a float as the
+    shorter of `:g` and repr that round-trips (0.25, 1e+08, 1.0000001, 1e-320); never
+    rounded. The rest as str."""
     if isinstance(value, float):
-        return repr(value + 0.0)
+        value += 0.0  # -0.0 -> 0.0
+        short = f"{value:g}"
+        exact = repr(value)
+        return short if float(short) == value and len(short) <= len(exact) else exact
     return str(value)
 
 

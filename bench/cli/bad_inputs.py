@@ -184,8 +184,73 @@ def bad_inputs() -> list[BadInput]:
         BadInput("bad choice (argparse)", ("run", "--format", "xml"), "'xml'"),
         BadInput("option without its value (argparse)", ("run", "--nx"), "--nx"),
         BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
+        *_issue28_entries(),
     ]
     return fixed
+
+
+#: sweep options that keep a bad-input sweep from touching anything but its --out
+SWEEP = ("sweep", "--case", "clamped_bar", "--scheme", "standard", "--quiet", "--no-cache",
+         "-j", "1", "--repeats", "0")
+
+
+def _run_T(*extra: str, scheme: str = "standard") -> tuple[str, ...]:
+    return ("run", "--case", "clamped_bar", "--scheme", scheme, "--format", "csv", *extra)
+
+
+def _issue28_entries() -> list[BadInput]:
+    """Inputs that ended in a traceback, an internal-error row or a silent change."""
+    long_name = "x" * 100_000
+    return [
+        BadInput("integer parameter infinite", _run(scheme="nitsche[theta=inf]"), "theta=inf"),
+        BadInput("integer parameter of 400 digits", _run(scheme=f"nitsche[theta={'9' * 400}]"),
+                 "(400 characters)"),
+        BadInput("parameter subnormal", _run(scheme="standard[beta=5e-324]"), "beta=5e-324"),
+        BadInput("empty item in a list", (*SWEEP[:4], "penalty[gamma_p=[1,,2]]", *SWEEP[5:]),
+                 "[1,,2]"),
+        BadInput("empty list", (*SWEEP[:4], "penalty[gamma_p=[]]", *SWEEP[5:]), "gamma_p=[]"),
+        BadInput("empty grid (sweep --nx '')", (*SWEEP, "--nx", ""), "--nx"),
+        BadInput("name of 100,000 characters", _run(scheme=long_name), "(100000 characters)"),
+        BadInput("--T empty", _run_T("--T", ""), "--T"),
+        BadInput("--out empty", _run_T("--T", "0.1", "--out", ""), "--out is empty"),
+        BadInput("--out an existing file", _run_T("--T", "0.1", "--out", "/dev/null"),
+                 "/dev/null"),
+        BadInput("--out under a file", _run_T("--T", "0.1", "--out", "/dev/null/sub"),
+                 "/dev/null"),
+        BadInput("--out name too long", _run_T("--T", "0.1", "--out", "o" * 300),
+                 "too long"),
+        BadInput("sweep --out an existing file", (*SWEEP, "--out", "/dev/null"), "/dev/null"),
+        BadInput("report --out an existing file", ("report", "t.csv", "--out", "/dev/null"),
+                 "/dev/null"),
+        BadInput("--cache a file", (*SWEEP[:-5], "-j", "1", "--repeats", "0", "--cache",
+                                    "/dev/null"), "/dev/null"),
+        BadInput("--dask empty", (*SWEEP, "--dask", ""), "--dask"),
+        BadInput("study --error unknown column", ("study", "--quick", "--error", "bogus",
+                                                  "--no-cache", "--quiet"), "'bogus'"),
+        BadInput("dt larger than T", _run_T("--T", "0.1", "--dt", "10"), "dt = 10"),
+        BadInput("dt so small the steps overflow", _run_T("--T", "0.1", "--dt", "1e-320"),
+                 "dt = 1e-320"),
+        BadInput("T so large the steps overflow", _run_T("--T", "1e308"), "T = 1e+308"),
+        BadInput("T beyond the runs' (and references') bound",
+                 _run_T("--T", "1e6", "--dt", "0.01", "--stride", "10000"), "T = 1e+06"),
+        BadInput("nx too large for memory", _run_T("--T", "0.1", "--nx", "1e9"),
+                 "1000000000"),
+        BadInput("nx = 1", _run_T("--T", "0.1", "--nx", "1"), "got 1"),
+        BadInput("grading too strong for the mesh", _run_T("--T", "0.1", "--grading", "50"),
+                 "grading = 50"),
+        BadInput("grading 1e5", _run_T("--T", "0.1", "--grading", "1e5"),
+                 "grading = 100000"),
+        BadInput("huge stride (printed short)", _run_T("--T", "0.1", "--stride", "1e300"),
+                 "stride = 1e+300"),
+        BadInput("one scheme's lowered dt keeps too many samples (named)",
+                 _run_T("--T", "1", "--nx", "100000", "--scheme", "redistributed[beta=0]"),
+                 "redistributed[beta=0] on clamped_bar"),
+        BadInput("sweep: stride larger than the steps", (*SWEEP, "--T", "0.1", "--stride",
+                                                         "1000"), "1000"),
+        BadInput("sweep: samples over memory", (*SWEEP, "--T", "0.1", "--dt", "1e-12"),
+                 "dt = 1e-12"),
+        BadInput("sweep: --max-samples 0", (*SWEEP, "--max-samples", "0"), "got 0"),
+    ]
 
 
 def try_input(argv: tuple[str, ...] | list[str]) -> tuple[int, str]:

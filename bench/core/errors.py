@@ -9,18 +9,26 @@ from collections.abc import Iterable
 SHOWN_CHARS = 80
 
 
+def _cut(text: str, limit: int) -> tuple[str, str]:
+    keep = max(8, limit // 2 - 10)
+    return text[:keep], text[-keep:]
+
+
 def shown(value: object, limit: int = SHOWN_CHARS) -> str:
     """`str(value)` for a message: cut in the middle, with its length, when too long."""
     text = value if isinstance(value, str) else str(value)
     if len(text) <= limit:
         return text
-    keep = max(8, limit // 2 - 10)
-    return f"{text[:keep]}...{text[-keep:]} ({len(text)} characters)"
+    head, tail = _cut(text, limit)
+    return f"{head}...{tail} ({len(text)} characters)"
 
 
 def shown_repr(value: object, limit: int = SHOWN_CHARS) -> str:
-    """`repr(value)` for a message, cut like `shown`."""
-    return shown(repr(value), limit)
+    """`repr(value)` for a message, cut like `shown` (the length is the value's)."""
+    if not isinstance(value, str) or len(value) <= limit:
+        return shown(repr(value), limit)
+    head, tail = _cut(value, limit)
+    return f"{head + '...' + tail!r} ({len(value)} characters)"
 
 
 class BenchError(ValueError):

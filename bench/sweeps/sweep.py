@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import datetime as _dt
 import gc
+import io
 import json
 import math
 import multiprocessing as mp
+import signal
 import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -41,12 +43,18 @@ from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import expand_spec
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
-from contact_bench.core.errors import BenchError
+from contact_bench.core.errors import BenchError, shown
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
 from contact_bench.harness.runner import COLUMNS as HARNESS_COLUMNS
-from contact_bench.harness.runner import check_task_inputs, run_one
+from contact_bench.harness.runner import (
+    MAX_STEPS,
+    check_mesh_grading,
+    check_run,
+    check_task_inputs,
+    run_one,
+)
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
 #: energy |E| above this multiple of |E(0)| (or not finite) is a blow-up
@@ -178,8 +186,37 @@ def _stride_for(task: dict[str, Any], dt: float | None, case: Any, limit: float 
     dt_est = case.dt if dt is None else dt
     if dt is None and limit is not None and dt_est > limit:
         dt_est = 0.9 * limit
+    if not T / dt_est <= MAX_STEPS:  # refused by the run's checks
+        return int(task["stride"])
     steps = max(1, math.ceil(T / dt_est - 1e-9))
     return max(int(task["stride"]), min(steps, math.ceil(steps / int(task["max_samples"]))))
+
+
+def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, Any]) -> None:
+    """Every check `execute_task`'s run makes on its inputs, without running: a bad input
+    (stride above the steps, samples over memory, ...) is a BenchError before the sweep
+    starts, as in `run`. `semis` keeps the meshes' problems for the next checks."""
+    case, scheme = made
+    if scheme.cannot_run(case) or case.cannot_run(scheme):
+        return
+    try:
+        nx, grading = int(task["nx"]), float(task["grading"])
+        T = float(case.T if task["T"] is None else task["T"])
+        skey = (case.spec, nx, grading, scheme.mass_kind())
+        if skey not in semis:
+            check_mesh_grading(nx, grading)
+            semis.clear()  # one mesh at a time: memory does not grow with the grid
+            semis[skey] = discretise(case, mesh_nodes(float(case.L), nx, grading),
+                                     scheme.mass_kind())
+        semi = semis[skey]
+        limit = scheme.stability_limit(semi.hmin, semi.c_max)
+        dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * semi.hmin / semi.c_max
+        stride = _stride_for(task, dt, case, limit, T)
+        check_run(case, scheme, nx, dt, T, stride, grading, True)
+    except BenchError:
+        raise
+    except Exception:  # noqa: BLE001, S110 - a broken plugin is an error row when it runs
+        return
 
 
 def execute_task(task: dict[str, Any]) -> dict[str, Any]:
@@ -284,17 +321,37 @@ def _run_serial(todo: list[tuple[str, dict]], done: Callable[[str, dict], None])
         done(key, execute_task(task))
 
 
+def _ignore_sigint() -> None:
+    """Worker start-up: Ctrl-C is the parent's to handle (one message, no worker
+    tracebacks); the parent ends the workers."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict], None]) -> None:
     ctx = mp.get_context("spawn")  # no fork of a process holding threads (tqdm, numba)
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    # the workers start with SIGINT blocked (the mask is inherited), then ignore it
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_ignore_sigint)
         pending = {pool.submit(execute_task, task): key for key, task in todo}
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    try:
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in finished:
                 done(pending.pop(fut), fut.result())
+    except BaseException:
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()  # interrupted: the running tasks are not waited for
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+#: how long a Dask scheduler has to answer
+DASK_TIMEOUT = "5s"
 
 
 def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
@@ -312,7 +369,7 @@ def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
                                dashboard_address=":0", silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
-        client = Client(address)
+        client = Client(address, timeout=DASK_TIMEOUT)
     try:
         futures = {client.submit(execute_task, task, key=f"run-{key}", pure=False): key
                    for key, task in todo}
@@ -363,14 +420,21 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
             meta[key]["timed"] = meta[key]["timed"] or task.timed
             continue
         order.append(key)
-        meta[key] = {"inputs": inputs, "code": code, "group": task.group, "timed": task.timed}
+        meta[key] = {"inputs": inputs, "code": code, "group": task.group, "timed": task.timed,
+                     "case": task.case, "scheme": task.scheme}
 
+    if not order:
+        raise BenchError("the sweep has no runs (an empty grid)")
     rows: dict[str, dict[str, Any]] = {}
     for key in order:
         hit = cache.get(key, lambda row, key=key: _check_run_row(row, meta[key]["inputs"]))
         if hit is not None:
             rows[key] = dict(hit, from_cache=True)
     todo = [(key, meta[key]["inputs"]) for key in order if key not in rows]
+    semis: dict[tuple, Any] = {}
+    for key, inputs in todo:  # bad input fails here, before any run (not as error rows)
+        check_task(inputs, made[(meta[key]["case"], meta[key]["scheme"])], semis)
+    del semis
     n_cached = len(rows)
     bar = _progress(len(order), n_cached, "runs", quiet)
 
@@ -515,21 +579,58 @@ def save_table(df: pd.DataFrame, path: str | Path) -> list[Path]:
     return written
 
 
+#: columns a saved table must have for `report` (what the analysis reads)
+TABLE_COLUMNS = ("group", "case", "scheme", "nx", "h", "dt", "cfl", "T", "steps", "status",
+                 "stability", "notes", "time_s", "energy_trace")
+
+
 def load_table(path: str | Path) -> pd.DataFrame:
-    """A saved sweep table (CSV or Parquet), with the column types `run_sweep` gives."""
+    """A saved sweep table (CSV or Parquet), with the column types `run_sweep` gives.
+
+    A file that is not such a table (empty, only comments, binary, not UTF-8, cut so
+    that it does not parse, columns missing) is a one-line BenchError naming it.
+    """
     path = Path(path)
     if not path.exists():
-        raise BenchError(f"no such table: {path}")
-    if path.suffix == ".parquet":
-        df = pd.read_parquet(path)
-    else:
-        with open(path, encoding="utf-8") as fh:
-            skip = 0
-            for line in fh:
-                if not line.startswith("#"):
-                    break
-                skip += 1
-        df = pd.read_csv(path, skiprows=skip, keep_default_na=True)
-    if "case" not in df or "scheme" not in df:
-        raise BenchError(f"{path} is not a sweep table: it has no 'case' and 'scheme' columns")
+        raise BenchError(f"no such table: {shown(str(path))}")
+    if not path.is_file():
+        raise BenchError(f"{shown(str(path))} is not a file")
+    try:
+        if path.suffix == ".parquet":
+            df = pd.read_parquet(path)
+        else:
+            raw = path.read_bytes()
+            if b"\0" in raw:
+                raise ValueError("binary content (or not UTF-8 text)")
+            lines = raw.decode("utf-8").splitlines(keepends=True)
+            skip = next((i for i, line in enumerate(lines) if not line.startswith("#")),
+                        len(lines))
+            df = pd.read_csv(io.StringIO("".join(lines[skip:])), keep_default_na=True)
+    except (OSError, ValueError, UnicodeError, ImportError) as exc:
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())
+        raise BenchError(f"{shown(str(path))} is not a readable sweep table ({shown(why)})"
+                         ) from None
+    missing = [c for c in TABLE_COLUMNS if c not in df]
+    if missing:
+        raise BenchError(f"{shown(str(path))} is not a sweep table: column(s) "
+                         f"{', '.join(missing[:5])} missing")
+    if df.empty:
+        raise BenchError(f"{shown(str(path))} is a sweep table with no rows")
     return _frame(df.to_dict("records"))
+
+
+#: error columns `report` and `study` can analyse (`--error`)
+ANALYSABLE = (*ERROR_COLUMNS, "energy_drift_max", "energy_growth_max", "penetration_max")
+
+
+def check_error_column(df: pd.DataFrame | None, error: str) -> None:
+    """--error names a numeric column: one of ANALYSABLE, and a numeric one of df."""
+    if error not in ANALYSABLE:
+        from contact_bench.core.errors import unknown
+
+        raise unknown("--error column", error, ANALYSABLE)
+    if df is not None:
+        if error not in df:
+            raise BenchError(f"--error {error!r}: the table has no such column")
+        if not pd.api.types.is_numeric_dtype(df[error]):
+            raise BenchError(f"--error {error!r}: the column is not numeric")
