@@ -92,7 +92,7 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
      "taylor_flanagan"),
     ("norm_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
      "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
-    ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer >= 1, got 0"),
+    ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer in [2, 2e7], got 0"),
     ("eval_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
      "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
     ("eval_cost", ["--cells-per-length", "0"], "--cells-per-length must be >= 1, got 0"),

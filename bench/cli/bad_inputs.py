@@ -26,6 +26,7 @@ import numpy as np
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case, Scheme
 from contact_bench.api.registry import cases, schemes
+from contact_bench.core.errors import shown
 from contact_bench.schemes.standard import Standard
 
 
@@ -154,7 +155,7 @@ def bad_inputs() -> list[BadInput]:
         BadInput("dt NaN", _run("--dt", "nan"), "nan"),
         BadInput("dt inf", _run("--dt", "inf"), "inf"),
         BadInput("dt so small the samples do not fit in memory",
-                 _run("--dt", "1e-12"), "dt = 1e-12"),
+                 _run("--nx", "10000", "--dt", "1e-6"), "dt = 1e-06"),
         BadInput("T = 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "0"),
                  "got 0"),
         BadInput("T < 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "-1"),
@@ -247,8 +248,8 @@ def _issue28_entries() -> list[BadInput]:
                  "redistributed[beta=0] on clamped_bar"),
         BadInput("sweep: stride larger than the steps", (*SWEEP, "--T", "0.1", "--stride",
                                                          "1000"), "1000"),
-        BadInput("sweep: samples over memory", (*SWEEP, "--T", "0.1", "--dt", "1e-12"),
-                 "dt = 1e-12"),
+        BadInput("sweep: samples over memory", (*SWEEP, "--T", "0.1", "--nx", "10000", "--dt",
+                                                "1e-6"), "dt = 1e-06"),
         BadInput("sweep: --max-samples 0", (*SWEEP, "--max-samples", "0"), "got 0"),
     ]
 
@@ -264,6 +265,7 @@ def try_input(argv: tuple[str, ...] | list[str]) -> tuple[int, str]:
 
 
 def markdown_table() -> str:
+    from contact_bench.cli.entry import STARTING
     from contact_bench.cli.main import INTERRUPTED
 
     lines = ["| Bad input | Command | What the user sees (stderr) | Exit |",
@@ -271,10 +273,11 @@ def markdown_table() -> str:
     with demo_plugins():
         for item in bad_inputs():
             code, err = try_input(item.argv)
-            cmd = shlex.join(["contact-bench", *item.argv])
-            shown = err.strip().replace("|", "\\|")
-            lines.append(f"| {item.what} | `{cmd}` | `{shown}` | {code} |")
+            cmd = shown(shlex.join(["contact-bench", *item.argv]), 200)
+            seen = err.strip().replace("|", "\\|")
+            lines.append(f"| {item.what} | `{cmd}` | `{seen}` | {code} |")
     lines.append(f"| Ctrl-C during a run | (SIGINT) | `{INTERRUPTED}` | 130 |")
+    lines.append(f"| Ctrl-C while the modules import | (SIGINT) | `{STARTING}` | 130 |")
     lines.append("")
     lines.append("`demo_bar`, `raw_bar` and `demo_free_only` are demo plugins of "
                  "`bench/bad_inputs.py`, registered only while the table is made.")
