@@ -119,7 +119,12 @@ def _many(x: float) -> str:
 
 def _int_text(n: int) -> str:
     """An integer for a message: whole up to 12 digits, else like 1.23e+300."""
-    return str(n) if abs(n) < 10**12 else f"{float(n):.3g}"
+    if abs(n) < 10**12:
+        return str(n)
+    if abs(n) < 10**308:
+        return f"{float(n):.3g}"
+    s = str(abs(n))  # beyond a float's range
+    return f"{'-' if n < 0 else ''}{s[0]}.{s[1:3]}e+{len(s) - 1}"
 
 
 def _check_positive(name: str, value: Any) -> float:
