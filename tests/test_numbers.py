@@ -398,9 +398,10 @@ def test_run_one_raises_bench_error_for_bad_input_only():
 
     for kw in (dict(nx=1), dict(dt=10.0, T=0.1), dict(dt=1e-320, T=0.1), dict(T=1e308),
                dict(grading=50.0), dict(grading=1e5), dict(nx=10**9), dict(stride=10**300),
-               dict(nx="x" * 1000), dict(dt=float("nan")), dict(T=-0.0)):
+               dict(nx="x" * 1000), dict(dt=float("nan")), dict(T=-0.0), dict(T=5e-324),
+               dict(T=1e-300, dt=1e-300)):
         with pytest.raises(BenchError) as exc:
-            run_one("clamped_bar", "standard", **{"T": 0.1, **kw})
+            run_one("clamped_bar", "nitsche", **{"T": 0.1, **kw})
         assert "\n" not in str(exc.value) and len(str(exc.value)) < 400, kw
     # every scheme at the smallest mesh runs (or is not applicable)
     for name in schemes().names():
@@ -552,5 +553,6 @@ def test_ctrl_c_during_start_up_imports_is_one_line(delay, tmp_path):
     _, err = proc.communicate(timeout=60)
     if proc.returncode == 0:
         pytest.skip("the command finished before the signal")
-    assert proc.returncode == 130, err
-    assert "Traceback" not in err and err.count("\n") == 1, err
+    # 130, or killed by SIGINT itself (-2) when the signal lands before Python's handler
+    assert proc.returncode in {130, -signal.SIGINT}, err
+    assert "Traceback" not in err and err.count("\n") <= 1, err

@@ -8,7 +8,10 @@ the work, not a KeyboardInterrupt traceback.
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 STARTING = "contact-bench: interrupted while starting (nothing written)"
 

@@ -136,7 +136,14 @@ def _check_positive(name: str, value: Any) -> float:
         raise BenchError(f"{name} must be a number > 0, got {shown_repr(value)}") from None
     if not (math.isfinite(value) and value > 0):
         raise BenchError(f"{name} must be finite and > 0, got {value!r}")
+    if name in {"dt", "T"} and value < MIN_TIME:
+        raise BenchError(f"{name} must be >= {MIN_TIME:g} (dt^2 must not underflow), "
+                         f"got {_num(value)}")
     return value
+
+
+#: smallest dt and T: kernels divide by dt^2, which must stay a normal float
+MIN_TIME = 1e-150
 
 
 #: smallest and largest number of elements: below 2 some schemes have no free node
