@@ -556,3 +556,16 @@ def test_ctrl_c_during_start_up_imports_is_one_line(delay, tmp_path):
     # 130, or killed by SIGINT itself (-2) when the signal lands before Python's handler
     assert proc.returncode in {130, -signal.SIGINT}, err
     assert "Traceback" not in err and err.count("\n") <= 1, err
+
+
+def test_report_on_a_table_cut_anywhere_is_one_line_nothing_written(tmp_path, capsys):
+    src = _small_table(tmp_path).read_bytes()
+    cuts = sorted({*range(1, len(src), max(1, len(src) // 60)), len(src) - 1})
+    for cut in cuts:
+        table = tmp_path / "cut.csv"
+        table.write_bytes(src[:cut])
+        out = tmp_path / f"report{cut}"
+        code, _, err = _main(["report", str(table), "--out", str(out)], capsys)
+        assert code == 2, (cut, err)
+        _one_error(err)
+        assert not out.exists(), cut

@@ -605,7 +605,9 @@ def load_table(path: str | Path) -> pd.DataFrame:
             lines = raw.decode("utf-8").splitlines(keepends=True)
             skip = next((i for i, line in enumerate(lines) if not line.startswith("#")),
                         len(lines))
-            df = pd.read_csv(io.StringIO("".join(lines[skip:])), keep_default_na=True)
+            text = "".join(lines[skip:])
+            _check_fields(text)
+            df = pd.read_csv(io.StringIO(text), keep_default_na=True)
     except (OSError, ValueError, UnicodeError, ImportError) as exc:
         why = " ".join(f"{type(exc).__name__}: {exc}".split())
         raise BenchError(f"{shown(str(path))} is not a readable sweep table ({shown(why)})"
@@ -616,7 +618,29 @@ def load_table(path: str | Path) -> pd.DataFrame:
                          f"{', '.join(missing[:5])} missing")
     if df.empty:
         raise BenchError(f"{shown(str(path))} is a sweep table with no rows")
+    for number, trace in enumerate(df["energy_trace"], start=1):
+        if isinstance(trace, str):
+            try:
+                json.loads(trace)
+            except ValueError:
+                raise BenchError(f"{shown(str(path))}: row {number}'s energy_trace is not "
+                                 "valid JSON (cut short?)") from None
     return _frame(df.to_dict("records"))
+
+
+def _check_fields(text: str) -> None:
+    """Every CSV record has the header's number of fields (a row cut short is refused,
+    not read with blanks); raises ValueError naming the first that does not."""
+    import csv
+
+    if text and not text.endswith("\n"):
+        raise ValueError("the last row is cut short (no final newline)")
+    records = csv.reader(io.StringIO(text, newline=""))
+    header = next(records, None)
+    for number, record in enumerate(records, start=1):
+        if header is not None and len(record) != len(header):
+            raise ValueError(f"row {number} has {len(record)} of {len(header)} fields "
+                             "(cut short?)")
 
 
 #: error columns `report` and `study` can analyse (`--error`)
