@@ -18,9 +18,14 @@ folders (loaded as `contact_bench.plugins.<name>`); they use only public names o
 layers below (`contact_bench.api` re-exports what a plugin needs; docs/plugin-api.md).
 """
 
-from importlib.metadata import PackageNotFoundError, version
+def __getattr__(name: str) -> str:
+    """`__version__`, read from the installed metadata when asked (importing the package
+    imports nothing, so a Ctrl-C at start-up lands in the guarded entry point)."""
+    if name != "__version__":
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib.metadata import PackageNotFoundError, version
 
-try:
-    __version__ = version("contact-bench")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0+unknown"
+    try:
+        return version("contact-bench")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "0+unknown"

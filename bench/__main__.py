@@ -2,6 +2,6 @@
 
 import sys
 
-from contact_bench.cli.main import main
+from contact_bench.cli.entry import main
 
 sys.exit(main())

@@ -90,7 +90,7 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
     ("memory", ["--scheme", "bogus"], f"unknown scheme 'bogus'; allowed: {ALL_SCHEMES}"),
     ("startup", ["bogus"], f"unknown scheme 'bogus'; allowed: {ALL_SCHEMES}"),
     ("norm_cost", ["bogus"], f"unknown case 'bogus'; allowed: {ALL_CASES}"),
-    ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer >= 1, got 0"),
+    ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer in [2, 2e7], got 0"),
     ("eval_cost", ["bogus"], f"unknown case 'bogus'; allowed: {ALL_CASES}"),
     ("eval_cost", ["--cells-per-length", "0"], "--cells-per-length must be >= 1, got 0"),
     ("eval_cost", ["clamped_bar", "--cells-per-length", "100"], "--cells-per-length: the "

@@ -45,6 +45,8 @@ def _env() -> dict[str, str]:
 
 def _with_out(argv: tuple[str, ...], out: Path) -> list[str]:
     argv = list(argv)
+    if "--out" in argv:  # the entry's own (bad) --out
+        return argv
     if argv and argv[0] == "run":
         return ["run", "--out", str(out), *argv[1:]]
     return [*argv, "--out", str(out)]

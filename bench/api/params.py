@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any
 
-from contact_bench.core.errors import BenchError, unknown
+from contact_bench.core.errors import BenchError, shown, shown_repr, unknown
 
 
 @dataclass(frozen=True)
@@ -49,8 +50,11 @@ class Param:
         return f"{self.kind.__name__} in {left}{lo}, {hi}{right}"
 
     def convert(self, owner: str, name: str, raw: Any) -> Any:
-        """Parse and check a value; raise a one-line BenchError naming it."""
-        where = f"{owner}[{name}={raw}]"
+        """Parse and check a value; raise a one-line BenchError naming it.
+
+        Floats keep every digit (`format_value` writes them back exactly); -0.0 is 0.0.
+        """
+        where = f"{shown(owner)}[{shown(name)}={shown(raw)}]"
         try:
             if self.kind is bool:
                 if isinstance(raw, str):
@@ -60,15 +64,14 @@ class Param:
                 else:
                     value = bool(raw)
             elif self.kind is int:
-                value = int(float(raw)) if isinstance(raw, str) else raw
-                if float(value) != float(raw) or isinstance(value, bool):
-                    raise ValueError
-                value = int(value)
+                value = _to_int(raw)
             elif self.kind is float:
-                value = float(raw)
+                if isinstance(raw, bool):
+                    raise ValueError
+                value = float(raw) + 0.0  # -0.0 -> 0.0: one value, one spec
             else:
                 value = str(raw)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise BenchError(f"{where}: not a valid {self.kind.__name__}; "
                              f"allowed: {self.allowed()}") from None
         if self.choices is not None:
@@ -78,6 +81,9 @@ class Param:
             return value
         if isinstance(value, float) and not math.isfinite(value):
             raise BenchError(f"{where}: must be finite; allowed: {self.allowed()}")
+        if isinstance(value, float) and value != 0.0 and abs(value) < sys.float_info.min:
+            raise BenchError(f"{where}: subnormal (0 < |value| < {sys.float_info.min:.3g}), "
+                             f"too small to compute with; allowed: {self.allowed()}")
         if self.low is not None and (value < self.low or (self.low_open and value == self.low)):
             raise BenchError(f"{where}: out of range; allowed: {self.allowed()}")
         if self.high is not None and (value > self.high or (self.high_open and value == self.high)):
@@ -85,8 +91,37 @@ class Param:
         return value
 
 
-def _split_top(text: str) -> list[str]:
-    """Split on commas that are not inside brackets."""
+def _to_int(raw: Any) -> int:
+    """An integer from int, integral float or text ('3', '3.0', '1e3'); else ValueError."""
+    if isinstance(raw, bool):
+        raise ValueError
+    if isinstance(raw, int):
+        return raw
+    if isinstance(raw, str):
+        try:
+            return int(raw.strip())
+        except ValueError:
+            raw = float(raw)
+    value = float(raw)
+    if not value.is_integer():  # also inf and nan
+        raise ValueError
+    return int(value)
+
+
+def format_value(value: Any) -> str:
+    """A parameter value as spec text that parses back to the same value: a float as the
+    shorter of `:g` and repr that round-trips (0.25, 1e+08, 1.0000001, 1e-320); never
+    rounded. The rest as str."""
+    if isinstance(value, float):
+        value += 0.0  # -0.0 -> 0.0
+        short = f"{value:g}"
+        exact = repr(value)
+        return short if float(short) == value and len(short) <= len(exact) else exact
+    return str(value)
+
+
+def _split_top(text: str, spec: str) -> list[str]:
+    """Split on commas that are not inside brackets; an empty item is a BenchError."""
     parts, depth, cur = [], 0, []
     for ch in text:
         if ch == "[":
@@ -99,7 +134,10 @@ def _split_top(text: str) -> list[str]:
         else:
             cur.append(ch)
     parts.append("".join(cur))
-    return [p.strip() for p in parts if p.strip()]
+    items = [p.strip() for p in parts]
+    if any(not p for p in items) and text.strip():
+        raise BenchError(f"empty item in {shown(spec)!r}: remove the extra comma")
+    return [p for p in items if p]
 
 
 def parse_spec(spec: str) -> tuple[str, dict[str, str | list[str]]]:
@@ -110,17 +148,20 @@ def parse_spec(spec: str) -> tuple[str, dict[str, str | list[str]]]:
     if "[" not in spec:
         return spec, {}
     if not spec.endswith("]") or spec.count("[") != spec.count("]"):
-        raise BenchError(f"malformed spec {spec!r}: expected name[key=value,...]")
+        raise BenchError(f"malformed spec {shown_repr(spec)}: expected name[key=value,...]")
     name, inner = spec[: spec.index("[")].strip(), spec[spec.index("[") + 1 : -1]
     params: dict[str, str | list[str]] = {}
-    for item in _split_top(inner):
+    for item in _split_top(inner, spec):
         if "=" not in item:
-            raise BenchError(f"malformed parameter {item!r} in {spec!r}: expected key=value")
+            raise BenchError(f"malformed parameter {shown_repr(item)} in {shown_repr(spec)}: "
+                             "expected key=value")
         key, value = (s.strip() for s in item.split("=", 1))
         if key in params:
-            raise BenchError(f"parameter {key!r} given twice in {spec!r}")
+            raise BenchError(f"parameter {shown_repr(key)} given twice in {shown_repr(spec)}")
         if value.startswith("[") and value.endswith("]"):
-            params[key] = _split_top(value[1:-1])
+            params[key] = _split_top(value[1:-1], spec)
+            if not params[key]:
+                raise BenchError(f"{shown(name)}[{shown(key)}=[]]: an empty list of values")
         else:
             params[key] = value
     return name, params
@@ -145,16 +186,17 @@ def check_params(owner: str, declared: dict[str, Param], given: dict[str, Any]) 
     for key, raw in given.items():
         if key not in declared:
             if not declared:
-                raise BenchError(f"{owner} takes no parameters; got {key!r}")
+                raise BenchError(f"{owner} takes no parameters; got {shown_repr(key)}")
             raise unknown(f"parameter of {owner}", key, declared)
         if isinstance(raw, list):
-            raise BenchError(f"{owner}[{key}=[...]]: a list of values is only allowed in a sweep")
+            raise BenchError(f"{owner}[{shown(key)}=[...]]: a list of values is only allowed "
+                             "in a sweep")
         values[key] = declared[key].convert(owner, key, raw)
     return values
 
 
 def format_spec(name: str, declared: dict[str, Param], values: dict[str, Any]) -> str:
     """Canonical spec: the name and the non-default parameters in declaration order."""
-    changed = [f"{k}={values[k]:g}" if isinstance(values[k], float) else f"{k}={values[k]}"
-               for k, p in declared.items() if values[k] != p.default]
+    changed = [f"{k}={format_value(values[k])}" for k, p in declared.items()
+               if values[k] != p.default]
     return f"{name}[{','.join(changed)}]" if changed else name

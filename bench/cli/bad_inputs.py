@@ -26,6 +26,7 @@ import numpy as np
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case, Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.api.registry import cases, schemes
+from contact_bench.core.errors import shown
 
 
 class DemoBar(Case):
@@ -161,7 +162,7 @@ def bad_inputs() -> list[BadInput]:
         BadInput("dt NaN", _run("--dt", "nan"), "nan"),
         BadInput("dt inf", _run("--dt", "inf"), "inf"),
         BadInput("dt so small the samples do not fit in memory",
-                 _run("--dt", "1e-12"), "dt = 1e-12"),
+                 _run("--nx", "10000", "--dt", "1e-6"), "dt = 1e-06"),
         BadInput("T = 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "0"),
                  "got 0"),
         BadInput("T < 0", ("run", "--case", "clamped_bar", "--scheme", "standard", "--T", "-1"),
@@ -193,8 +194,74 @@ def bad_inputs() -> list[BadInput]:
         BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
         BadInput("plugin folder that does not exist", ("run", "--plugins", "no_such_folder"),
                  "no_such_folder"),
+        *_issue28_entries(),
     ]
     return fixed
+
+
+#: sweep options that keep a bad-input sweep from touching anything but its --out
+SWEEP = ("sweep", "--case", "clamped_bar", "--scheme", "standard", "--quiet", "--no-cache",
+         "-j", "1", "--repeats", "0")
+
+
+def _run_T(*extra: str, scheme: str = "standard") -> tuple[str, ...]:
+    return ("run", "--case", "clamped_bar", "--scheme", scheme, "--format", "csv", *extra)
+
+
+def _issue28_entries() -> list[BadInput]:
+    """Inputs that ended in a traceback, an internal-error row or a silent change."""
+    long_name = "x" * 100_000
+    return [
+        BadInput("integer parameter infinite", _run(scheme="nitsche[theta=inf]"), "theta=inf"),
+        BadInput("integer parameter of 400 digits", _run(scheme=f"nitsche[theta={'9' * 400}]"),
+                 "(400 characters)"),
+        BadInput("parameter subnormal", _run(scheme="standard[beta=5e-324]"), "beta=5e-324"),
+        BadInput("empty item in a list", (*SWEEP[:4], "penalty[gamma_p=[1,,2]]", *SWEEP[5:]),
+                 "[1,,2]"),
+        BadInput("empty list", (*SWEEP[:4], "penalty[gamma_p=[]]", *SWEEP[5:]), "gamma_p=[]"),
+        BadInput("empty grid (sweep --nx '')", (*SWEEP, "--nx", ""), "--nx"),
+        BadInput("name of 100,000 characters", _run(scheme=long_name), "(100000 characters)"),
+        BadInput("--T empty", _run_T("--T", ""), "--T"),
+        BadInput("--out empty", _run_T("--T", "0.1", "--out", ""), "--out is empty"),
+        BadInput("--out an existing file", _run_T("--T", "0.1", "--out", "/dev/null"),
+                 "/dev/null"),
+        BadInput("--out under a file", _run_T("--T", "0.1", "--out", "/dev/null/sub"),
+                 "/dev/null"),
+        BadInput("--out name too long", _run_T("--T", "0.1", "--out", "o" * 300),
+                 "too long"),
+        BadInput("sweep --out an existing file", (*SWEEP, "--out", "/dev/null"), "/dev/null"),
+        BadInput("report --out an existing file", ("report", "t.csv", "--out", "/dev/null"),
+                 "/dev/null"),
+        BadInput("--cache a file", (*SWEEP[:-5], "-j", "1", "--repeats", "0", "--cache",
+                                    "/dev/null"), "/dev/null"),
+        BadInput("--dask empty", (*SWEEP, "--dask", ""), "--dask"),
+        BadInput("study --error unknown column", ("study", "--quick", "--error", "bogus",
+                                                  "--no-cache", "--quiet"), "'bogus'"),
+        BadInput("dt larger than T", _run_T("--T", "0.1", "--dt", "10"), "dt = 10"),
+        BadInput("dt subnormal", _run_T("--T", "0.1", "--dt", "1e-320"), "got 1e-320"),
+        BadInput("dt so small the steps overflow", _run_T("--T", "1", "--dt", "1e-100"),
+                 "dt = 1e-100"),
+        BadInput("T so large the steps overflow", _run_T("--T", "1e308"), "T = 1e+308"),
+        BadInput("T beyond the runs' (and references') bound",
+                 _run_T("--T", "1e6", "--dt", "0.01", "--stride", "10000"), "T = 1e+06"),
+        BadInput("nx too large for memory", _run_T("--T", "0.1", "--nx", "1e9"),
+                 "1000000000"),
+        BadInput("nx = 1", _run_T("--T", "0.1", "--nx", "1"), "got 1"),
+        BadInput("grading too strong for the mesh", _run_T("--T", "0.1", "--grading", "50"),
+                 "grading = 50"),
+        BadInput("grading 1e5", _run_T("--T", "0.1", "--grading", "1e5"),
+                 "grading = 100000"),
+        BadInput("huge stride (printed short)", _run_T("--T", "0.1", "--stride", "1e300"),
+                 "stride = 1e+300"),
+        BadInput("one scheme's lowered dt keeps too many samples (named)",
+                 _run_T("--T", "1", "--nx", "100000", "--scheme", "redistributed[beta=0]"),
+                 "redistributed[beta=0] on clamped_bar"),
+        BadInput("sweep: stride larger than the steps", (*SWEEP, "--T", "0.1", "--stride",
+                                                         "1000"), "1000"),
+        BadInput("sweep: samples over memory", (*SWEEP, "--T", "0.1", "--nx", "10000", "--dt",
+                                                "1e-6"), "dt = 1e-06"),
+        BadInput("sweep: --max-samples 0", (*SWEEP, "--max-samples", "0"), "got 0"),
+    ]
 
 
 def try_input(argv: tuple[str, ...] | list[str]) -> tuple[int, str]:
@@ -208,6 +275,7 @@ def try_input(argv: tuple[str, ...] | list[str]) -> tuple[int, str]:
 
 
 def markdown_table() -> str:
+    from contact_bench.cli.entry import STARTING
     from contact_bench.cli.main import INTERRUPTED
 
     lines = ["| Bad input | Command | What the user sees (stderr) | Exit |",
@@ -215,10 +283,11 @@ def markdown_table() -> str:
     with demo_plugins():
         for item in bad_inputs():
             code, err = try_input(item.argv)
-            cmd = shlex.join(["contact-bench", *item.argv])
-            shown = err.strip().replace("|", "\\|")
-            lines.append(f"| {item.what} | `{cmd}` | `{shown}` | {code} |")
+            cmd = shown(shlex.join(["contact-bench", *item.argv]), 200)
+            seen = err.strip().replace("|", "\\|")
+            lines.append(f"| {item.what} | `{cmd}` | `{seen}` | {code} |")
     lines.append(f"| Ctrl-C during a run | (SIGINT) | `{INTERRUPTED}` | 130 |")
+    lines.append(f"| Ctrl-C while the modules import | (SIGINT) | `{STARTING}` | 130 |")
     lines.append("")
     lines.append("`demo_bar`, `raw_bar` and `demo_free_only` are demo plugins of "
                  "`bench/cli/bad_inputs.py`, registered only while the table is made.")

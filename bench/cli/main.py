@@ -12,12 +12,13 @@ from typing import TYPE_CHECKING, NoReturn
 
 from contact_bench import __version__
 from contact_bench.api.registry import PLUGINS_ENV, cases, checked_plugin_dirs, make_case, schemes
+from contact_bench.cli.checks import numbers, out_folder
 from contact_bench.cli.sweep_cli import COMMANDS as SWEEP_COMMANDS
 from contact_bench.cli.sweep_cli import add_commands as add_sweep_commands
 from contact_bench.cli.sweep_cli import run_command as run_sweep_command
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import provenance, return_freed_memory
-from contact_bench.harness.io import write_text
+from contact_bench.harness.io import folder_set, write_text
 from contact_bench.harness.runner import Run, reference, run_table
 
 if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
@@ -170,6 +171,14 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
                    formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
+    """The result set (tables, figures, README.md), written as one (`folder_set`)."""
+    with folder_set(out) as tmp:
+        names = [p.name for p in _write_set(tmp, df, runs, argv, formats, style)]
+    return [out / n for n in names]
+
+
+def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
+               formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
     from contact_bench.output.figures import contact_figure, save_figure, use_style
 
     prov = provenance(argv)
@@ -232,6 +241,9 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     default_job = not (args.case or args.scheme or args.nx or args.dt or args.T)
     case_names = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
     scheme_names = args.scheme or schemes().names()
+    out = args.out if args.out is not None else (DEFAULT_OUT if default_job else None)
+    if out is not None:
+        out_folder(out)  # before any run: a bad --out is not found after the work
     runs: list[Run] = []
     progress = Progress(not args.quiet and (args.progress or sys.stderr.isatty()))
     try:
@@ -241,7 +253,6 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
                        progress=progress)
     finally:
         progress.done()
-    out = args.out or (DEFAULT_OUT if default_job else None)
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))
     elif args.format == "json":
@@ -322,34 +333,6 @@ PLUGINS_HELP = (f"folder of plugin files (schemes, scenes; repeatable; added to 
                 "which sweep workers inherit)")
 
 
-_ALLOWED = {"nx": "an integer >= 1", "dt": "a number > 0", "T": "a number > 0",
-            "stride": "an integer >= 1"}
-
-
-def _numbers(values: list[str] | None, kind: type, name: str) -> list | None:
-    """Parse option values; ranges are checked by the harness (same messages as the API)."""
-    if not values:
-        return None
-    out = []
-    for v in values:
-        try:
-            if kind is float:
-                x: float | int = float(v)
-            else:
-                try:
-                    x = int(v)
-                except ValueError:
-                    f = float(v)  # 1e3 is an integer too
-                    if not f.is_integer():
-                        raise
-                    x = int(f)
-        except (ValueError, OverflowError):
-            raise BenchError(f"--{name} must be {_ALLOWED.get(name, kind.__name__)}, "
-                             f"got {v!r}") from None
-        out.append(x)
-    return out
-
-
 INTERRUPTED = "contact-bench: interrupted (no partial result files written)"
 
 
@@ -367,10 +350,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_list(args)
         if args.command in SWEEP_COMMANDS:
             return run_sweep_command(args, argv)
-        args.nx = _numbers(args.nx, int, "nx")
-        args.dt = _numbers(args.dt, float, "dt")
-        args.T = _numbers([args.T], float, "T")[0] if args.T else None
-        args.stride = (_numbers([args.stride], int, "stride")[0]
+        args.nx = numbers(args.nx, int, "nx")
+        args.dt = numbers(args.dt, float, "dt")
+        args.T = numbers([args.T], float, "T")[0] if args.T is not None else None
+        args.stride = (numbers([args.stride], int, "stride")[0]
                        if args.stride is not None else None)
         from contact_bench.output.figures import check_formats, check_style
 

@@ -10,6 +10,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from contact_bench.cli.checks import dask_address, numbers, out_folder, positive_int
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import provenance
 
@@ -58,8 +59,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--dt", action="append", help="time steps, repeatable or comma-separated")
     s.add_argument("--cfl", action="append",
                    help="CFL = c dt / h at each nx instead of --dt (repeatable or commas)")
-    s.add_argument("--T", type=float, help="final time (default: the case's)")
-    s.add_argument("--stride", type=int, default=1, help="keep a sample every K steps")
+    s.add_argument("--T", help="final time (default: the case's)")
+    s.add_argument("--stride", default="1", help="keep a sample every K steps")
     s.add_argument("--max-samples", type=int,
                    help="raise the stride so that about this many samples are kept")
     s.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x = 0")
@@ -85,38 +86,29 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     _runner_options(st)
 
 
-def _values(raw: list[str] | None, kind: type, name: str) -> list | None:
-    if not raw:
-        return None
-    out = []
-    for item in raw:
-        for v in item.split(","):
-            v = v.strip()
-            if not v:
-                continue
-            try:
-                out.append(kind(v) if kind is float else int(v))
-            except ValueError:
-                what = "a number" if kind is float else "an integer"
-                raise BenchError(f"--{name} must be {what}, got {v!r}") from None
-    return out
-
-
 def _cache(args: argparse.Namespace):  # noqa: ANN202
+    """The run cache, checked writable before any run (a bad --cache fails first)."""
     from contact_bench.sweeps.cache import Cache, default_cache_dir
 
     if args.no_cache:
         return Cache(None)
-    return Cache(Path(args.cache) if args.cache else default_cache_dir())
+    if args.cache is not None and not args.cache.strip():
+        raise BenchError("--cache is empty; give a folder (or --no-cache)")
+    cache = Cache(Path(args.cache) if args.cache else default_cache_dir())
+    cache.check_writable()
+    return cache
 
 
 def _check_runner(args: argparse.Namespace) -> None:
+    """Checks of the runner options and of --out, before any work."""
+    out_folder(args.out)
     if args.jobs < 1:
         raise BenchError(f"-j must be >= 1, got {args.jobs}")
     if args.repeats is None:
         args.repeats = 2 if getattr(args, "quick", False) else 5
     if args.repeats < 0:
         raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
+    dask_address(args.dask)
 
 
 def _tracebacks(res, show: bool) -> None:  # noqa: ANN001
@@ -145,15 +137,18 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.sweeps.sweep import plan, run_sweep, save_table
 
     _check_runner(args)
-    nxs = _values(args.nx, int, "nx") or [None]
-    dts = _values(args.dt, float, "dt")
-    cfls = _values(args.cfl, float, "cfl")
+    nxs = numbers(args.nx, int, "nx", commas=True) or [None]
+    dts = numbers(args.dt, float, "dt", commas=True)
+    cfls = numbers(args.cfl, float, "cfl", commas=True)
+    T = numbers([args.T], float, "T")[0] if args.T is not None else None
+    stride = numbers([args.stride], int, "stride")[0]
+    positive_int(args.max_samples, "max-samples")
     case_specs = args.case or [n for n, c in cases().plugins.items() if c.in_default_run]
     scheme_specs = args.scheme or schemes().names()
-    tasks = plan(case_specs, scheme_specs, nxs, dts, cfls, args.T, args.stride,
+    tasks = plan(case_specs, scheme_specs, nxs, dts, cfls, T, stride,
                  args.max_samples, args.grading)
-    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet,
-                    args.retime)
+    cache = _cache(args)
+    res = run_sweep(tasks, args.jobs, args.dask, cache, args.repeats, args.quiet, args.retime)
     written = save_table(res.table, Path(args.out) / "sweep.csv", provenance(argv))
     _summary(res, written[0], args.quiet)
     _tracebacks(res, args.traceback)
@@ -162,9 +157,11 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
 
 def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.output.report import check_report_options, write_report
-    from contact_bench.sweeps.sweep import load_table
+    from contact_bench.sweeps.sweep import check_error_column, load_table
 
+    out_folder(args.out)
     df = load_table(args.table)
+    check_error_column(df, args.error)
     check_report_options(df, args.error, args.fig_format, args.style, args.energy_runs)
     written = write_report(df, args.out, argv, args.error, args.fig_format, args.style,
                            args.energy_runs, _saved_time_orders(args.table))
@@ -183,22 +180,20 @@ def _saved_time_orders(table: str):  # noqa: ANN202 - pandas is imported lazily
 
 
 def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
-    from contact_bench.harness.metrics import ERROR_COLUMNS
     from contact_bench.output.figures import check_formats, check_style
     from contact_bench.output.report import write_report
     from contact_bench.sweeps.study import plan_study
-    from contact_bench.sweeps.sweep import run_sweep, save_table
+    from contact_bench.sweeps.sweep import check_error_column, run_sweep, save_table
     from contact_bench.sweeps.time_order import time_order_table
 
     _check_runner(args)
     check_formats(args.fig_format)
     check_style(args.style)
-    if args.error not in ERROR_COLUMNS:  # checked before the sweep, not after it
-        raise BenchError(f"--error must be one of {', '.join(ERROR_COLUMNS)}; "
-                         f"got {args.error!r}")
+    check_error_column(None, args.error)  # checked before the sweep, not after it
     start = time.perf_counter()
     tasks = plan_study(args.quick, args.scheme, args.case)
-    res = run_sweep(tasks, args.jobs, args.dask, _cache(args), args.repeats, args.quiet,
+    cache = _cache(args)
+    res = run_sweep(tasks, args.jobs, args.dask, cache, args.repeats, args.quiet,
                     args.retime)
     out = Path(args.out)
     written = save_table(res.table, out / "sweep.csv", provenance(argv))

@@ -27,10 +27,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.params import format_value
 from contact_bench.api.plugin import Case, Exact, Scheme, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
-from contact_bench.core.errors import BenchError
+from contact_bench.core.errors import BenchError, shown_repr
 from contact_bench.harness import metrics
 from contact_bench.harness.metrics import (
     ERROR_COLUMNS,
@@ -123,25 +124,63 @@ def reference(case: Case, T: float) -> Exact | None:
     return exact
 
 
-def _check_positive(name: str, value: float) -> float:
+def _num(x: float) -> str:
+    """A number for a message: as typed when short (1e-320), else `:.6g`."""
+    text = format_value(float(x))
+    return text if len(text) <= 12 else f"{x:.6g}"
+
+
+def _many(x: float) -> str:
+    return f"{x:.3g}" if math.isfinite(x) else "more than 1e308"
+
+
+def _int_text(n: int) -> str:
+    """An integer for a message: whole up to 12 digits, else like 1.23e+300."""
+    if abs(n) < 10**12:
+        return str(n)
+    if abs(n) < 10**308:
+        return f"{float(n):.3g}"
+    s = str(abs(n))  # beyond a float's range
+    return f"{'-' if n < 0 else ''}{s[0]}.{s[1:3]}e+{len(s) - 1}"
+
+
+def _check_positive(name: str, value: Any) -> float:
+    if isinstance(value, bool):
+        raise BenchError(f"{name} must be a number > 0, got {value!r}")
     try:
         value = float(value)
-    except (TypeError, ValueError):
-        raise BenchError(f"{name} must be a number > 0, got {value!r}") from None
+    except (TypeError, ValueError, OverflowError):
+        raise BenchError(f"{name} must be a number > 0, got {shown_repr(value)}") from None
     if not (math.isfinite(value) and value > 0):
         raise BenchError(f"{name} must be finite and > 0, got {value!r}")
+    if name in {"dt", "T"} and value < MIN_TIME:
+        raise BenchError(f"{name} must be >= {MIN_TIME:g} (dt^2 must not underflow), "
+                         f"got {_num(value)}")
     return value
 
 
+#: smallest dt and T: kernels divide by dt^2, which must stay a normal float
+MIN_TIME = 1e-150
+
+
+#: smallest and largest number of elements: below 2 some schemes have no free node
+#: besides the contact node; above, the mesh alone would not fit the memory budget
+MIN_NX = 2
+MAX_NX = 20_000_000
+
+
 def _check_nx(nx: Any) -> int:
+    allowed = f"an integer in [{MIN_NX}, {MAX_NX:.0e}]".replace("e+0", "e")
     if isinstance(nx, bool) or not isinstance(nx, int | np.integer | str | float):
-        raise BenchError(f"nx must be an integer >= 1, got {nx!r}")
+        raise BenchError(f"nx must be {allowed}, got {shown_repr(nx)}")
     try:
         value = int(nx) if not isinstance(nx, str) else int(nx.strip())
-    except ValueError:
-        raise BenchError(f"nx must be an integer >= 1, got {nx!r}") from None
-    if value < 1 or (isinstance(nx, float) and value != nx):
-        raise BenchError(f"nx must be an integer >= 1, got {nx!r}")
+    except (ValueError, OverflowError):
+        raise BenchError(f"nx must be {allowed}, got {shown_repr(nx)}") from None
+    if isinstance(nx, float) and value != nx:
+        raise BenchError(f"nx must be {allowed}, got {nx!r}")
+    if not MIN_NX <= value <= MAX_NX:
+        raise BenchError(f"nx must be {allowed}, got {_int_text(value)}")
     return value
 
 
@@ -159,9 +198,12 @@ def check_task_inputs(nx: Any = None, dt: Any = None, T: Any = None, cfl: Any = 
 
 
 def _check_stride(stride: Any) -> int:
-    if (isinstance(stride, bool) or not isinstance(stride, int | np.integer | float)
-            or stride != stride or int(stride) != stride or stride < 1):
-        raise BenchError(f"stride must be an integer >= 1, got {stride!r}")
+    ok = (not isinstance(stride, bool) and isinstance(stride, int | np.integer | float)
+          and stride == stride and abs(stride) != math.inf and int(stride) == stride
+          and stride >= 1)
+    if not ok:
+        text = _int_text(stride) if isinstance(stride, int) else shown_repr(stride)
+        raise BenchError(f"stride must be an integer >= 1, got {text}")
     return int(stride)
 
 
@@ -169,7 +211,7 @@ def _check_grading(grading: Any) -> float:
     try:
         value = float(grading)
     except (TypeError, ValueError):
-        raise BenchError(f"grading must be a number >= 1, got {grading!r}") from None
+        raise BenchError(f"grading must be a number >= 1, got {shown_repr(grading)}") from None
     if not (math.isfinite(value) and value >= 1.0):
         raise BenchError(f"grading must be a finite number >= 1, got {grading!r}")
     return value
@@ -177,6 +219,27 @@ def _check_grading(grading: Any) -> float:
 
 #: largest sample buffers a run may allocate (U and V, float64), in bytes
 MAX_SAMPLE_BYTES = 4 * 2**30
+#: most time steps of one run (a smaller dt is refused up front, not run for days)
+MAX_STEPS = 10**9
+#: longest run, in wave transits of the bar (T c_max / L): this bounds the cost of a
+#: reference (characteristics, numerical) as the sample memory bounds a run's
+MAX_TRANSITS = 1e5
+#: the graded mesh's smallest element, as a fraction of the bar: below, the system
+#: matrices lose positive definiteness in round-off
+MIN_ELEMENT_FRACTION = 1e-10
+
+
+def check_mesh_grading(nx: int, grading: float) -> None:
+    """The smallest element of a graded mesh is L (1/nx)^grading: refuse it too small."""
+    if grading == 1.0:
+        return
+    smallest = grading * -math.log10(nx)  # log10 of h_min / L
+    if smallest < math.log10(MIN_ELEMENT_FRACTION):
+        top = math.log10(MIN_ELEMENT_FRACTION) / -math.log10(nx)
+        raise BenchError(
+            f"grading = {_num(grading)} at nx = {nx} makes the smallest element "
+            f"1e{smallest:.0f} of the bar's length; allowed: at least "
+            f"{MIN_ELEMENT_FRACTION:g} (grading <= {math.floor(top * 100) / 100:g} at this nx)")
 
 
 @dataclass
@@ -226,36 +289,66 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
         row.update(dt=dt, status="not applicable", notes=reason)
         return _Plan(case, scheme, row, notes)
 
+    check_mesh_grading(nx, grading)
+    if dt > T and dt_given:
+        raise BenchError(f"dt = {_num(dt)} is larger than T = {_num(T)}; allowed: dt <= T")
+    if dt > T:  # a short run of a scene: its default dt is one step to T
+        notes.append(f"dt lowered to T (the default {_num(dt)} is larger)")
+        dt = T
+    if T / dt > MAX_STEPS:
+        raise BenchError(f"dt = {_num(dt)} with T = {_num(T)} makes {_many(T / dt)} steps; "
+                         f"allowed: at most {MAX_STEPS:.0e} steps (a larger dt or a smaller T)")
     x = mesh_nodes(_check_length(case), nx, grading)
     semi = discretise(case, x, scheme.mass_kind())
+    transits = T * semi.c_max / float(x[-1] - x[0])
+    if not transits <= MAX_TRANSITS:
+        raise BenchError(f"T = {_num(T)} is {transits:.3g} wave transits of {case.spec}; "
+                         f"allowed: at most {MAX_TRANSITS:g} (T <= "
+                         f"{_num(MAX_TRANSITS * float(x[-1] - x[0]) / semi.c_max)})")
     limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    lowered = ""
     if limit is not None and dt > limit * (1 + 1e-12):
         if dt_given and not allow_unstable:
             raise BenchError(
-                f"dt = {dt:g} is above the stability limit {limit:.6g} of {scheme.spec} "
+                f"dt = {_num(dt)} is above the stability limit {limit:.6g} of {scheme.spec} "
                 f"at nx = {nx} (pass --allow-unstable to run it anyway)")
         if dt_given:
             notes.append(f"dt above the stability limit {limit:.4g} (--allow-unstable)")
         else:  # the case's default dt is too large for this explicit scheme
             dt = 0.9 * limit
             notes.append(f"dt lowered to 0.9 x the stability limit {limit:.4g}")
+            lowered = " (lowered to 0.9 x its stability limit)"
+    if T / dt > MAX_STEPS:  # the lowered dt of an explicit scheme
+        raise BenchError(f"{scheme.spec} on {case.spec}: dt = {_num(dt)}{lowered} with "
+                         f"T = {_num(T)} makes {_many(T / dt)} steps; "
+                         f"allowed: at most {MAX_STEPS:.0e} steps")
     steps = max(1, math.ceil(T / dt - 1e-9))
     if stride > steps and not stride_given:
         stride = steps  # a short run of a long scene: its default stride is too coarse
         row["stride"] = stride
     if stride > steps:
-        raise BenchError(f"stride = {stride} is larger than the number of steps ({steps})")
+        raise BenchError(f"stride = {_int_text(stride)} is larger than the number of steps "
+                         f"({steps})")
     samples = steps // stride + 2
     if 16.0 * samples * semi.nfree > MAX_SAMPLE_BYTES:
         need = math.ceil(16.0 * steps * semi.nfree / MAX_SAMPLE_BYTES)
-        need_s = str(need) if need < 10**9 else f"{float(need):.3g}"
-        fix = f"a larger dt or --stride >= {need_s}" if need <= steps / 2 else "a larger dt"
+        fix = (f"a larger dt or --stride >= {_int_text(need)}" if need <= steps / 2
+               else "a larger dt")
         raise BenchError(
-            f"dt = {dt:g} with T = {T:g} and nx = {nx} keeps {float(samples):.3g} samples of "
-            f"{semi.nfree} values (over {MAX_SAMPLE_BYTES / 2**30:g} GiB); allowed: {fix}")
+            f"{scheme.spec} on {case.spec}: dt = {_num(dt)}{lowered} with T = {_num(T)} and "
+            f"nx = {nx} keeps {float(samples):.3g} samples of {semi.nfree} values (over "
+            f"{MAX_SAMPLE_BYTES / 2**30:g} GiB); allowed: {fix}")
     T_run = steps * dt
     row.update(dt=dt, T=T_run, steps=steps)
     return _Plan(case, scheme, row, notes, semi, dt, steps, stride, T_run)
+
+
+def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
+              grading: Any = 1.0, allow_unstable: bool = False) -> None:
+    """Every check of `run_one` that needs no time stepping (a sweep's inputs are checked
+    so before its first run); bad input raises BenchError."""
+    check_mesh_grading(_check_nx(nx), _check_grading(grading))
+    _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False)
 
 
 def _check_length(case: Case) -> float:

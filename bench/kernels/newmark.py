@@ -22,11 +22,14 @@ velocity is taken as the backward difference (u0^{n+1} - u0^n) / dt.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import energy_of
 from contact_bench.core.spike import L, Spike, lane_zeros, spike_factor, stencil_solve
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve
@@ -190,6 +193,9 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         return trajectory(out, *res, dt)
     if beta > 0.0:
         bdt2 = beta * dt2
+        if not (bdt2 > 0.0 and math.isfinite(1.0 / bdt2)):
+            raise BenchError(f"Newmark beta = {beta!r} with dt = {dt!r}: 1 / (beta dt^2) "
+                             "overflows; allowed: a larger beta or dt")
         sp = spike_factor(M.diag + bdt2 * K.diag, M.off + bdt2 * K.off, MIN_ROWS)
         # S X + G = M U~ + beta dt^2 F; X = U~ = U + dt V + (1/2 - beta) dt^2 A
         Sd, Slo, G = sp.to_lanes(M.diag), sp.lower_to_lanes(M.off), _load_to_lanes(sp, F, bdt2)

@@ -9,7 +9,8 @@ files of a plugin folder are loaded as `contact_bench.plugins.<stem>` and count 
 built-ins; an entry-point plugin's module counts with the modules of its own top-level
 package that it reaches. Editing any of them gives new keys, so stale rows are never served.
 
-Each entry is one small JSON file, written atomically (`contact_bench.harness.io`) by the
+Each entry is one small JSON file (its key, a digest and the row; verified when read,
+see `Cache`), written atomically (`contact_bench.harness.io`) by the
 process that collects the results as each run finishes: a sweep killed half-way keeps every run
 finished so far, and the next identical sweep starts from there.
 """
@@ -23,11 +24,14 @@ import math
 import os
 import pkgutil
 import sys
+import tempfile
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from contact_bench.core.errors import BenchError, shown
 from contact_bench.harness.io import write_text
 
 PROJECT_PACKAGES = ("contact_bench",)
@@ -109,25 +113,77 @@ def _plain(value: Any) -> Any:
     return value
 
 
+#: what `Cache.get` verifies returns None (valid) or why the entry is refused
+Check = Callable[[dict[str, Any]], "str | None"]
+
+
+def digest(row: dict[str, Any]) -> str:
+    """SHA-256 of a stored row's canonical JSON (what `Cache.put` writes)."""
+    text = json.dumps(row, sort_keys=True, allow_nan=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 class Cache:
-    """One JSON file per key under `root/ab/abcdef....json`; `None` root: no caching."""
+    """One JSON file per key under `root/ab/abcdef....json`; `None` root: no caching.
+
+    An entry is ``{"key", "digest", "row"}``: its own key, the SHA-256 of its row, the
+    row. `get` serves an entry only when it is a JSON object of that form, its key is
+    the one asked for (not another run's entry copied in), its digest matches (no hand
+    edit) and the caller's `check` of the row's columns and types passes. Anything
+    else is a miss: the run is recomputed and the entry rewritten; the first refused
+    entry is said once on stderr (`refused` counts them).
+    """
 
     def __init__(self, root: str | Path | None) -> None:
         self.root = None if root is None else Path(root)
+        self.refused = 0
 
     def _path(self, key: str) -> Path:
         assert self.root is not None
         return self.root / key[:2] / f"{key}.json"
 
-    def get(self, key: str) -> dict[str, Any] | None:
+    def check_writable(self) -> None:
+        """Raise a one-line BenchError unless entries can be written under the root
+        (called before any run, so a bad cache folder fails before the work)."""
+        if self.root is None:
+            return
+        root = self.root
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+            fd, probe = tempfile.mkstemp(prefix=".probe.", dir=root)
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:
+            why = exc.strerror or type(exc).__name__
+            raise BenchError(f"cache folder {shown(str(root))} is not a writable folder "
+                             f"({why}); give another --cache or CONTACT_BENCH_CACHE, "
+                             "or --no-cache") from None
+
+    def get(self, key: str, check: Check | None = None) -> dict[str, Any] | None:
+        """The verified row stored under key, else None (see the class docstring)."""
         if self.root is None:
             return None
         path = self._path(key)
         try:
             with open(path, encoding="utf-8") as fh:
-                return json.load(fh)
-        except (OSError, ValueError):  # missing, or unreadable: recompute
+                entry = json.load(fh)
+        except FileNotFoundError:
             return None
+        except (OSError, ValueError, RecursionError):  # unreadable or cut short
+            return self._refuse(path, "not readable JSON")
+        reason = _verify(entry, key)
+        if reason is None and check is not None:
+            reason = check(entry["row"])
+        if reason is not None:
+            return self._refuse(path, reason)
+        return dict(entry["row"])
+
+    def _refuse(self, path: Path, reason: str) -> None:
+        self.refused += 1
+        if self.refused == 1:
+            print(f"contact-bench: note: cache entry {path} refused ({shown(reason)}); its run "
+                  "is recomputed (any further damaged entries silently)", file=sys.stderr)
+        return None
 
     def put(self, key: str, row: dict[str, Any]) -> None:
         if self.root is None:
@@ -135,9 +191,24 @@ class Cache:
         plain = {k: _plain(v) for k, v in row.items()}
         plain = {k: (None if isinstance(v, float) and math.isnan(v) else v)
                  for k, v in plain.items()}
-        write_text(self._path(key), json.dumps(plain, allow_nan=True, default=str))
+        plain = json.loads(json.dumps(plain, allow_nan=True, default=str))  # as read back
+        entry = {"key": key, "digest": digest(plain), "row": plain}
+        write_text(self._path(key), json.dumps(entry, allow_nan=True))
 
     def __len__(self) -> int:
         if self.root is None or not self.root.exists():
             return 0
         return sum(1 for p in self.root.glob("*/*.json") if not p.name.startswith("."))
+
+
+def _verify(entry: Any, key: str) -> str | None:
+    """Why an entry read under key is not a valid one (None: valid envelope)."""
+    if not isinstance(entry, dict) or set(entry) != {"key", "digest", "row"}:
+        return "not a cache entry"
+    if entry["key"] != key:
+        return "stored under another key"
+    if not isinstance(entry["row"], dict):
+        return "its row is not an object"
+    if entry["digest"] != digest(entry["row"]):
+        return "its content does not match its digest"
+    return None

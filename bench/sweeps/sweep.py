@@ -34,9 +34,11 @@ from __future__ import annotations
 
 import datetime as _dt
 import gc
+import io
 import json
 import math
 import multiprocessing as mp
+import signal
 import time
 import traceback
 from collections.abc import Callable, Iterable, Sequence
@@ -52,12 +54,18 @@ from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import expand_spec
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme, plugin_dirs, use_plugin_dirs
-from contact_bench.core.errors import BenchError
+from contact_bench.core.errors import BenchError, shown
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
 from contact_bench.harness.runner import COLUMNS as HARNESS_COLUMNS
-from contact_bench.harness.runner import check_task_inputs, run_one
+from contact_bench.harness.runner import (
+    MAX_STEPS,
+    check_mesh_grading,
+    check_run,
+    check_task_inputs,
+    run_one,
+)
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
 #: energy |E| above this multiple of |E(0)| (or not finite) is a blow-up
@@ -195,8 +203,37 @@ def _stride_for(task: dict[str, Any], dt: float | None, case: Any, limit: float 
     dt_est = case.dt if dt is None else dt
     if dt is None and limit is not None and dt_est > limit:
         dt_est = 0.9 * limit
+    if not T / dt_est <= MAX_STEPS:  # refused by the run's checks
+        return int(task["stride"])
     steps = max(1, math.ceil(T / dt_est - 1e-9))
     return max(int(task["stride"]), min(steps, math.ceil(steps / int(task["max_samples"]))))
+
+
+def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, Any]) -> None:
+    """Every check `execute_task`'s run makes on its inputs, without running: a bad input
+    (stride above the steps, samples over memory, ...) is a BenchError before the sweep
+    starts, as in `run`. `semis` keeps the meshes' problems for the next checks."""
+    case, scheme = made
+    if scheme.cannot_run(case) or case.cannot_run(scheme):
+        return
+    try:
+        nx, grading = int(task["nx"]), float(task["grading"])
+        T = float(case.T if task["T"] is None else task["T"])
+        skey = (case.spec, nx, grading, scheme.mass_kind())
+        if skey not in semis:
+            check_mesh_grading(nx, grading)
+            semis.clear()  # one mesh at a time: memory does not grow with the grid
+            semis[skey] = discretise(case, mesh_nodes(float(case.L), nx, grading),
+                                     scheme.mass_kind())
+        semi = semis[skey]
+        limit = scheme.stability_limit(semi.hmin, semi.c_max)
+        dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * semi.hmin / semi.c_max
+        stride = _stride_for(task, dt, case, limit, T)
+        check_run(case, scheme, nx, dt, T, stride, grading, True)
+    except BenchError:
+        raise
+    except Exception:  # noqa: BLE001, S110 - a broken plugin is an error row when it runs
+        return
 
 
 def execute_task(task: dict[str, Any]) -> dict[str, Any]:
@@ -324,17 +361,37 @@ def _run_serial(todo: list[tuple[str, dict]], done: Callable[[str, dict], None])
         done(key, execute_task(task))
 
 
+def _ignore_sigint() -> None:
+    """Worker start-up: Ctrl-C is the parent's to handle (one message, no worker
+    tracebacks); the parent ends the workers."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict], None]) -> None:
     ctx = mp.get_context("spawn")  # no fork of a process holding threads (tqdm, numba)
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    # the workers start with SIGINT blocked (the mask is inherited), then ignore it
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
+        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_ignore_sigint)
         pending = {pool.submit(execute_task, task): key for key, task in todo}
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    try:
         while pending:
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in finished:
                 done(pending.pop(fut), fut.result())
+    except BaseException:
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()  # interrupted: the running tasks are not waited for
+        raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+#: how long a Dask scheduler has to answer
+DASK_TIMEOUT = "5s"
 
 
 def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
@@ -352,7 +409,7 @@ def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
                                dashboard_address=":0", silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
-        client = Client(address)
+        client = Client(address, timeout=DASK_TIMEOUT)
     try:
         futures = {client.submit(execute_task, task, key=f"run-{key}", pure=False): key
                    for key, task in todo}
@@ -406,16 +463,23 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
             meta[key]["timed"] = meta[key]["timed"] or task.timed
             continue
         order.append(key)
-        meta[key] = {"inputs": inputs, "code": code, "group": task.group, "timed": task.timed}
+        meta[key] = {"inputs": inputs, "code": code, "group": task.group, "timed": task.timed,
+                     "case": task.case, "scheme": task.scheme}
 
+    if not order:
+        raise BenchError("the sweep has no runs (an empty grid)")
     rows: dict[str, dict[str, Any]] = {}
     for key in order:
-        hit = cache.get(key)
+        hit = cache.get(key, lambda row, key=key: _check_run_row(row, meta[key]["inputs"]))
         if hit is not None:
             rows[key] = dict(hit, from_cache=True)
     # a worker process (spawned, or a dask worker elsewhere) loads the same plugin folders
     todo = [(key, dict(meta[key]["inputs"], plugins=plugin_dirs()))
             for key in order if key not in rows]
+    semis: dict[tuple, Any] = {}
+    for key, inputs in todo:  # bad input fails here, before any run (not as error rows)
+        check_task(inputs, made[(meta[key]["case"], meta[key]["scheme"])], semis)
+    del semis
     n_cached = len(rows)
     bar = _progress(len(order), n_cached, "runs", quiet)
 
@@ -447,6 +511,56 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
                        tracebacks)
 
 
+STATUSES = ("ok", "unstable", "error", "not applicable")
+_INT_COLUMNS = ("nx", "steps", "stride", "order_declared")
+_FLOAT_COLUMNS = ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
+                  "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
+                  "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", "wall_s",
+                  "run_s")
+_TEXT_COLUMNS = ("case", "scheme", "case_name", "scheme_name", "status", "stability", "notes",
+                 "reference", "energy_trait", "contact", "energy_trace", "key", "code_hash",
+                 "run_date")
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _check_run_row(row: dict[str, Any], inputs: dict[str, Any]) -> str | None:
+    """Why a cached run row cannot be served for these inputs (None: it can)."""
+    missing = [c for c in COLUMNS if c not in row and c not in VOLATILE_COLUMNS]
+    if missing:
+        return f"column {missing[0]!r} missing"
+    if row["status"] not in STATUSES:
+        return f"status {row['status']!r}"
+    for col in _INT_COLUMNS:
+        if row[col] is not None and (not _number(row[col]) or row[col] != int(row[col])):
+            return f"{col} = {row[col]!r} is not an integer"
+    for col in _FLOAT_COLUMNS:
+        if row.get(col) is not None and not _number(row[col]):
+            return f"{col} = {row[col]!r} is not a number"
+    for col in _TEXT_COLUMNS:
+        if row.get(col) is not None and not isinstance(row[col], str):
+            return f"{col} = {row[col]!r} is not text"
+    for col in ("case", "scheme", "nx"):
+        if row[col] != inputs[col]:
+            return f"{col} = {row[col]!r}, this run's is {inputs[col]!r}"
+    return None
+
+
+def _check_timing_row(row: dict[str, Any]) -> str | None:
+    """Why a cached timing cannot be served (None: it can): two non-empty lists of
+    finite positive times, `times` (the recorded run) and `step_times` (stepping alone)."""
+    if not isinstance(row, dict) or set(row) != {"times", "step_times"}:
+        return "not a timing entry"
+    for name in ("times", "step_times"):
+        values = row[name]
+        if not (isinstance(values, list) and values
+                and all(_number(v) and math.isfinite(v) and v > 0 for v in values)):
+            return f"{name} = {shown(repr(values))}"
+    return None
+
+
 def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
                  cache: Cache, repeats: int, quiet: bool, retime: bool = False) -> int:
     """Serial timings in this process, after all parallel work is over (see module doc)."""
@@ -458,8 +572,8 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     for key in wanted:
         tkey = run_key({"run": key, "cpu": machine, "repeats": repeats,
                         "measures": ["time_s", "step_s"]}, meta[key]["code"], kind="timing")
-        hit = None if retime else cache.get(tkey)
-        if hit is not None and "times" in hit and "step_times" in hit:
+        hit = None if retime else cache.get(tkey, _check_timing_row)
+        if hit is not None:
             rows[key].update(timing_stats(hit["times"]))
             rows[key].update(timing_stats(hit["step_times"], "step"))
         else:
@@ -598,21 +712,82 @@ def read_provenance(path: str | Path) -> str | None:
     return None
 
 
+#: columns a saved table must have for `report` (what the analysis reads)
+TABLE_COLUMNS = ("group", "case", "scheme", "nx", "h", "dt", "cfl", "T", "steps", "status",
+                 "stability", "notes", "time_s", "energy_trace")
+
+
 def load_table(path: str | Path) -> pd.DataFrame:
-    """A saved sweep table (CSV or Parquet), with the column types `run_sweep` gives."""
+    """A saved sweep table (CSV or Parquet), with the column types `run_sweep` gives.
+
+    A file that is not such a table (empty, only comments, binary, not UTF-8, cut so
+    that it does not parse, columns missing) is a one-line BenchError naming it.
+    """
     path = Path(path)
     if not path.exists():
-        raise BenchError(f"no such table: {path}")
-    if path.suffix == ".parquet":
-        df = pd.read_parquet(path)
-    else:
-        with open(path, encoding="utf-8") as fh:
-            skip = 0
-            for line in fh:
-                if not line.startswith("#"):
-                    break
-                skip += 1
-        df = pd.read_csv(path, skiprows=skip, keep_default_na=True)
-    if "case" not in df or "scheme" not in df:
-        raise BenchError(f"{path} is not a sweep table: it has no 'case' and 'scheme' columns")
+        raise BenchError(f"no such table: {shown(str(path))}")
+    if not path.is_file():
+        raise BenchError(f"{shown(str(path))} is not a file")
+    try:
+        if path.suffix == ".parquet":
+            df = pd.read_parquet(path)
+        else:
+            raw = path.read_bytes()
+            if b"\0" in raw:
+                raise ValueError("binary content (or not UTF-8 text)")
+            lines = raw.decode("utf-8").splitlines(keepends=True)
+            skip = next((i for i, line in enumerate(lines) if not line.startswith("#")),
+                        len(lines))
+            text = "".join(lines[skip:])
+            _check_fields(text)
+            df = pd.read_csv(io.StringIO(text), keep_default_na=True)
+    except (OSError, ValueError, UnicodeError, ImportError) as exc:
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())
+        raise BenchError(f"{shown(str(path))} is not a readable sweep table ({shown(why)})"
+                         ) from None
+    missing = [c for c in TABLE_COLUMNS if c not in df]
+    if missing:
+        raise BenchError(f"{shown(str(path))} is not a sweep table: column(s) "
+                         f"{', '.join(missing[:5])} missing")
+    if df.empty:
+        raise BenchError(f"{shown(str(path))} is a sweep table with no rows")
+    for number, trace in enumerate(df["energy_trace"], start=1):
+        if isinstance(trace, str):
+            try:
+                json.loads(trace)
+            except ValueError:
+                raise BenchError(f"{shown(str(path))}: row {number}'s energy_trace is not "
+                                 "valid JSON (cut short?)") from None
     return add_param_columns(_frame(df.to_dict("records")))
+
+
+def _check_fields(text: str) -> None:
+    """Every CSV record has the header's number of fields (a row cut short is refused,
+    not read with blanks); raises ValueError naming the first that does not."""
+    import csv
+
+    if text and not text.endswith("\n"):
+        raise ValueError("the last row is cut short (no final newline)")
+    records = csv.reader(io.StringIO(text, newline=""))
+    header = next(records, None)
+    for number, record in enumerate(records, start=1):
+        if header is not None and len(record) != len(header):
+            raise ValueError(f"row {number} has {len(record)} of {len(header)} fields "
+                             "(cut short?)")
+
+
+#: error columns `report` and `study` can analyse (`--error`)
+ANALYSABLE = (*ERROR_COLUMNS, "energy_drift_max", "energy_growth_max", "penetration_max")
+
+
+def check_error_column(df: pd.DataFrame | None, error: str) -> None:
+    """--error names a numeric column: one of ANALYSABLE, and a numeric one of df."""
+    if error not in ANALYSABLE:
+        from contact_bench.core.errors import unknown
+
+        raise unknown("--error column", error, ANALYSABLE)
+    if df is not None:
+        if error not in df:
+            raise BenchError(f"--error {error!r}: the table has no such column")
+        if not pd.api.types.is_numeric_dtype(df[error]):
+            raise BenchError(f"--error {error!r}: the column is not numeric")
