@@ -10,7 +10,16 @@ accumulates the squared errors (and, the first time, the exact norms). Time norm
 the sample times: L_inf is the max, L2(0,T) the trapezoidal rule, all seven in one
 compiled call with numpy's expressions and summation order (`_time_norms`). Every error is
 relative: divided by the same norm of the exact solution (GetFEM's dynamic 1D contact
-test).
+test); where that norm is 0 over the run the cell stays NaN and the row's notes say why,
+with the absolute error (`undefined_errors`).
+
+The contact stress error compares the sampled stress with the exact stress at the sample
+times. At the instant contact starts the exact stress jumps; the references here take
+the value before the jump (the clamped bar: 0 at t = 1, 4, ..., and 0 at the take-offs
+t = 2, 5, ...: contact on the open intervals), GetFEM's demo the value after it (-1/2
+at t = 1: its exact stress is -1/2 on [1, 2) mod 3). A sample that falls on a jump
+counts with a different exact value in the two, so their stress errors differ by that
+sample's share (docs/getfem-comparison.md).
 
 The kernels are explicit SIMD (`contact_bench.core.simd`): the 4 points of an element are one
 vector. Summation order of every space norm, per sample: one partial sum per quadrature
