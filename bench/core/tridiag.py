@@ -74,17 +74,19 @@ QUAD_BLOCK = 256
 
 
 @njit(cache=True, inline="always")
-def _row_sum(d, e, i, n):  # pragma: no cover - compiled
-    """Row i's sum d_i + e_{i-1} + e_i, or 0 when it is at the rounding level of the row."""
-    r = d[i]
-    a = abs(d[i])
-    if i > 0:
-        r += e[i - 1]
-        a += abs(e[i - 1])
-    if i < n - 1:
-        r += e[i]
-        a += abs(e[i])
-    return 0.0 if abs(r) <= ROWSUM_RTOL * a else r
+def _snap(r, a):  # pragma: no cover - compiled
+    """A row sum r, or 0 when it is at the rounding level of the row (|r| <= ROWSUM_RTOL a,
+    a = the row's absolute sum)."""
+    return r if abs(r) > ROWSUM_RTOL * a else 0.0
+
+
+@njit(cache=True, inline="always")
+def _inner_term(d, e, x, i):  # pragma: no cover - compiled
+    """Row i's term r_i x_i^2 - e_i (x_{i+1} - x_i)^2 for 0 < i < n - 1, branch-free."""
+    r = _snap((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
+    xi = x[i]
+    dx = x[i + 1] - xi
+    return r * xi * xi - e[i] * dx * dx
 
 
 @njit(cache=True)
@@ -100,21 +102,35 @@ def tri_quad(d, e, x):
     element stiffnesses, so an interior row sum is not 0 but a rounding of it (up to
     half an ulp of d_i, random in sign); such row sums (below ROWSUM_RTOL of the row's
     absolute sum) are taken as 0, which keeps the energy the one of the bar rather
-    than of its rounding (the rounded diagonal's term alone is 1e-5 of E at 1e6 dofs).
-    The remainder of a clamped end (r = the eliminated element's stiffness) and of
-    a mass matrix (r_i the node's mass) is kept. Partial sums of QUAD_BLOCK terms.
+    than of its rounding (docs/energy-summation.md). The remainder of a clamped end
+    (r = the eliminated element's stiffness) and of a mass matrix (r_i the node's mass)
+    is kept. Rows 1 .. n-2 go in blocks of QUAD_BLOCK, each summed in four interleaved
+    partial sums (independent chains: about four times the speed of one, and a fixed
+    order, the same bits on every machine).
     """
     n = d.size
-    total = 0.0
-    for b0 in range(0, n, QUAD_BLOCK):
-        part = 0.0
-        for i in range(b0, min(b0 + QUAD_BLOCK, n)):
-            xi = x[i]
-            part += _row_sum(d, e, i, n) * xi * xi
-            if i < n - 1:
-                dx = x[i + 1] - xi
-                part -= e[i] * dx * dx
-        total += part
+    if n == 0:
+        return 0.0
+    if n == 1:
+        return _snap(d[0], abs(d[0])) * x[0] * x[0]
+    dx = x[1] - x[0]
+    total = (_snap(d[0] + e[0], abs(d[0]) + abs(e[0])) * x[0] * x[0] - e[0] * dx * dx
+             + _snap(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
+             * x[n - 1] * x[n - 1])
+    i = 1
+    while i < n - 1:
+        end = min(i + QUAD_BLOCK, n - 1)
+        s0 = s1 = s2 = s3 = 0.0
+        while i + 4 <= end:
+            s0 += _inner_term(d, e, x, i)
+            s1 += _inner_term(d, e, x, i + 1)
+            s2 += _inner_term(d, e, x, i + 2)
+            s3 += _inner_term(d, e, x, i + 3)
+            i += 4
+        while i < end:
+            s0 += _inner_term(d, e, x, i)
+            i += 1
+        total += (s0 + s1) + (s2 + s3)
     return total
 
 
