@@ -97,16 +97,16 @@ def tri_quad(d, e, x):
     the row sums (an identity for every symmetric tridiagonal). For a stiffness, -e_i
     is the element stiffness and r_i vanishes inside the bar (a rigid translation
     strains nothing), so every term is >= 0 and the strain energy of a smooth U comes
-    from differences, not from d_i u_i^2 terms that cancel to O(n^2 eps) (the plain
-    sum lost 2e-4 of E(0) at 1e5 dofs). The assembled diagonal is a rounded sum of two
-    element stiffnesses, so an interior row sum is not 0 but a rounding of it (up to
-    half an ulp of d_i, random in sign); such row sums (below ROWSUM_RTOL of the row's
+    from differences, not from d_i u_i^2 terms that cancel to O(n^2 eps). The
+    assembled diagonal is a rounded sum of two element stiffnesses, so an interior row
+    sum is not 0 but a rounding of it (up to half an ulp of d_i, random in sign); such
+    row sums (below ROWSUM_RTOL of the row's
     absolute sum) are taken as 0, which keeps the energy the one of the bar rather
     than of its rounding (docs/energy-summation.md). The remainder of a clamped end
     (r = the eliminated element's stiffness) and of a mass matrix (r_i the node's mass)
     is kept. Rows 1 .. n-2 go in blocks of QUAD_BLOCK, each summed in four interleaved
-    partial sums (independent chains: about four times the speed of one, and a fixed
-    order, the same bits on every machine).
+    partial sums: independent chains (no wait on one accumulator) in a fixed order (the
+    same bits on every machine, unlike a reassociated sum).
     """
     n = d.size
     if n == 0:
