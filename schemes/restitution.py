@@ -20,7 +20,10 @@ The literature uses a lumped mass (finite differences): `mass=lumped` is the def
 
 Sampling: the state sampled at t_n is (U^n, (U^{n+1} - U^{n-1}) / (2 dt)) and the stress
 -r^n (r^n is the force of the step from n to n+1), so the kernel runs one step past
-the last sample. The start uses U^{-1} = U^0 - dt V^0 + dt^2/2 A^0.
+the last sample. The start uses U^{-1} = U^0 - dt V^0 + dt^2/2 A^0. For beta > 0 that
+centred velocity is not the trapezoidal rule's, so the sampled energy is not the
+scheme's invariant between impacts; GetFEM's demo samples the one that is, and takes
+U^1 from a Newmark step (docs/getfem-comparison.md).
 
 Declared: implicit iff beta > 0; stability limit of the central difference (h/c
 lumped, h/(c sqrt 3) consistent) scaled like Newmark(beta, 1/2), none for
