@@ -10,7 +10,9 @@ e is Newton's restitution coefficient of the contact node (0 inelastic, 1 elasti
 step is one solve with S = M + beta dt^2 K (a diagonal one for the default lumped mass
 and beta = 0: a fused stencil pass, `contact_bench.kernels.lumped.ps_lumped_kernel`)
 plus a scalar complementarity. The sample at t_n is (U^n, (U^{n+1} - U^{n-1}) / 2 dt)
-with stress -r^n, so the kernel runs one step past the last sample.
+with stress -r^n, so the kernel runs one step past the last sample. For beta > 0 that
+centred velocity is not the trapezoidal rule's, so the sampled energy is not the scheme's
+invariant between impacts (GetFEM's demo samples the one that is: docs/getfem-comparison.md).
 
 A massless contact node is refused: there the two-step scheme is singular (beta = 0) or
 has an undamped mode that e = 1 pumps (beta > 0). Declared bounds, their measurements

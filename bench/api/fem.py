@@ -33,6 +33,8 @@ import scipy.sparse as sp
 from skfem import Basis, BilinearForm, ElementLineP1, MeshLine
 from skfem.helpers import dot, grad
 
+from contact_bench.core.tridiag import ROWSUM_RTOL
+
 Coefficient = float | Callable[[np.ndarray], np.ndarray]
 
 MASS_KINDS = ("consistent", "lumped", "first_element_massless", "getfem", "mass_conserving",
@@ -68,8 +70,20 @@ class Tridiag:
         return y
 
     def quad(self, x: np.ndarray) -> np.ndarray:
-        """x^T A x along the last axis."""
-        return np.sum(x * self.matvec(x), axis=-1)
+        """x^T A x along the last axis, without cancellation: the sum of
+        `contact_bench.core.tridiag.tri_quad` (row sums times x_i^2, rounding-level
+        row sums taken as 0, minus off-diagonal times squared differences)."""
+        x = np.asarray(x, float)
+        d, e = self.diag, self.off
+        r = d.copy()
+        a = np.abs(d)
+        r[1:] += e
+        r[:-1] += e
+        a[1:] += np.abs(e)
+        a[:-1] += np.abs(e)
+        r[np.abs(r) <= ROWSUM_RTOL * a] = 0.0
+        dx = np.diff(x, axis=-1)
+        return np.sum(r * x * x, axis=-1) - np.sum(e * dx * dx, axis=-1)
 
     def head(self, m: int) -> Tridiag:
         """The leading m x m block."""

@@ -230,5 +230,7 @@ class ClampedBarExact:
         return self.fields(x, t, velocity=False)[1]
 
     def stress(self, t):
+        """E u_x(0, t): -1/2 in contact, on the open intervals (1, 2) mod 3, else 0 (at the
+        jumps t = 1 and 2 the value outside contact; GetFEM's demo takes -1/2 at t = 1)."""
         t = np.asarray(t, float)
         return np.where((np.mod(t, 3.0) > 1.0) & (np.mod(t, 3.0) < 2.0), -0.5, 0.0)

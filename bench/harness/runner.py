@@ -405,7 +405,8 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
                 _warmed_references.add(type(exact))
             start = time.perf_counter()
-            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared))
+            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared,
+                                     notes))
             norm_s = time.perf_counter() - start
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
             if missing:

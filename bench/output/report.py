@@ -21,8 +21,9 @@ import numpy as np
 import pandas as pd
 
 from contact_bench.core.errors import BenchError
-from contact_bench.harness.environment import provenance
+from contact_bench.harness.environment import environment, provenance
 from contact_bench.harness.io import write_text
+from contact_bench.harness.metrics import ERROR_COLUMNS
 from contact_bench.output.figures import (
     check_formats,
     check_style,
@@ -34,6 +35,7 @@ from contact_bench.output.figures import (
     work_precision_figure,
 )
 from contact_bench.sweeps import analysis
+from contact_bench.sweeps.sweep import STABILITY_CLASSES
 
 #: columns shown with 2 decimals (orders); other floats get 3 significant digits
 DECIMAL_COLUMNS = {"order", "measured order", "smooth order"}
@@ -132,6 +134,94 @@ def write_tables(df: pd.DataFrame, out: Path, stem: str, prov: str) -> list[Path
         write_text(out / f"{stem}.tex", f"% {prov}\n% needs \\usepackage{{booktabs}}\n"
                                         f"{to_latex(df)}"),
     ]
+
+# ------------------------------------------------------------------- validation
+
+STATUSES = ("ok", "unstable", "error", "not applicable")
+#: columns every row of a sweep fills, whatever its status (checked when the table has
+#: them): an empty one means the row was cut short
+ALWAYS_FILLED = ("case", "scheme", "status", "key", "run_date", *environment().keys())
+#: columns that are > 0 / >= 0 wherever they hold a value
+POSITIVE = ("nx", "h", "dt", "cfl", "T", "steps", "stride", "grading")
+NON_NEGATIVE = (*ERROR_COLUMNS, "energy_drift_max", "penetration_max", "wall_s",
+                "time_s", "step_s", "run_s", "task_s", "time_repeats", "dt_limit",
+                "cfl_limit")
+#: phrases of a note that explain NaN error columns in an ok row
+_NAN_REASONS = ("no reference solution", "reference has no")
+_SHOWN_PROBLEMS = 5
+
+
+def _empty(value: object) -> bool:
+    return value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value))
+
+
+def table_problems(df: pd.DataFrame) -> list[str]:
+    """What makes a sweep table unfit to publish, one line per problem (empty: fit).
+
+    A row cut short (an always-filled column empty), an unknown status or stability
+    class, a value out of its range (nx, h, dt, T, ... <= 0; an error, drift, penetration
+    or time < 0 or infinite), an ok row without a finite initial energy, and an ok row
+    with a NaN error column that its notes do not explain (`error_metrics` notes why a
+    relative error is undefined; a case without that reference says so too)."""
+    out: list[str] = []
+    always = [c for c in ALWAYS_FILLED if c in df.columns]
+    for pos, (_, r) in enumerate(df.iterrows()):
+        row = r.to_dict()
+        where = f"row {pos + 1}"
+        if not _empty(row.get("case")) and not _empty(row.get("scheme")):
+            where += f" ({row['case']}, {row['scheme']})"
+        empty = [c for c in always if _empty(row.get(c)) or str(row.get(c)).strip() == ""]
+        if empty:
+            out.append(f"{where}: cut short ({', '.join(empty[:3])}"
+                       f"{', ...' if len(empty) > 3 else ''} empty)")
+            continue
+        status = row["status"]
+        if status not in STATUSES:
+            out.append(f"{where}: status {str(status)[:40]!r} is not one of {', '.join(STATUSES)}")
+            continue
+        stab = row.get("stability")
+        if not _empty(stab) and stab not in STABILITY_CLASSES:
+            out.append(f"{where}: stability {str(stab)[:40]!r} is not one of "
+                       f"{', '.join(STABILITY_CLASSES)}")
+        for cols, ok, what in ((POSITIVE, lambda v: v > 0, "> 0"),
+                               (NON_NEGATIVE, lambda v: v >= 0, ">= 0")):
+            for col in cols:
+                v = row.get(col)
+                if _empty(v):
+                    continue
+                try:
+                    f = float(v)
+                except (TypeError, ValueError):
+                    out.append(f"{where}: {col} = {str(v)[:40]!r} is not a number")
+                    continue
+                if not (math.isfinite(f) and ok(f)):
+                    out.append(f"{where}: {col} = {f!r} (must be finite and {what})")
+        if status != "ok":
+            continue
+        if "energy_initial" in df.columns and not math.isfinite(
+                float(row["energy_initial"]) if not _empty(row["energy_initial"]) else math.nan):
+            out.append(f"{where}: status ok without a finite energy_initial")
+        notes = "" if _empty(row.get("notes")) else str(row["notes"])
+        if any(p in notes for p in _NAN_REASONS):
+            continue
+        unexplained = [c for c in ERROR_COLUMNS
+                       if c in df.columns and _empty(row.get(c)) and c not in notes]
+        if unexplained:
+            out.append(f"{where}: status ok with {', '.join(unexplained)} empty and no note "
+                       f"saying why")
+    return out
+
+
+def check_table(df: pd.DataFrame) -> None:
+    """Refuse (BenchError, one line) a table that `table_problems` finds damaged."""
+    problems = table_problems(df)
+    if problems:
+        more = len(problems) - _SHOWN_PROBLEMS
+        shown = "; ".join(problems[:_SHOWN_PROBLEMS]) + (f"; and {more} more" if more > 0
+                                                          else "")
+        raise BenchError(f"the table is damaged, not publishing it: {shown}")
+
+
 # ------------------------------------------------------------------------- page
 
 
@@ -176,6 +266,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     and a "smooth order" column in the convergence tables.
     """
     formats = check_report_options(df, error, fig_format, style, energy_runs)
+    check_table(df)
     out = Path(out)
     prov = provenance(argv)
     written: list[Path] = []
