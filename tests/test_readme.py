@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from contact_bench.api import make_scheme
 from contact_bench.api.plugin import Scheme
 from contact_bench.harness import run_one
 
@@ -109,3 +110,14 @@ def test_readme_template_runs_from_a_plugins_folder(tmp_path: Path):
     assert done.returncode == 0, done.stderr
     rows = list(csv.DictReader(io.StringIO(done.stdout)))
     assert [(r["scheme"], r["status"]) for r in rows] == [(cls.name, "ok")]
+
+
+def test_readme_template_declares_the_compiled_schemes_stability_limit(tmp_path: Path):
+    """The template's declared limit is redistributed[beta=0]'s for every mass variant
+    (0.556 h/c with the first_element_massless mass's edge mode, h/(c sqrt 3) otherwise)."""
+    cls, _ = load_template(tmp_path)
+    for variant in cls.params["variant"].choices:
+        ref = make_scheme(f"redistributed[beta=0,variant={variant}]")
+        for h, c in ((0.1, 2.0), (1e-3, 5e3)):
+            assert cls(variant=variant).stability_limit(h, c) == pytest.approx(
+                ref.stability_limit(h, c), rel=1e-12), variant
