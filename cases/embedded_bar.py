@@ -43,6 +43,9 @@ class EmbeddedBar(Case):
     name = "embedded_bar"
     summary = "a 1D scene's bar as a 2D/3D Q1 body (reference: the 1D exact solution)"
     form = "sparse"
+    #: those of the default `of` (clamped_bar); an instance takes its own scene's
+    reference = "exact"
+    provides = frozenset({"u", "v", "stress", "energy"})
     params = {
         "of": Param("clamped_bar", "the 1D scene embedded"),
         "dim": Param(2, "space dimension", choices=(2, 3)),

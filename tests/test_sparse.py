@@ -228,3 +228,18 @@ def test_embedded_bar_refuses_bad_inner_scenes():
         make_case("embedded_bar[of=heterogeneous_bar]")
     with pytest.raises(BenchError):
         make_case("embedded_bar[of=nosuchbar]")
+
+
+def test_list_shows_the_problem_forms(capsys):
+    from contact_bench.cli.main import main
+
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+
+    def block(name: str) -> str:
+        i = next(k for k, line in enumerate(lines) if line.split()[:1] == [name])
+        return "\n".join(lines[i:i + 4])
+
+    assert "forms=banded1d,sparse" in block("standard")
+    assert "forms=banded1d " in block("penalty") and "cannot run" in block("penalty")
+    assert "form=sparse" in block("embedded_bar")
