@@ -150,5 +150,6 @@ class EmbeddedBar(Case):
             M=M[free][:, free].tocsr(), K=Kf, F=Ff, U0=U[free], V0=V[free], contact=contact,
             dim=dim, hmin=min(float(np.min(np.diff(x))), float(y[1] - y[0])),
             c_max=float(np.sqrt(float(self.E) / float(self.rho))), energy_offset=offset,
-            mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],))
+            mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],),
+            E_contact=float(self.E), h_contact=float(x[1] - x[0]))
         return problem

@@ -82,6 +82,11 @@ class SparseProblem:
     mass_kind: str = "consistent"
     axis: AxisView | None = None
     equal_groups: tuple[np.ndarray, ...] = ()
+    #: the stiffness scale at the contact zone, for penalty and Nitsche parameters
+    #: (kappa = gamma_p E / h): the P-wave modulus lambda + 2 mu there and the element
+    #: size normal to the zone (0: not given)
+    E_contact: float = 0.0
+    h_contact: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property

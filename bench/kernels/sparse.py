@@ -173,6 +173,39 @@ def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
     return -1
 
 
+@njit(cache=True)
+def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
+    """mu = c max(0, -g) with g = q + W mu (penalty springs of stiffness c on the
+    contact dofs, W symmetric positive definite): the piecewise-linear system solved by
+    active-set iteration from {q < 0} (each set's linear system exactly). Returns the
+    number of iterations (-1 if it gave up)."""
+    n = q.size
+    for i in range(n):
+        active[i] = q[i] < 0.0
+    for it in range(LCP_MAX_PIVOTS * (n + 1)):
+        idx = np.flatnonzero(active)
+        mu[:] = 0.0
+        if idx.size:
+            sub = np.empty((idx.size, idx.size))
+            rhs = np.empty(idx.size)
+            for a in range(idx.size):  # (I + W_AA C_A) g_A = q_A
+                rhs[a] = q[idx[a]]
+                for b in range(idx.size):
+                    sub[a, b] = W[idx[a], idx[b]] * c[idx[b]] + (1.0 if a == b else 0.0)
+            gA = np.linalg.solve(sub, rhs)
+            for a in range(idx.size):
+                mu[idx[a]] = -c[idx[a]] * gA[a]
+        g = q + W @ mu
+        same = True
+        for i in range(n):
+            if (g[i] < 0.0) != active[i]:
+                same = False
+                active[i] = g[i] < 0.0
+        if same:
+            return it
+    return -1
+
+
 # -------------------------------------------------------------------- contact stats
 
 
@@ -224,7 +257,8 @@ def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - c
 @njit(cache=True)
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
                     massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
+                    kappa):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -243,6 +277,8 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     active = np.zeros(nc, np.bool_)
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
+    penalty = kappa.size > 0  # springs kappa_i max(0, -g_i), not exact contact
+    cpen = kappa * bdt2
     E0 = E_out[0]
     min_gap = np.inf
     for i in range(nc):
@@ -258,7 +294,10 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             gf[i] = gap0[i] + X[cd[i]]
             pen = pen or gf[i] < 0.0
         if pen:
-            lcp_solve(W, gf, mu, active, tol)
+            if penalty:
+                penalty_solve(W, gf, cpen, mu, active)
+            else:
+                lcp_solve(W, gf, mu, active, tol)
             if keep_z:
                 for j in range(nc):
                     if mu[j] != 0.0:
@@ -272,7 +311,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 for i in range(n):
                     X[i] += w[i]
             for j in range(nc):
-                if active[j]:
+                if active[j] and not penalty:
                     X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
                 lam[j] = mu[j] / bdt2
         else:
@@ -295,6 +334,10 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             min_gap = min(min_gap, gap0[i] + U[cd[i]])
         if step % stride == 0 or step == nsteps:
             e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            if penalty:  # the springs' energy
+                for i in range(nc):
+                    gi = min(0.0, gap0[i] + U[cd[i]])
+                    e += 0.5 * kappa[i] * gi * gi
             t_out[k] = step * dt
             U_out[k, :] = U
             V_out[k, :] = V
@@ -356,8 +399,11 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
 
 
 def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
-                   gamma: float) -> Trajectory:
-    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring)."""
+                   gamma: float, kappa: np.ndarray | None = None) -> Trajectory:
+    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring), or
+    with penalty springs: `kappa` (one stiffness per contact dof) gives the force
+    kappa_i max(0, -g_i) at t_{n+1}, solved exactly (`penalty_solve`), its energy
+    kappa_i / 2 min(0, g_i)^2 in the sampled energy."""
     if not beta > 0.0:
         raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
     dt, beta, gamma = float(dt), float(beta), float(gamma)
@@ -385,7 +431,7 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
         keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
         float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats, tol)
+        stats, tol, np.zeros(0) if kappa is None else np.asarray(kappa, float))
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
 
 
