@@ -128,10 +128,11 @@ def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
+def lcp_solve(W, q, mu, active, tol, warm=False):  # pragma: no cover - compiled
     """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
 
-    Principal pivoting from the active set {q < 0}: block pivots (every violator
+    Principal pivoting from the active set {q < 0} (`warm`: from the given `active`, the
+    previous step's, usually the answer already): block pivots (every violator
     changes side) while they reduce the number of violators, then Murty's least-index
     rule (one pivot at a time, finite for a P-matrix). `tol` is the gap violation
     ignored (round-off, a length); mu's is tol / max W_ii. Returns the number of pivots
@@ -142,8 +143,9 @@ def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
     for i in range(n):
         wmax = max(wmax, W[i, i])
     tol_mu = tol / wmax if wmax > 0.0 else tol
-    for i in range(n):
-        active[i] = q[i] < 0.0
+    if not warm:
+        for i in range(n):
+            active[i] = q[i] < 0.0
     best = n + 1
     murty = False
     for it in range(LCP_MAX_PIVOTS * (n + 1)):
@@ -278,6 +280,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     penalty = kappa.size > 0  # springs kappa_i max(0, -g_i), not exact contact
+    was_in_contact = False
     cpen = kappa * bdt2
     E0 = E_out[0]
     min_gap = np.inf
@@ -297,12 +300,14 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             if penalty:
                 penalty_solve(W, gf, cpen, mu, active)
             else:
-                lcp_solve(W, gf, mu, active, tol)
+                lcp_solve(W, gf, mu, active, tol, was_in_contact)
             if keep_z:
-                for j in range(nc):
-                    if mu[j] != 0.0:
-                        for i in range(n):
-                            X[i] += Z[i, j] * mu[j]
+                on = np.flatnonzero(mu)
+                for i in range(n):  # X += Z mu over the nonzero mu (Z's rows contiguous)
+                    acc = 0.0
+                    for j in on:
+                        acc += Z[i, j] * mu[j]
+                    X[i] += acc
             else:
                 rhs[:] = 0.0
                 for j in range(nc):
@@ -317,6 +322,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
         else:
             mu[:] = 0.0
             lam[:] = 0.0
+        was_in_contact = pen
         for i in range(n):
             if massless[i]:  # no inertia: backward-difference velocity, no acceleration
                 v = X[i] - U[i]
