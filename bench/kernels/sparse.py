@@ -532,12 +532,17 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
         min_gap = min(min_gap, gap0[i] + U[cd[i]])
     k = 1
     for step in range(1, nsteps + 1):
-        if step > 1:
-            csr_matvec(Kp, Ki, Kx, U, tmp)
+        if step > 1:  # kick and drift fused with the product K U: one pass
             for i in range(n):
-                Vh[i] += c[i] * (F[i] - tmp[i])
-        for i in range(n):
-            Un[i] = U[i] + dt * Vh[i]
+                ku = 0.0
+                for kk in range(Kp[i], Kp[i + 1]):
+                    ku += Kx[kk] * U[Ki[kk]]
+                v = Vh[i] + c[i] * (F[i] - ku)
+                Vh[i] = v
+                Un[i] = U[i] + dt * v
+        else:
+            for i in range(n):
+                Un[i] = U[i] + dt * Vh[i]
         for j in range(nc):
             d = cd[j]
             lam[j] = 0.0
