@@ -89,7 +89,7 @@ def test_explicit_step(benchmark, size):
     central_sparse(p, dt, 2, 2)  # compiled outside the timing
     benchmark.extra_info["dofs"] = p.nfree
     steps: list[float] = []
-    benchmark.pedantic(marginal, args=(lambda n: central_sparse(p, dt, n, n), 20, 220, steps),
+    benchmark.pedantic(marginal, args=(lambda n: central_sparse(p, dt, n, n), 20, 1020, steps),
                        rounds=5)
     benchmark.extra_info["step_us"] = 1e6 * float(np.median(steps))
 
