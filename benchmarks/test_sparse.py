@@ -14,6 +14,8 @@ Pairs measured in the same run (median of rounds):
   and the correction X += Z mu).
 
     python -m pytest benchmarks/test_sparse.py --benchmark-columns=median,iqr,rounds
+
+Also `test_assembly`: scikit-fem assembly of a P1 disc at 66,050 and 263,170 dofs.
 """
 
 from __future__ import annotations
@@ -155,3 +157,11 @@ def test_contact_subproblem(benchmark, size, warm):
     benchmark.extra_info["contact_dofs"] = int(cd.size)
     benchmark.extra_info["active"] = int(active.sum())
     benchmark(subproblem)
+
+
+@pytest.mark.parametrize("refine", [7, 8], ids=["66050", "263170"])
+def test_assembly(benchmark, refine):
+    """scikit-fem assembly of K and the scalar mass of a P1 disc (`fem_nd.assemble`)."""
+    mesh = fe.MeshTri1.init_circle(refine)
+    body = benchmark.pedantic(fem_nd.assemble, args=(mesh, 50.0, 0.25, 1.0), rounds=3)
+    benchmark.extra_info["dofs"] = body.ndofs

@@ -39,7 +39,7 @@ from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
 
 #: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
-KEEP_Z_ENTRIES = 4_000_000
+KEEP_Z_ENTRIES = 10_000_000
 #: pivoting steps of `lcp_solve` before it gives up (a multiple of n_c)
 LCP_MAX_PIVOTS = 50
 
