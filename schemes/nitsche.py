@@ -159,7 +159,7 @@ class Nitsche(Scheme):
         Mf = sp.diags(w) if c.face_mass is None else sp.csr_matrix(c.face_mass)
         law = ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
                          y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
-                         K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)))
+                         K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
         return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, law=law)
 
 

@@ -260,7 +260,7 @@ def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - c
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
                     massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
-                    kappa, Pp, Pi, Px, y0, ew, sc):  # pragma: no cover
+                    kappa, Pp, Pi, Px, y0, ew, sc, fscale):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -323,7 +323,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             for j in range(nc):
                 if active[j] and not penalty:
                     X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
-                lam[j] = mu[j] / bdt2
+                lam[j] = fscale * mu[j] / bdt2
         else:
             mu[:] = 0.0
             lam[:] = 0.0
@@ -387,6 +387,9 @@ class ContactLaw:
     ew: float
     sc: np.ndarray
     K_extra: sp.csr_matrix | None = None
+    #: the force on the contact dofs is fscale mu / (beta dt^2) (Q's coefficient of C:
+    #: 1 for the penalty, gam for Nitsche), for the peak-force column
+    fscale: float = 1.0
 
 
 def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
@@ -463,9 +466,11 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         W = np.ascontiguousarray(law.P @ Z)
         Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
         lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
+        fscale = float(law.fscale)
     else:
         Pm, y0 = C, np.asarray(p.contact.gap0, float)
         lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
+        fscale = 1.0
         if keep_z:
             Z, W = delassus(fac, cd, n)
         else:
@@ -494,7 +499,7 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
         keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
         float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc)
+        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale)
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
 
 
