@@ -17,6 +17,9 @@ once outside the loop; the loops are numba kernels over CSR arrays.
   the obstacle's force lambda = mu / (beta dt^2) at t_{n+1} (the 1D kernel's algorithm,
   `contact_bench.kernels.newmark`, on many contact dofs). Massless dofs (zero mass
   rows) have no acceleration: their velocity is the backward difference.
+* `quasistatic_sparse`: explicit Newmark (beta = 0) with massless contact dofs: the
+  dofs with mass advance explicitly, the massless ones are solved from their own rows
+  (K_mm factored once) with exact contact on the Delassus matrix C K_mm^-1 C^T.
 * `central_sparse`: the explicit central difference with a diagonal (lumped) mass and
   the Taylor-Flanagan contact force (`schemes/taylor_flanagan.py`): a contact dof that
   would penetrate is stopped where it was.
@@ -602,4 +605,148 @@ def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Tra
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, Vh,
         float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
         out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+# ------------------------------------- explicit with massless (quasi-static) contact dofs
+
+
+@njit(cache=True)
+def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
+                        mfac, hfac, diag_h, cl, gap0, weights, W, Z, U, V, A, dt, gamma, nsteps,
+                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats,
+                        tol):  # pragma: no cover - compiled
+    """Central differences on the dofs with mass (hv), the massless ones (mv) solved
+    from their own rows each step, with exact contact on the contact dofs among them
+    (cl: their positions in mv; W = C K_mm^-1 C^T, Z = K_mm^-1 C^T)."""
+    n = U.size
+    nh, nm, nc = hv.size, mv.size, cl.size
+    rm = np.empty(nm)
+    um = np.empty(nm)
+    wm = np.empty(nm)
+    rh = np.empty(nh)
+    ah = np.empty(nh)
+    wh = np.empty(nh)
+    w = np.empty(n)
+    gf = np.empty(nc)
+    mu = np.zeros(nc)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+    was = False
+    k = 1
+    for step in range(1, nsteps + 1):
+        for a in range(nh):
+            i = hv[a]
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+        csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh u_h (the massless columns dropped)
+        for b in range(nm):
+            rm[b] = F[mv[b]] - rm[b]
+        lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
+                 rm, um, wm)
+        pen = False
+        for j in range(nc):
+            gf[j] = gap0[j] + um[cl[j]]
+            pen = pen or gf[j] < 0.0
+        if pen:
+            lcp_solve(W, gf, mu, active, tol, was)
+            on = np.flatnonzero(mu)
+            for b in range(nm):
+                acc = 0.0
+                for j in on:
+                    acc += Z[b, j] * mu[j]
+                um[b] += acc
+            for j in range(nc):
+                if active[j]:
+                    um[cl[j]] = -gap0[j]
+        else:
+            mu[:] = 0.0
+        was = pen
+        for b in range(nm):
+            i = mv[b]
+            V[i] = (um[b] - U[i]) / dt
+            U[i] = um[b]
+        csr_matvec(Khp, Khi, Khx, U, rh)  # (K U) on the dofs with mass
+        for a in range(nh):
+            rh[a] = F[hv[a]] - rh[a]
+        if diag_h.size:
+            for a in range(nh):
+                ah[a] = rh[a] / diag_h[a]
+        else:
+            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
+                     rh, ah, wh)
+        for a in range(nh):
+            i = hv[a]
+            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+            A[i] = ah[a]
+        _stats_update(stats, status, mu, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+        if step % stride == 0 or step == nsteps:
+            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[mv[cl[j]]])
+            cu_out[k] = g
+            s_out[k] = -mu.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def quasistatic_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
+                       gamma: float = 0.5) -> Trajectory:
+    """Explicit Newmark (beta = 0, gamma; 1/2: central differences) with massless contact
+    dofs (the seed's P_U^mod on many dofs): the dofs with mass advance explicitly (a
+    solve with their mass block, factored once, unless it is diagonal), the massless
+    ones are quasi-static, solved
+    from their rows with K_mm factored once and exact contact through the Delassus
+    matrix C K_mm^-1 C^T. ValueError unless every contact dof is massless."""
+    massless = p.massless
+    hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+    pos = np.full(p.nfree, -1)
+    pos[mv] = np.arange(mv.size)
+    cd = np.asarray(p.contact.dofs, np.int64)
+    if np.any(pos[cd] < 0):
+        raise ValueError("the explicit quasi-static path needs massless contact dofs")
+    cl = pos[cd]
+    K = sp.csr_matrix(p.K)
+    Kmm = K[mv][:, mv]
+    mfac = Factor.of(Kmm)
+    Z = np.empty((mv.size, cd.size))
+    e = np.zeros(mv.size)
+    for j, c in enumerate(cl):
+        e[c] = 1.0
+        Z[:, j] = mfac.solve(e)
+        e[c] = 0.0
+    W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
+    keep = np.ones(p.nfree)
+    keep[mv] = 0.0
+    Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+    Kmh.eliminate_zeros()
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = initial_acceleration(p)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
+                                                             initial=0.0)), 1e-300)
+    k, done, min_gap, blow = _quasistatic_kernel(
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
+        *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
+        Mhh.diagonal() if diag else np.zeros(0), cl, np.asarray(p.contact.gap0, float),
+        np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z), U, V, A,
+        float(dt), float(gamma), int(nsteps), int(stride), float(p.energy_offset), out["t"],
+        out["U"], out["V"], out["cu"], out["s"], out["E"], stats, tol)
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
