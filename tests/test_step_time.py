@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pandas as pd
+from numba import njit
 
 from contact_bench.harness import runner
 from contact_bench.harness.runner import TIMING_COLUMNS, run_one, step_time
@@ -33,12 +34,31 @@ class _Counting:
 
 def test_step_time_samples_only_the_last_step_after_a_warm_up():
     s = _Counting()
-    assert step_time(s, None, 0.1, 50, repeats=3) >= 0.0
+    assert step_time(s.integrate, None, 0.1, 50, repeats=3) >= 0.0
     assert s.calls == [(50, 50)] * 4  # warm-up + 3 timed, stride = steps
     s = _Counting()
-    step_time(s, None, 0.1, 50, repeats=3, budget_s=-1.0)  # a "long" warm-up is the timing
+    step_time(s.integrate, None, 0.1, 50, repeats=3, budget_s=-1.0)  # a long warm-up is it
     assert s.calls == [(50, 50)]
-    assert step_time(_Counting(), None, 0.1, 0) is None
+    assert step_time(_Counting().integrate, None, 0.1, 0) is None
+
+
+class _Compiling(_Counting):
+    """A stand-in whose first call compiles a numba function (a kernel form that the
+    scheme's warm-up did not reach)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.kernel = njit(lambda x: x + 1.0)  # not compiled yet
+
+    def integrate(self, semi, dt, steps, stride):
+        self.kernel(1.0)
+        super().integrate(semi, dt, steps, stride)
+
+
+def test_a_warm_up_that_compiled_is_not_the_timing():
+    s = _Compiling()
+    step_time(s.integrate, None, 0.1, 50, repeats=3, budget_s=-1.0)
+    assert len(s.calls) == 2  # the compiling call is discarded, one timed call follows
 
 
 def test_work_precision_front_is_over_step_s_and_keeps_time_s():

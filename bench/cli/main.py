@@ -19,7 +19,7 @@ from contact_bench.cli.sweep_cli import run_command as run_sweep_command
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import provenance, return_freed_memory
 from contact_bench.harness.io import folder_set, write_text
-from contact_bench.harness.runner import Run, reference, run_table
+from contact_bench.harness.runner import Run, form_mismatch, reference, run_table
 
 if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
     import pandas as pd
@@ -67,7 +67,7 @@ def _case_record(name: str, cls: type) -> dict:
         "rho": "x-dependent" if callable(case.rho) else case.rho,
         "E": "x-dependent" if callable(case.E) else case.E, "g": case.g,
         "far_end": case.far_end, "T": case.T, "nx": case.nx, "dt": case.dt,
-        "stride": case.stride, "reference": case.reference or "none",
+        "stride": case.stride, "reference": case.reference or "none", "form": cls.form,
         "provides": sorted(cls.provides), "in_default_run": bool(cls.in_default_run),
         "params": _param_records(cls),
     }
@@ -82,8 +82,10 @@ def _scheme_record(name: str, cls: type) -> dict:
         "massless_contact_node": bool(tr.massless_contact_node), "contact": tr.contact,
         "energy": tr.energy, "mass": sch.mass_kind(),
         "cfl_limit": None if limit is None else float(limit), "order": tr.order,
+        "forms": sorted(cls.forms),
         "cannot_run": [c for c, ccls in cases().plugins.items()
-                       if sch.cannot_run(ccls()) or ccls().cannot_run(sch)],
+                       if form_mismatch(ccls(), sch) or sch.cannot_run(ccls())
+                       or ccls().cannot_run(sch)],
         "params": _param_records(cls),
     }
 
@@ -131,7 +133,7 @@ def _list_text(records: list[dict]) -> str:
                 absent = sorted({"u", "v", "stress", "energy"} - set(r["provides"]))
                 out += _wrap(f"defaults T={r['T']:g} nx={r['nx']} dt={r['dt']:g}{stride}; "
                              f"reference={r['reference']}; provides="
-                             f"{','.join(r['provides']) or '-'}"
+                             f"{','.join(r['provides']) or '-'}; form={r['form']}"
                              + (f" (not: {','.join(absent)})" if absent else ""), 6)
                 out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
                              6)
@@ -142,7 +144,7 @@ def _list_text(records: list[dict]) -> str:
                 out += _wrap(f"implicit={r['implicit']} massless_contact_node="
                              f"{r['massless_contact_node']} contact={r['contact']}", 6)
                 out += _wrap(f"energy={r['energy']} mass={r['mass']} stability_limit={stab} "
-                             f"order={order}", 6)
+                             f"order={order} forms={','.join(r['forms'])}", 6)
                 if r["cannot_run"]:
                     out += _wrap(f"cannot run (defaults): {', '.join(r['cannot_run'])}", 6)
             for p in r["params"]:

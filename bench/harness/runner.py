@@ -25,12 +25,14 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numba.core import event as numba_event
 
 from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import format_value
 from contact_bench.api.plugin import Case, Exact, Scheme, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError, shown_repr
 from contact_bench.harness import metrics
 from contact_bench.harness.metrics import (
@@ -48,6 +50,9 @@ COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
     "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time", "reference",
+    # many contact dofs (sparse problems; empty for the 1D bar)
+    "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
+    "symmetry_defect",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
 TIMING_COLUMNS = ("step_s", "run_s", "wall_s")
@@ -282,7 +287,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     notes: list[str] = []
-    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+    reason = form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme)
     if reason:
         if strict:
             raise BenchError(f"scheme {scheme.spec} cannot run case {case.spec}: {reason}")
@@ -298,13 +303,13 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     if T / dt > MAX_STEPS:
         raise BenchError(f"dt = {_num(dt)} with T = {_num(T)} makes {_many(T / dt)} steps; "
                          f"allowed: at most {MAX_STEPS:.0e} steps (a larger dt or a smaller T)")
-    x = mesh_nodes(_check_length(case), nx, grading)
-    semi = discretise(case, x, scheme.mass_kind())
-    transits = T * semi.c_max / float(x[-1] - x[0])
+    semi = _discretise(case, scheme, nx, grading)
+    length = _check_length(case)
+    transits = T * semi.c_max / length
     if not transits <= MAX_TRANSITS:
         raise BenchError(f"T = {_num(T)} is {transits:.3g} wave transits of {case.spec}; "
                          f"allowed: at most {MAX_TRANSITS:g} (T <= "
-                         f"{_num(MAX_TRANSITS * float(x[-1] - x[0]) / semi.c_max)})")
+                         f"{_num(MAX_TRANSITS * length / semi.c_max)})")
     limit = scheme.stability_limit(semi.hmin, semi.c_max)
     lowered = ""
     if limit is not None and dt > limit * (1 + 1e-12):
@@ -351,6 +356,46 @@ def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False)
 
 
+def form_mismatch(case: Case, scheme: Scheme) -> str | None:
+    """Why the scheme cannot integrate the problem form the case produces, or None."""
+    if case.form in scheme.forms:
+        return None
+    return (f"{scheme.name} integrates {', '.join(sorted(scheme.forms))} problems, "
+            f"not the {case.form} problem of {case.name}")
+
+
+def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
+    """The problem in the case's form with the scheme's mass variant."""
+    if case.form == SPARSE:
+        try:
+            problem = case.sparse_problem(nx, grading, scheme.mass_kind())
+            problem.check()
+            return problem
+        except ValueError as exc:
+            raise BenchError(f"case {case.spec}: {exc}") from None
+    return discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())
+
+
+def on_axis(axis: AxisView, traj: Trajectory) -> Trajectory:
+    """The trajectory's samples on an axis view's dofs (for a 1D reference's norms)."""
+    return dataclasses.replace(traj, U=np.ascontiguousarray(traj.U[:, axis.dofs]),
+                               V=np.ascontiguousarray(traj.V[:, axis.dofs]))
+
+
+def contact_metrics(problem: Any, traj: Trajectory) -> dict[str, Any]:
+    """The many-node contact columns of a sparse run: status switches (chatter), first
+    contact start and end, peak total contact force, and the symmetry defect (largest
+    spread of U over the groups of dofs the scene declares equal, over the samples)."""
+    extra = traj.extra
+    out = {k: extra.get(k) for k in ("chatter", "first_contact_start", "first_contact_end",
+                                       "peak_contact_force")}
+    groups = getattr(problem, "equal_groups", ())
+    if groups and traj.U.shape[1]:
+        out["symmetry_defect"] = max(
+            float(np.max(np.ptp(traj.U[:, g], axis=-1))) for g in groups)
+    return out
+
+
 def _check_length(case: Case) -> float:
     """The bar's length, checked (material and data are checked in `discretise`)."""
     try:
@@ -371,20 +416,26 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
     norm_s = None
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
-        semi = discretise(case, mesh_nodes(_check_length(case), row["nx"], row["grading"]),
-                          scheme.mass_kind())
-    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
-    if key not in _warmed:
-        scheme.warm_up(semi)  # JIT compilation stays out of run_s and step_s
+        semi = _discretise(case, scheme, row["nx"], row["grading"])
+    sparse = case.form == SPARSE
+    integrate = scheme.integrate_sparse if sparse else scheme.integrate
+    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
+    if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
+        if sparse:
+            scheme.integrate_sparse(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
+        else:
+            scheme.warm_up(semi)
         _warmed.add(key)
     # the stepping alone first: its arrays are freed before the recorded run allocates
     # its samples, so a run's memory peak stays the recorded run's
-    row["step_s"] = step_time(scheme, semi, dt, plan.steps, step_repeats)
+    row["step_s"] = step_time(integrate, semi, dt, plan.steps, step_repeats)
     start = time.perf_counter()
-    traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
+    traj = integrate(semi, dt, plan.steps, plan.stride)
     row["run_s"] = row["wall_s"] = time.perf_counter() - start
     if traj.steps_done < plan.steps:  # stopped (blow-up): time the steps it made
-        row["step_s"] = step_time(scheme, semi, dt, traj.steps_done, step_repeats)
+        row["step_s"] = step_time(integrate, semi, dt, traj.steps_done, step_repeats)
+    if sparse:
+        row.update(contact_metrics(semi, traj))
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
@@ -395,6 +446,12 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     else:
         row["status"] = "ok"
         exact = reference(case, plan.T_run) if case.reference else None
+        grid, samples = semi, traj  # what the error norms read
+        if sparse and exact is not None:  # a 1D reference, read on the problem's axis
+            if semi.axis is None:
+                exact = None
+            else:
+                grid, samples = semi.axis, on_axis(semi.axis, traj)
         if exact is None:
             notes.append("errors: no reference solution")
         else:
@@ -402,10 +459,10 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
                 _warmed_metrics.append(True)
             if type(exact) not in _warmed_references:  # and the reference's own
-                metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
+                metrics.warm_up_reference(exact, grid.x, traj.t, case.provides)
                 _warmed_references.add(type(exact))
             start = time.perf_counter()
-            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared,
+            row.update(error_metrics(grid, samples, exact, case.provides, plan.shared,
                                      notes))
             norm_s = time.perf_counter() - start
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
@@ -417,25 +474,27 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     return Run(row, traj, semi, norm_s)
 
 
-def step_time(scheme: Scheme, semi: Any, dt: float, steps: int,
+def step_time(integrate: Callable[..., Trajectory], semi: Any, dt: float, steps: int,
               repeats: int = STEP_REPEATS, budget_s: float = STEP_BUDGET_S) -> float | None:
-    """The stepping alone: `scheme.integrate(semi, dt, steps, steps)` (samples at the first
-    and the last step only), the minimum over up to `repeats` timed calls after a
-    discarded warm-up call, stopping once the timed calls took `budget_s` (at least one
-    call). A warm-up call longer than `budget_s` is the measurement (JIT compilation is
-    done before, by `scheme.warm_up`: a long call is not dominated by cold caches).
-    None for 0 steps."""
+    """The stepping alone: `integrate(semi, dt, steps, steps)` (a scheme's `integrate` or
+    `integrate_sparse`; samples at the first and the last step only), the minimum over up
+    to `repeats` timed calls after a discarded warm-up call, stopping once the timed calls
+    took `budget_s` (at least one call). A warm-up call longer than `budget_s` is the
+    measurement, unless numba compiled during it (a kernel form the scheme's `warm_up` did
+    not reach, e.g. one chosen by problem size): then it is timed again. None for 0 steps.
+    """
     if steps < 1:
         return None
-    start = time.perf_counter()
-    scheme.integrate(semi, dt, steps, steps)
-    first = time.perf_counter() - start
-    if first > budget_s:
+    with numba_event.install_recorder("numba:compile") as compiled:
+        start = time.perf_counter()
+        integrate(semi, dt, steps, steps)
+        first = time.perf_counter() - start
+    if first > budget_s and not compiled.buffer:
         return first
     best, spent, calls = math.inf, 0.0, 0
     while calls < max(1, repeats) and not (calls >= 1 and spent > budget_s):
         start = time.perf_counter()
-        scheme.integrate(semi, dt, steps, steps)
+        integrate(semi, dt, steps, steps)
         elapsed = time.perf_counter() - start
         best, spent, calls = min(best, elapsed), spent + elapsed, calls + 1
     return best
@@ -551,5 +610,7 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
 
 
 def _semi_bytes(semi: Any) -> int:
+    if hasattr(semi, "nbytes"):  # a sparse problem tells its size
+        return int(semi.nbytes)
     return sum(a.nbytes for a in (semi.x, semi.M.diag, semi.M.off, semi.K.diag, semi.K.off,
                                    semi.F, semi.U0, semi.V0))

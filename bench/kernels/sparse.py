@@ -1,0 +1,752 @@
+"""Stepping on the general sparse problem (`contact_bench.api.sparse.SparseProblem`).
+
+Shared by the schemes whose `forms` hold "sparse". Everything factorable is factored
+once outside the loop; the loops are numba kernels over CSR arrays.
+
+* `Factor`: SuperLU of a symmetric positive definite S with a symmetric ordering and
+  diagonal pivots (`SymmetricMode`), its L and U kept as CSR arrays so that a compiled
+  loop does the two triangular solves (`lu_solve`).
+* Exact contact: the contact-free solution X_f of S X = b is corrected by
+  X = X_f + Z mu with Z = S^-1 C^T (C picks the contact dofs): the gaps g = g_f + W mu
+  with the Delassus matrix W = C S^-1 C^T (n_c x n_c, computed once with n_c solves)
+  must satisfy the linear complementarity problem g >= 0, mu >= 0, g.mu = 0, solved
+  exactly by principal pivoting (`lcp_solve`: block pivoting, then Murty's least-index
+  rule, which terminates for a positive definite W). Z is kept when it fits in
+  `KEEP_Z_ENTRIES` values; otherwise the correction is a second solve with C^T mu.
+* `newmark_sparse`: Newmark(beta > 0, gamma) in displacement form, S = M + beta dt^2 K,
+  the obstacle's force lambda = mu / (beta dt^2) at t_{n+1} (the 1D kernel's algorithm,
+  `contact_bench.kernels.newmark`, on many contact dofs). Massless dofs (zero mass
+  rows) have no acceleration: their velocity is the backward difference.
+* `quasistatic_sparse`: explicit Newmark (beta = 0) with massless contact dofs: the
+  dofs with mass advance explicitly, the massless ones are solved from their own rows
+  (K_mm factored once) with exact contact on the Delassus matrix C K_mm^-1 C^T.
+* `central_sparse`: the explicit central difference with a diagonal (lumped) mass and
+  the Taylor-Flanagan contact force (`schemes/taylor_flanagan.py`): a contact dof that
+  would penetrate is stopped where it was.
+
+Per step the kernels count the contact status switches (chatter), the smallest gap,
+the first contact's start and end and the peak total contact force (`contact_stats`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+from scipy.sparse.linalg import splu
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+
+#: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
+KEEP_Z_ENTRIES = 10_000_000
+#: pivoting steps of `lcp_solve` before it gives up (a multiple of n_c)
+LCP_MAX_PIVOTS = 50
+
+
+# ------------------------------------------------------------------------ CSR kernels
+
+
+@njit(cache=True)
+def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
+    """out = A x for A in CSR."""
+    for i in range(indptr.size - 1):
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            s += data[k] * x[indices[k]]
+        out[i] = s
+
+
+@njit(cache=True)
+def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: no cover
+    """out = S^-1 b from SuperLU's Pr S Pc = L U (L unit lower, U upper, both CSR with
+    sorted columns: L's diagonal last in its row, U's first)."""
+    n = b.size
+    for i in range(n):
+        work[perm_r[i]] = b[i]
+    for i in range(n):  # L y = Pr b
+        s = work[i]
+        for k in range(Lp[i], Lp[i + 1] - 1):
+            s -= Lx[k] * work[Li[k]]
+        work[i] = s / Lx[Lp[i + 1] - 1]
+    for i in range(n - 1, -1, -1):  # U z = y
+        s = work[i]
+        for k in range(Up[i] + 1, Up[i + 1]):
+            s -= Ux[k] * work[Ui[k]]
+        work[i] = s / Ux[Up[i]]
+    for i in range(n):  # x = Pc z
+        out[i] = work[perm_c[i]]
+
+
+@dataclass
+class Factor:
+    """S = M + beta dt^2 K factored once (SuperLU), as arrays for `lu_solve`."""
+
+    arrays: tuple
+    n: int
+
+    @classmethod
+    def of(cls, S: sp.spmatrix) -> Factor:
+        lu = splu(sp.csc_matrix(S), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+        Lm, Um = sp.csr_matrix(lu.L), sp.csr_matrix(lu.U)
+        Lm.sort_indices()
+        Um.sort_indices()
+        arrays = (Lm.indptr.astype(np.int64), Lm.indices.astype(np.int64), Lm.data,
+                  Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
+                  np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
+        return cls(arrays, S.shape[0])
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        out = np.empty(self.n)
+        lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
+        return out
+
+
+def csr_arrays(A: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    A = sp.csr_matrix(A)
+    return A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data.astype(float)
+
+
+# ------------------------------------------------------------------------------ LCP
+
+
+@njit(cache=True)
+def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
+    idx = np.flatnonzero(active)
+    mu[:] = 0.0
+    if idx.size:
+        sub = np.empty((idx.size, idx.size))
+        rhs = np.empty(idx.size)
+        for a in range(idx.size):
+            rhs[a] = -q[idx[a]]
+            for b in range(idx.size):
+                sub[a, b] = W[idx[a], idx[b]]
+        sol = np.linalg.solve(sub, rhs)
+        for a in range(idx.size):
+            mu[idx[a]] = sol[a]
+
+
+@njit(cache=True)
+def lcp_solve(W, q, mu, active, tol, warm=False):  # pragma: no cover - compiled
+    """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
+
+    Principal pivoting from the active set {q < 0} (`warm`: from the given `active`, the
+    previous step's, usually the answer already): block pivots (every violator
+    changes side) while they reduce the number of violators, then Murty's least-index
+    rule (one pivot at a time, finite for a P-matrix). `tol` is the gap violation
+    ignored (round-off, a length); mu's is tol / max W_ii. Returns the number of pivots
+    (-1 if it gave up).
+    """
+    n = q.size
+    wmax = 0.0
+    for i in range(n):
+        wmax = max(wmax, W[i, i])
+    tol_mu = tol / wmax if wmax > 0.0 else tol
+    if not warm:
+        for i in range(n):
+            active[i] = q[i] < 0.0
+    best = n + 1
+    murty = False
+    for it in range(LCP_MAX_PIVOTS * (n + 1)):
+        _solve_active(W, q, active, mu)
+        g = q + W @ mu
+        nviol = 0
+        first = -1
+        for i in range(n):
+            bad = (mu[i] < -tol_mu) if active[i] else (g[i] < -tol)
+            if bad:
+                nviol += 1
+                if first < 0:
+                    first = i
+        if nviol == 0:
+            for i in range(n):
+                if mu[i] < 0.0:
+                    mu[i] = 0.0
+            return it
+        if not murty and nviol < best:
+            best = nviol
+            for i in range(n):
+                if (mu[i] < -tol_mu) if active[i] else (g[i] < -tol):
+                    active[i] = not active[i]
+        else:
+            murty = True
+            active[first] = not active[first]
+    return -1
+
+
+@njit(cache=True)
+def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
+    """mu = c max(0, -g) with g = q + W mu (penalty springs of stiffness c on the
+    contact dofs, W symmetric positive definite): the piecewise-linear system solved by
+    active-set iteration from {q < 0} (each set's linear system exactly). Returns the
+    number of iterations (-1 if it gave up)."""
+    n = q.size
+    for i in range(n):
+        active[i] = q[i] < 0.0
+    for it in range(LCP_MAX_PIVOTS * (n + 1)):
+        idx = np.flatnonzero(active)
+        mu[:] = 0.0
+        if idx.size:
+            sub = np.empty((idx.size, idx.size))
+            rhs = np.empty(idx.size)
+            for a in range(idx.size):  # (I + W_AA C_A) g_A = q_A
+                rhs[a] = q[idx[a]]
+                for b in range(idx.size):
+                    sub[a, b] = W[idx[a], idx[b]] * c[idx[b]] + (1.0 if a == b else 0.0)
+            gA = np.linalg.solve(sub, rhs)
+            for a in range(idx.size):
+                mu[idx[a]] = -c[idx[a]] * gA[a]
+        g = q + W @ mu
+        same = True
+        for i in range(n):
+            if (g[i] < 0.0) != active[i]:
+                same = False
+                active[i] = g[i] < 0.0
+        if same:
+            return it
+    return -1
+
+
+# -------------------------------------------------------------------- contact stats
+
+
+@njit(cache=True)
+def _stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
+    """stats = [switches, first start, first end, peak force, steps in contact];
+    status (in/out) the previous contact status of each contact dof, updated."""
+    total = 0.0
+    anyc = False
+    for i in range(lam.size):
+        now = lam[i] > 0.0
+        if now != status[i]:
+            stats[0] += 1.0
+            status[i] = now
+        total += lam[i]
+        anyc = anyc or now
+    if anyc:
+        stats[4] += 1.0
+        if np.isnan(stats[1]):
+            stats[1] = step * dt
+    elif not np.isnan(stats[1]) and np.isnan(stats[2]):
+        stats[2] = step * dt
+    if total > stats[3]:
+        stats[3] = total
+
+
+def _new_stats() -> np.ndarray:
+    return np.array([0.0, np.nan, np.nan, 0.0, 0.0])
+
+
+def contact_extra(stats: np.ndarray) -> dict[str, float]:
+    """The per-step contact statistics of a run (`Trajectory.extra`)."""
+    return {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
+            "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
+            "contact_steps": float(stats[4])}
+
+
+# -------------------------------------------------------------------------- Newmark
+
+
+@njit(cache=True)
+def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - compiled
+    csr_matvec(Mp, Mi, Mx, V, w)
+    e = 0.5 * (V @ w)
+    csr_matvec(Kp, Ki, Kx, U, w)
+    return e + 0.5 * (U @ w) - F @ U + offset
+
+
+@njit(cache=True)
+def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
+                    massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
+                    kappa, Pp, Pi, Px, y0, ew, sc, fscale):  # pragma: no cover
+    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    n = U.size
+    nc = cd.size
+    bdt2 = beta * dt * dt
+    k1 = (gamma + 0.5 - beta) / beta
+    k2 = 1.0 / beta
+    kv = gamma / (beta * dt)
+    idt = 1.0 / dt
+    rhs = np.empty(n)
+    X = np.empty(n)
+    work = np.empty(n)
+    w = np.empty(n)
+    mu = np.zeros(nc)
+    lam = np.zeros(nc)
+    gf = np.empty(nc)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    # a piecewise-linear law (penalty, Nitsche: `ContactLaw`) on y = P X + y0, or exact
+    # contact on the gaps (P = C, y0 = gap0)
+    penalty = kappa.size > 0
+    y = np.empty(nc)
+    st = 0.0
+    was_in_contact = False
+    cpen = kappa * bdt2
+    E0 = E_out[0]
+    min_gap = np.inf
+    for i in range(nc):
+        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        csr_matvec(Mp, Mi, Mx, P, rhs)
+        for i in range(n):
+            rhs[i] += bdt2 * F[i]
+        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
+        pen = False
+        csr_matvec(Pp, Pi, Px, X, gf)
+        for i in range(nc):
+            gf[i] += y0[i]
+            pen = pen or gf[i] < 0.0
+        if pen:
+            if penalty:
+                penalty_solve(W, gf, cpen, mu, active)
+            else:
+                lcp_solve(W, gf, mu, active, tol, was_in_contact)
+            if keep_z:
+                on = np.flatnonzero(mu)
+                for i in range(n):  # X += Z mu over the nonzero mu (Z's rows contiguous)
+                    acc = 0.0
+                    for j in on:
+                        acc += Z[i, j] * mu[j]
+                    X[i] += acc
+            else:
+                rhs[:] = 0.0
+                for j in range(nc):
+                    rhs[cd[j]] = mu[j]
+                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
+                for i in range(n):
+                    X[i] += w[i]
+            for j in range(nc):
+                if active[j] and not penalty:
+                    X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
+                lam[j] = fscale * mu[j] / bdt2
+        else:
+            mu[:] = 0.0
+            lam[:] = 0.0
+        was_in_contact = pen
+        for i in range(n):
+            if massless[i]:  # no inertia: backward-difference velocity, no acceleration
+                v = X[i] - U[i]
+                V[i] = v * idt
+                P[i] = X[i] + v
+                Q[i] = v
+            else:  # d = beta dt^2 a^{n+1}
+                d = X[i] - P[i]
+                V[i] = kv * d + Q[i] * idt
+                P[i] = k1 * d + (X[i] + Q[i])
+                Q[i] = k2 * d + Q[i]
+            U[i] = X[i]
+        _stats_update(stats, status, lam, step, dt)
+        for i in range(nc):
+            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        if step % stride == 0 or step == nsteps:
+            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            if penalty:  # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2
+                csr_matvec(Pp, Pi, Px, U, y)
+                st = 0.0
+                for i in range(nc):
+                    yi = min(0.0, y[i] + y0[i])
+                    e += 0.5 * ew * kappa[i] * yi * yi
+                    st += sc[i] * yi
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for i in range(nc):
+                g = min(g, gap0[i] + U[cd[i]])
+            cu_out[k] = g
+            s_out[k] = st / area if penalty else -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+@dataclass
+class ContactLaw:
+    """A piecewise-linear contact force at t_{n+1}: on y = P U + y0 (n_c values) the
+    force is -sum_i c_i min(0, y_i) q_i (q_i the rows of Q), which adds
+    K_extra to the stiffness; its energy ew sum_i c_i / 2 min(0, y_i)^2, its sampled
+    stress sum_i sc_i min(0, y_i) / (zone's measure).
+
+    penalty: P = Q = C (the contact dofs), y0 = gap0, c = sc = kappa_i, ew = 1.
+    Nitsche: P = gam C + B, Q = gam C + theta B (B: the normal stress at the contact
+    dofs), y0 = gam gap0, c = w_i / gam, ew = theta, sc = w_i, K_extra = -(theta / gam)
+    B^T M_f B (M_f the zone's mass, `ContactSet.face_mass`).
+    """
+
+    P: sp.csr_matrix
+    Q: sp.csr_matrix
+    y0: np.ndarray
+    c: np.ndarray
+    ew: float
+    sc: np.ndarray
+    K_extra: sp.csr_matrix | None = None
+    #: the force on the contact dofs is fscale mu / (beta dt^2) (Q's coefficient of C:
+    #: 1 for the penalty, gam for Nitsche), for the peak-force column
+    fscale: float = 1.0
+
+
+def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
+    """M A0 = r on the dofs with mass (0 on the massless ones); r = F - K U0 unless
+    given (a contact law's force at t = 0 included)."""
+    if r is None:
+        r = p.F - p.K @ p.U0
+    A = np.zeros(p.nfree)
+    heavy = ~p.massless
+    Mh = p.M[heavy][:, heavy]
+    if Mh.nnz == np.count_nonzero(Mh.diagonal()):  # diagonal
+        A[heavy] = r[heavy] / Mh.diagonal()
+    else:
+        A[heavy] = Factor.of(Mh).solve(r[heavy])
+    return A
+
+
+def _buffers(p: SparseProblem, nsteps: int, stride: int) -> dict[str, np.ndarray]:
+    k = n_samples(nsteps, stride)
+    n = p.nfree
+    out = {"t": np.zeros(k), "U": np.zeros((k, n)), "V": np.zeros((k, n)), "cu": np.zeros(k),
+           "s": np.zeros(k), "E": np.zeros(k)}
+    out["U"][0], out["V"][0] = p.U0, p.V0
+    out["cu"][0] = float(np.min(p.gaps(p.U0))) if p.contact.size else np.inf
+    out["E"][0] = p.energy(p.U0, p.V0)
+    return out
+
+
+def _trajectory(out: dict, k: int, done: int, min_gap: float, blow: int, dt: float,
+                stats: np.ndarray) -> Trajectory:
+    return Trajectory(t=out["t"][:k], U=out["U"][:k], V=out["V"][:k], contact_u=out["cu"][:k],
+                      stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_gap),
+                      steps_done=int(done),
+                      blowup_time=None if blow < 0 else float(blow * dt),
+                      extra=contact_extra(stats))
+
+
+def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Z = S^-1 C^T (n x n_c) and W = C Z, by n_c solves."""
+    Z = np.empty((n, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        Z[:, j] = fac.solve(e)
+        e[d] = 0.0
+    W = Z[cd, :]
+    return Z, np.ascontiguousarray(0.5 * (W + W.T))
+
+
+def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
+                   gamma: float, kappa: np.ndarray | None = None,
+                   law: ContactLaw | None = None) -> Trajectory:
+    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring), or
+    a piecewise-linear `law` (`ContactLaw`: Nitsche), or penalty springs: `kappa` (one
+    stiffness per contact dof) gives the force kappa_i max(0, -g_i) at t_{n+1}; the
+    law's step is solved exactly (`penalty_solve`), its energy is sampled."""
+    if not beta > 0.0:
+        raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
+    dt, beta, gamma = float(dt), float(beta), float(gamma)
+    n = p.nfree
+    cd = np.asarray(p.contact.dofs, np.int64)
+    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, n))
+    if kappa is not None:
+        kappa = np.asarray(kappa, float)
+        law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+    K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
+    fac = Factor.of(p.M + (beta * dt * dt) * K)
+    keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
+    if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
+        Z = np.empty((n, cd.size))
+        Qc = sp.csc_matrix(law.Q.T)
+        for j in range(cd.size):
+            Z[:, j] = fac.solve(Qc[:, j].toarray().ravel())
+        W = np.ascontiguousarray(law.P @ Z)
+        Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
+        lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
+        fscale = float(law.fscale)
+    else:
+        Pm, y0 = C, np.asarray(p.contact.gap0, float)
+        lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
+        fscale = 1.0
+        if keep_z:
+            Z, W = delassus(fac, cd, n)
+        else:
+            W = delassus_only(fac, cd, n)
+            Z = np.zeros((1, 1))
+    out = _buffers(p, nsteps, stride)
+    if law is not None:  # the sampled energy with the law's terms
+        y = np.minimum(0.0, Pm @ p.U0 + y0)
+        out["E"][0] = float(p.energy(p.U0, p.V0) + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
+                            + 0.5 * ew * np.sum(lk * y * y))
+    stats = _new_stats()
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    if law is not None:  # the full force at t = 0: K' and the law's, if active
+        r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
+        A = initial_acceleration(p, r)
+    else:
+        A = initial_acceleration(p)
+    # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
+    # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
+    P = U + dt * V + (0.5 - beta) * dt * dt * A
+    Q = dt * V + dt * dt * (1.0 - gamma) * A
+    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
+                                                             initial=0.0)), 1e-300)
+    k, done, min_gap, blow = _newmark_kernel(
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
+        keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
+        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
+        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
+    """W = C S^-1 C^T without keeping Z."""
+    W = np.empty((cd.size, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        W[:, j] = fac.solve(e)[cd]
+        e[d] = 0.0
+    return np.ascontiguousarray(0.5 * (W + W.T))
+
+
+# ------------------------------------------------------- explicit central difference
+
+
+@njit(cache=True)
+def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stride, offset,
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+    """Kick-drift central difference with a diagonal mass m (> 0 everywhere), carrying
+    (U^n, V^{n-1/2}); a contact dof whose predicted gap is negative gets the force
+    lambda = max(0, -m V^{n+1/2} / dt) that stops it (Taylor-Flanagan)."""
+    n = U.size
+    nc = cd.size
+    c = dt / m
+    Un = np.empty(n)
+    tmp = np.empty(n)
+    lam = np.zeros(nc)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for i in range(nc):
+        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        if step > 1:  # kick and drift fused with the product K U: one pass
+            for i in range(n):
+                ku = 0.0
+                for kk in range(Kp[i], Kp[i + 1]):
+                    ku += Kx[kk] * U[Ki[kk]]
+                v = Vh[i] + c[i] * (F[i] - ku)
+                Vh[i] = v
+                Un[i] = U[i] + dt * v
+        else:
+            for i in range(n):
+                Un[i] = U[i] + dt * Vh[i]
+        for j in range(nc):
+            d = cd[j]
+            lam[j] = 0.0
+            if gap0[j] + Un[d] < 0.0:
+                lj = -Vh[d] * m[d] / dt
+                if lj > 0.0:
+                    lam[j] = lj
+                    Un[d] += dt * c[d] * lj
+                    Vh[d] += c[d] * lj
+        U, Un = Un, U
+        _stats_update(stats, status, lam, step, dt)
+        for i in range(nc):
+            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Kp, Ki, Kx, U, tmp)
+            for i in range(n):
+                tmp[i] = Vh[i] + 0.5 * dt * ((F[i] - tmp[i]) / m[i])
+            e = -(F @ U) + offset
+            for i in range(n):
+                e += 0.5 * m[i] * tmp[i] * tmp[i]
+            csr_matvec(Kp, Ki, Kx, U, Un)
+            e += 0.5 * (U @ Un)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = tmp
+            g = np.inf
+            for i in range(nc):
+                g = min(g, gap0[i] + U[cd[i]])
+            cu_out[k] = g
+            s_out[k] = -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    """The explicit central difference with a diagonal mass and the Taylor-Flanagan
+    contact force (module docstring). ValueError unless M is diagonal and positive."""
+    M = sp.csr_matrix(p.M)
+    m = np.asarray(M.diagonal(), float)
+    if M.nnz != np.count_nonzero(m) or not np.all(m > 0):
+        raise ValueError("central_sparse needs a diagonal mass with positive entries (lumped)")
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = initial_acceleration(p)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    Vh = V + 0.5 * dt * A
+    k, done, min_gap, blow = _central_kernel(
+        m, *csr_arrays(p.K), np.asarray(p.F, float), np.asarray(p.contact.dofs, np.int64),
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, Vh,
+        float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
+        out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+# ------------------------------------- explicit with massless (quasi-static) contact dofs
+
+
+@njit(cache=True)
+def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
+                        mfac, hfac, diag_h, cl, gap0, weights, W, Z, U, V, A, dt, gamma, nsteps,
+                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats,
+                        tol):  # pragma: no cover - compiled
+    """Central differences on the dofs with mass (hv), the massless ones (mv) solved
+    from their own rows each step, with exact contact on the contact dofs among them
+    (cl: their positions in mv; W = C K_mm^-1 C^T, Z = K_mm^-1 C^T)."""
+    n = U.size
+    nh, nm, nc = hv.size, mv.size, cl.size
+    rm = np.empty(nm)
+    um = np.empty(nm)
+    wm = np.empty(nm)
+    rh = np.empty(nh)
+    ah = np.empty(nh)
+    wh = np.empty(nh)
+    w = np.empty(n)
+    gf = np.empty(nc)
+    mu = np.zeros(nc)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+    was = False
+    k = 1
+    for step in range(1, nsteps + 1):
+        for a in range(nh):
+            i = hv[a]
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+        csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh u_h (the massless columns dropped)
+        for b in range(nm):
+            rm[b] = F[mv[b]] - rm[b]
+        lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
+                 rm, um, wm)
+        pen = False
+        for j in range(nc):
+            gf[j] = gap0[j] + um[cl[j]]
+            pen = pen or gf[j] < 0.0
+        if pen:
+            lcp_solve(W, gf, mu, active, tol, was)
+            on = np.flatnonzero(mu)
+            for b in range(nm):
+                acc = 0.0
+                for j in on:
+                    acc += Z[b, j] * mu[j]
+                um[b] += acc
+            for j in range(nc):
+                if active[j]:
+                    um[cl[j]] = -gap0[j]
+        else:
+            mu[:] = 0.0
+        was = pen
+        for b in range(nm):
+            i = mv[b]
+            V[i] = (um[b] - U[i]) / dt
+            U[i] = um[b]
+        csr_matvec(Khp, Khi, Khx, U, rh)  # (K U) on the dofs with mass
+        for a in range(nh):
+            rh[a] = F[hv[a]] - rh[a]
+        if diag_h.size:
+            for a in range(nh):
+                ah[a] = rh[a] / diag_h[a]
+        else:
+            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
+                     rh, ah, wh)
+        for a in range(nh):
+            i = hv[a]
+            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+            A[i] = ah[a]
+        _stats_update(stats, status, mu, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+        if step % stride == 0 or step == nsteps:
+            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[mv[cl[j]]])
+            cu_out[k] = g
+            s_out[k] = -mu.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def quasistatic_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
+                       gamma: float = 0.5) -> Trajectory:
+    """Explicit Newmark (beta = 0, gamma; 1/2: central differences) with massless contact
+    dofs (the seed's P_U^mod on many dofs): the dofs with mass advance explicitly (a
+    solve with their mass block, factored once, unless it is diagonal), the massless
+    ones are quasi-static, solved
+    from their rows with K_mm factored once and exact contact through the Delassus
+    matrix C K_mm^-1 C^T. ValueError unless every contact dof is massless."""
+    massless = p.massless
+    hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+    pos = np.full(p.nfree, -1)
+    pos[mv] = np.arange(mv.size)
+    cd = np.asarray(p.contact.dofs, np.int64)
+    if np.any(pos[cd] < 0):
+        raise ValueError("the explicit quasi-static path needs massless contact dofs")
+    cl = pos[cd]
+    K = sp.csr_matrix(p.K)
+    Kmm = K[mv][:, mv]
+    mfac = Factor.of(Kmm)
+    Z = np.empty((mv.size, cd.size))
+    e = np.zeros(mv.size)
+    for j, c in enumerate(cl):
+        e[c] = 1.0
+        Z[:, j] = mfac.solve(e)
+        e[c] = 0.0
+    W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
+    keep = np.ones(p.nfree)
+    keep[mv] = 0.0
+    Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+    Kmh.eliminate_zeros()
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = initial_acceleration(p)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
+                                                             initial=0.0)), 1e-300)
+    k, done, min_gap, blow = _quasistatic_kernel(
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
+        *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
+        Mhh.diagonal() if diag else np.zeros(0), cl, np.asarray(p.contact.gap0, float),
+        np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z), U, V, A,
+        float(dt), float(gamma), int(nsteps), int(stride), float(p.energy_offset), out["t"],
+        out["U"], out["V"], out["cu"], out["s"], out["E"], stats, tol)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
