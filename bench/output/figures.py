@@ -168,7 +168,7 @@ def contact_figure(runs: list, exact: Any, title: str) -> Figure:
 
 def work_precision_figure(wp: pd.DataFrame, case: str, error: str) -> Figure:
     """Error (x) against stepping time (y), log-log; one curve per scheme; Pareto front."""
-    tcol = WP_TIME
+    tcol = WP_TIME if WP_TIME in wp.columns else "time_s"  # a table from before step_s
     fig, ax = plt.subplots(figsize=(7, 4.8))
     for i, (curve, g) in enumerate(wp.groupby("curve", sort=False)):
         g = g.sort_values(tcol)
