@@ -31,15 +31,6 @@ from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
 from contact_bench.core.errors import BenchError
 
 
-def _trapezoid_weights(a: np.ndarray) -> np.ndarray:
-    """The measure each node of a 1D grid stands for (half cells at the ends)."""
-    h = np.diff(a)
-    w = np.zeros(a.size)
-    w[:-1] += 0.5 * h
-    w[1:] += 0.5 * h
-    return w
-
-
 class EmbeddedBar(Case):
     name = "embedded_bar"
     summary = "a 1D scene's bar as a 2D/3D Q1 body (reference: the 1D exact solution)"
@@ -176,3 +167,12 @@ class EmbeddedBar(Case):
             E_contact=float(self.E), h_contact=float(x[1] - x[0]),
             normal_stress=self._normal_stress(P, face, index, x, dim))
         return problem
+
+
+def _trapezoid_weights(a: np.ndarray) -> np.ndarray:
+    """The measure each node of a 1D grid stands for (half cells at the ends)."""
+    h = np.diff(a)
+    w = np.zeros(a.size)
+    w[:-1] += 0.5 * h
+    w[1:] += 0.5 * h
+    return w

@@ -435,14 +435,15 @@ def test_run_out_is_replaced_as_a_set(tmp_path, capsys):
     assert code == 0 and {"clamped_bar.png", "pulse.png", "README.md"} <= set(_snapshot(out))
     code, _, _ = _main([*RUN, "--case", "clamped_bar", "--out", str(out)], capsys)
     assert code == 0
-    assert sorted(_snapshot(out)) == ["README.md", "clamped_bar.png", "runs.csv", "runs.md"]
+    assert sorted(_snapshot(out)) == ["README.md", "clamped_bar.fig.json", "clamped_bar.png",
+                                      "runs.csv", "runs.csv.json", "runs.md"]
     assert _hidden(tmp_path) == []
     # a folder with the user's own files: they stay, the previous set's stale files go
     (out / "mine.txt").write_text("keep me")
     code, _, _ = _main([*RUN, "--case", "pulse", "--out", str(out)], capsys)
     assert code == 0
-    assert sorted(_snapshot(out)) == ["README.md", "mine.txt", "pulse.png", "runs.csv",
-                                      "runs.md"]
+    assert sorted(_snapshot(out)) == ["README.md", "mine.txt", "pulse.fig.json", "pulse.png",
+                                      "runs.csv", "runs.csv.json", "runs.md"]
     assert _hidden(tmp_path) == []
 
 

@@ -133,8 +133,9 @@ def _list_text(records: list[dict]) -> str:
                 absent = sorted({"u", "v", "stress", "energy"} - set(r["provides"]))
                 out += _wrap(f"defaults T={r['T']:g} nx={r['nx']} dt={r['dt']:g}{stride}; "
                              f"reference={r['reference']}; provides="
-                             f"{','.join(r['provides']) or '-'}; form={r['form']}"
-                             + (f" (not: {','.join(absent)})" if absent else ""), 6)
+                             f"{','.join(r['provides']) or '-'}"
+                             + (f" (not: {','.join(absent)})" if absent else "")
+                             + f"; form={r['form']}", 6)
                 out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
                              6)
             else:

@@ -713,8 +713,10 @@ def read_provenance(path: str | Path) -> str | None:
 
 
 #: columns a saved table must have for `report` (what the analysis reads)
-TABLE_COLUMNS = ("group", "case", "scheme", "nx", "h", "dt", "cfl", "T", "steps", "status",
-                 "stability", "notes", "time_s", "energy_trace")
+TABLE_COLUMNS = ("case", "scheme", "nx", "dt", "T", "steps", "status")
+#: columns of a sweep that a `run` table lacks: read as empty (its runs are in no group,
+#: untimed, without traces)
+SWEEP_ONLY_COLUMNS = ("group", "h", "cfl", "stability", "notes", "time_s", "energy_trace")
 
 
 def load_table(path: str | Path) -> pd.DataFrame:
@@ -751,6 +753,9 @@ def load_table(path: str | Path) -> pd.DataFrame:
                          f"{', '.join(missing[:5])} missing")
     if df.empty:
         raise BenchError(f"{shown(str(path))} is a sweep table with no rows")
+    for col in SWEEP_ONLY_COLUMNS:
+        if col not in df:
+            df[col] = None
     for number, trace in enumerate(df["energy_trace"], start=1):
         if isinstance(trace, str):
             try:
