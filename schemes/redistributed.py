@@ -19,6 +19,7 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
+from contact_bench.kernels.sparse import newmark_sparse
 
 
 class Redistributed(Scheme):
@@ -47,3 +48,15 @@ class Redistributed(Scheme):
 
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)
+
+    # the general sparse problem: the same Newmark step, exact contact on every contact
+    # dof through the Delassus matrix (`contact_bench.kernels.sparse.newmark_sparse`)
+    forms = frozenset({"banded1d", "sparse"})
+
+    def cannot_run(self, case) -> str | None:
+        if case.form == "sparse" and self.beta == 0.0:
+            return "the explicit (beta = 0) step has no sparse path yet"
+        return None
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma)

@@ -184,6 +184,15 @@ class Case(Plugin):
         """A reason why this scene cannot be run by the scheme, or None."""
         return None
 
+    #: the problem form this scene produces (`contact_bench.api.sparse.FORMS`): the 1D
+    #: bar's banded `Semidiscrete`, or a `SparseProblem` from `sparse_problem`
+    form: ClassVar[str] = "banded1d"
+
+    def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> Any:
+        """The `contact_bench.api.sparse.SparseProblem` of a sparse-form scene at
+        resolution nx with the scheme's mass variant (`Scheme.mass_kind`)."""
+        raise NotImplementedError
+
 
 # --------------------------------------------------------------------------- schemes
 
@@ -255,6 +264,16 @@ class Traits:
 
 class Scheme(Plugin):
     """A time-integration / contact scheme. Subclasses implement `traits` and `integrate`."""
+
+    #: the problem forms it integrates (`contact_bench.api.sparse.FORMS`): "banded1d"
+    #: through `integrate`, "sparse" through `integrate_sparse`
+    forms: ClassVar[frozenset[str]] = frozenset({"banded1d"})
+
+    def integrate_sparse(self, problem: Any, dt: float, nsteps: int,
+                         stride: int) -> Trajectory:
+        """Integrate a `contact_bench.api.sparse.SparseProblem` (schemes whose `forms`
+        hold "sparse")."""
+        raise NotImplementedError
 
     def traits(self) -> Traits:
         raise NotImplementedError

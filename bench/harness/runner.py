@@ -21,6 +21,7 @@ from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.plugin import Case, Exact, Scheme, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError
 from contact_bench.harness import metrics
 from contact_bench.harness.metrics import (
@@ -38,6 +39,9 @@ COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "wall_s",
     "status", "notes", "stride", "grading", "blowup_time", "reference",
+    # many contact dofs (sparse problems; empty for the 1D bar)
+    "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
+    "symmetry_defect",
 )
 
 _warmed: set[tuple[type, str]] = set()
@@ -202,15 +206,14 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     notes: list[str] = []
-    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+    reason = form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme)
     if reason:
         if strict:
             raise BenchError(f"scheme {scheme.spec} cannot run case {case.spec}: {reason}")
         row.update(dt=dt, status="not applicable", notes=reason)
         return _Plan(case, scheme, row, notes)
 
-    x = mesh_nodes(_check_length(case), nx, grading)
-    semi = discretise(case, x, scheme.mass_kind())
+    semi = _discretise(case, scheme, nx, grading)
     limit = scheme.stability_limit(semi.hmin, semi.c_max)
     if limit is not None and dt > limit * (1 + 1e-12):
         if dt_given and not allow_unstable:
@@ -241,6 +244,44 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     return _Plan(case, scheme, row, notes, semi, dt, steps, stride, T_run)
 
 
+def form_mismatch(case: Case, scheme: Scheme) -> str | None:
+    """Why the scheme cannot integrate the problem form the case produces, or None."""
+    if case.form in scheme.forms:
+        return None
+    return (f"{scheme.name} integrates {', '.join(sorted(scheme.forms))} problems, "
+            f"not the {case.form} problem of {case.name}")
+
+
+def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
+    """The problem in the case's form with the scheme's mass variant."""
+    if case.form == SPARSE:
+        try:
+            return case.sparse_problem(nx, grading, scheme.mass_kind())
+        except ValueError as exc:
+            raise BenchError(f"case {case.spec}: {exc}") from None
+    return discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())
+
+
+def on_axis(axis: AxisView, traj: Trajectory) -> Trajectory:
+    """The trajectory's samples on an axis view's dofs (for a 1D reference's norms)."""
+    return dataclasses.replace(traj, U=np.ascontiguousarray(traj.U[:, axis.dofs]),
+                               V=np.ascontiguousarray(traj.V[:, axis.dofs]))
+
+
+def contact_metrics(problem: Any, traj: Trajectory) -> dict[str, Any]:
+    """The many-node contact columns of a sparse run: status switches (chatter), first
+    contact start and end, peak total contact force, and the symmetry defect (largest
+    spread of U over the groups of dofs the scene declares equal, over the samples)."""
+    extra = traj.extra
+    out = {k: extra.get(k) for k in ("chatter", "first_contact_start", "first_contact_end",
+                                       "peak_contact_force")}
+    groups = getattr(problem, "equal_groups", ())
+    if groups and traj.U.shape[1]:
+        out["symmetry_defect"] = max(
+            float(np.max(np.ptp(traj.U[:, g], axis=-1))) for g in groups)
+    return out
+
+
 def _check_length(case: Case) -> float:
     """The bar's length, checked (material and data are checked in `discretise`)."""
     try:
@@ -260,15 +301,21 @@ def _execute(plan: _Plan) -> Run:
     case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
     norm_s = None
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
-        semi = discretise(case, mesh_nodes(_check_length(case), row["nx"], row["grading"]),
-                          scheme.mass_kind())
-    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit)  # one kernel each
-    if key not in _warmed:
-        scheme.warm_up(semi)  # JIT compilation stays out of wall_s
+        semi = _discretise(case, scheme, row["nx"], row["grading"])
+    sparse = case.form == SPARSE
+    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
+    if key not in _warmed:  # one kernel each; JIT compilation stays out of wall_s
+        if sparse:
+            scheme.integrate_sparse(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
+        else:
+            scheme.warm_up(semi)
         _warmed.add(key)
     start = time.perf_counter()
-    traj = scheme.integrate(semi, dt, plan.steps, plan.stride)
+    integrate = scheme.integrate_sparse if sparse else scheme.integrate
+    traj = integrate(semi, dt, plan.steps, plan.stride)
     row["wall_s"] = time.perf_counter() - start
+    if sparse:
+        row.update(contact_metrics(semi, traj))
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
@@ -279,6 +326,11 @@ def _execute(plan: _Plan) -> Run:
     else:
         row["status"] = "ok"
         exact = reference(case, plan.T_run) if case.reference else None
+        if sparse and exact is not None:  # a 1D reference, read on the problem's axis
+            if semi.axis is None:
+                exact = None
+            else:
+                semi, traj = semi.axis, on_axis(semi.axis, traj)
         if exact is None:
             notes.append("errors: no reference solution")
         else:
@@ -401,5 +453,7 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
 
 
 def _semi_bytes(semi: Any) -> int:
+    if hasattr(semi, "nbytes"):  # a sparse problem tells its size
+        return int(semi.nbytes)
     return sum(a.nbytes for a in (semi.x, semi.M.diag, semi.M.off, semi.K.diag, semi.K.off,
                                    semi.F, semi.U0, semi.V0))

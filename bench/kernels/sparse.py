@@ -1,0 +1,392 @@
+"""Stepping on the general sparse problem (`contact_bench.api.sparse.SparseProblem`).
+
+Shared by the schemes whose `forms` hold "sparse". Everything factorable is factored
+once outside the loop; the loops are numba kernels over CSR arrays.
+
+* `Factor`: SuperLU of a symmetric positive definite S with a symmetric ordering and
+  diagonal pivots (`SymmetricMode`), its L and U kept as CSR arrays so that a compiled
+  loop does the two triangular solves (`lu_solve`).
+* Exact contact: the contact-free solution X_f of S X = b is corrected by
+  X = X_f + Z mu with Z = S^-1 C^T (C picks the contact dofs): the gaps g = g_f + W mu
+  with the Delassus matrix W = C S^-1 C^T (n_c x n_c, computed once with n_c solves)
+  must satisfy the linear complementarity problem g >= 0, mu >= 0, g.mu = 0, solved
+  exactly by principal pivoting (`lcp_solve`: block pivoting, then Murty's least-index
+  rule, which terminates for a positive definite W). Z is kept when it fits in
+  `KEEP_Z_ENTRIES` values; otherwise the correction is a second solve with C^T mu.
+* `newmark_sparse`: Newmark(beta > 0, gamma) in displacement form, S = M + beta dt^2 K,
+  the obstacle's force lambda = mu / (beta dt^2) at t_{n+1} (the 1D kernel's algorithm,
+  `contact_bench.kernels.newmark`, on many contact dofs). Massless dofs (zero mass
+  rows) have no acceleration: their velocity is the backward difference.
+* `central_sparse`: the explicit central difference with a diagonal (lumped) mass and
+  the Taylor-Flanagan contact force (`schemes/taylor_flanagan.py`): a contact dof that
+  would penetrate is stopped where it was.
+
+Per step the kernels count the contact status switches (chatter), the smallest gap,
+the first contact's start and end and the peak total contact force (`contact_stats`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+from scipy.sparse.linalg import splu
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+
+#: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
+KEEP_Z_ENTRIES = 4_000_000
+#: pivoting steps of `lcp_solve` before it gives up (a multiple of n_c)
+LCP_MAX_PIVOTS = 50
+
+
+# ------------------------------------------------------------------------ CSR kernels
+
+
+@njit(cache=True)
+def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
+    """out = A x for A in CSR."""
+    for i in range(indptr.size - 1):
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            s += data[k] * x[indices[k]]
+        out[i] = s
+
+
+@njit(cache=True)
+def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: no cover
+    """out = S^-1 b from SuperLU's Pr S Pc = L U (L unit lower, U upper, both CSR with
+    sorted columns: L's diagonal last in its row, U's first)."""
+    n = b.size
+    for i in range(n):
+        work[perm_r[i]] = b[i]
+    for i in range(n):  # L y = Pr b
+        s = work[i]
+        for k in range(Lp[i], Lp[i + 1] - 1):
+            s -= Lx[k] * work[Li[k]]
+        work[i] = s / Lx[Lp[i + 1] - 1]
+    for i in range(n - 1, -1, -1):  # U z = y
+        s = work[i]
+        for k in range(Up[i] + 1, Up[i + 1]):
+            s -= Ux[k] * work[Ui[k]]
+        work[i] = s / Ux[Up[i]]
+    for i in range(n):  # x = Pc z
+        out[i] = work[perm_c[i]]
+
+
+@dataclass
+class Factor:
+    """S = M + beta dt^2 K factored once (SuperLU), as arrays for `lu_solve`."""
+
+    arrays: tuple
+    n: int
+
+    @classmethod
+    def of(cls, S: sp.spmatrix) -> Factor:
+        lu = splu(sp.csc_matrix(S), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+        Lm, Um = sp.csr_matrix(lu.L), sp.csr_matrix(lu.U)
+        Lm.sort_indices()
+        Um.sort_indices()
+        arrays = (Lm.indptr.astype(np.int64), Lm.indices.astype(np.int64), Lm.data,
+                  Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
+                  np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
+        return cls(arrays, S.shape[0])
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        out = np.empty(self.n)
+        lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
+        return out
+
+
+def csr_arrays(A: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    A = sp.csr_matrix(A)
+    return A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data.astype(float)
+
+
+# ------------------------------------------------------------------------------ LCP
+
+
+@njit(cache=True)
+def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
+    idx = np.flatnonzero(active)
+    mu[:] = 0.0
+    if idx.size:
+        sub = np.empty((idx.size, idx.size))
+        rhs = np.empty(idx.size)
+        for a in range(idx.size):
+            rhs[a] = -q[idx[a]]
+            for b in range(idx.size):
+                sub[a, b] = W[idx[a], idx[b]]
+        sol = np.linalg.solve(sub, rhs)
+        for a in range(idx.size):
+            mu[idx[a]] = sol[a]
+
+
+@njit(cache=True)
+def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
+    """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
+
+    Principal pivoting from the active set {q < 0}: block pivots (every violator
+    changes side) while they reduce the number of violators, then Murty's least-index
+    rule (one pivot at a time, finite for a P-matrix). `tol` is the gap violation
+    ignored (round-off, a length); mu's is tol / max W_ii. Returns the number of pivots
+    (-1 if it gave up).
+    """
+    n = q.size
+    wmax = 0.0
+    for i in range(n):
+        wmax = max(wmax, W[i, i])
+    tol_mu = tol / wmax if wmax > 0.0 else tol
+    for i in range(n):
+        active[i] = q[i] < 0.0
+    best = n + 1
+    murty = False
+    for it in range(LCP_MAX_PIVOTS * (n + 1)):
+        _solve_active(W, q, active, mu)
+        g = q + W @ mu
+        nviol = 0
+        first = -1
+        for i in range(n):
+            bad = (mu[i] < -tol_mu) if active[i] else (g[i] < -tol)
+            if bad:
+                nviol += 1
+                if first < 0:
+                    first = i
+        if nviol == 0:
+            for i in range(n):
+                if mu[i] < 0.0:
+                    mu[i] = 0.0
+            return it
+        if not murty and nviol < best:
+            best = nviol
+            for i in range(n):
+                if (mu[i] < -tol_mu) if active[i] else (g[i] < -tol):
+                    active[i] = not active[i]
+        else:
+            murty = True
+            active[first] = not active[first]
+    return -1
+
+
+# -------------------------------------------------------------------- contact stats
+
+
+@njit(cache=True)
+def _stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
+    """stats = [switches, first start, first end, peak force, steps in contact];
+    status (in/out) the previous contact status of each contact dof, updated."""
+    total = 0.0
+    anyc = False
+    for i in range(lam.size):
+        now = lam[i] > 0.0
+        if now != status[i]:
+            stats[0] += 1.0
+            status[i] = now
+        total += lam[i]
+        anyc = anyc or now
+    if anyc:
+        stats[4] += 1.0
+        if np.isnan(stats[1]):
+            stats[1] = step * dt
+    elif not np.isnan(stats[1]) and np.isnan(stats[2]):
+        stats[2] = step * dt
+    if total > stats[3]:
+        stats[3] = total
+
+
+def _new_stats() -> np.ndarray:
+    return np.array([0.0, np.nan, np.nan, 0.0, 0.0])
+
+
+def contact_extra(stats: np.ndarray) -> dict[str, float]:
+    """The per-step contact statistics of a run (`Trajectory.extra`)."""
+    return {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
+            "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
+            "contact_steps": float(stats[4])}
+
+
+# -------------------------------------------------------------------------- Newmark
+
+
+@njit(cache=True)
+def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - compiled
+    csr_matvec(Mp, Mi, Mx, V, w)
+    e = 0.5 * (V @ w)
+    csr_matvec(Kp, Ki, Kx, U, w)
+    return e + 0.5 * (U @ w) - F @ U + offset
+
+
+@njit(cache=True)
+def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
+                    massless, U, V, A, beta, gamma, dt, nsteps, stride, offset,
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
+    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    n = U.size
+    nc = cd.size
+    bdt2 = beta * dt * dt
+    Ut = np.empty(n)
+    rhs = np.empty(n)
+    X = np.empty(n)
+    work = np.empty(n)
+    w = np.empty(n)
+    mu = np.zeros(nc)
+    lam = np.zeros(nc)
+    gf = np.empty(nc)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for i in range(nc):
+        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):
+            Ut[i] = U[i] + dt * V[i] + (0.5 - beta) * dt * dt * A[i]
+        csr_matvec(Mp, Mi, Mx, Ut, rhs)
+        for i in range(n):
+            rhs[i] += bdt2 * F[i]
+        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
+        pen = False
+        for i in range(nc):
+            gf[i] = gap0[i] + X[cd[i]]
+            pen = pen or gf[i] < 0.0
+        if pen:
+            lcp_solve(W, gf, mu, active, tol)
+            if keep_z:
+                for j in range(nc):
+                    if mu[j] != 0.0:
+                        for i in range(n):
+                            X[i] += Z[i, j] * mu[j]
+            else:
+                rhs[:] = 0.0
+                for j in range(nc):
+                    rhs[cd[j]] = mu[j]
+                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
+                for i in range(n):
+                    X[i] += w[i]
+            for j in range(nc):
+                if active[j]:
+                    X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
+                lam[j] = mu[j] / bdt2
+        else:
+            mu[:] = 0.0
+            lam[:] = 0.0
+        for i in range(n):
+            if massless[i]:
+                V[i] = (X[i] - U[i]) / dt
+                A[i] = 0.0
+            else:
+                a1 = (X[i] - Ut[i]) / bdt2
+                V[i] += dt * ((1.0 - gamma) * A[i] + gamma * a1)
+                A[i] = a1
+            U[i] = X[i]
+        _stats_update(stats, status, lam, step, dt)
+        for i in range(nc):
+            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        if step % stride == 0 or step == nsteps:
+            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for i in range(nc):
+                g = min(g, gap0[i] + U[cd[i]])
+            cu_out[k] = g
+            s_out[k] = -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def initial_acceleration(p: SparseProblem) -> np.ndarray:
+    """M A0 = F - K U0 on the dofs with mass (0 on the massless ones)."""
+    r = p.F - p.K @ p.U0
+    A = np.zeros(p.nfree)
+    heavy = ~p.massless
+    Mh = p.M[heavy][:, heavy]
+    if Mh.nnz == np.count_nonzero(Mh.diagonal()):  # diagonal
+        A[heavy] = r[heavy] / Mh.diagonal()
+    else:
+        A[heavy] = Factor.of(Mh).solve(r[heavy])
+    return A
+
+
+def _buffers(p: SparseProblem, nsteps: int, stride: int) -> dict[str, np.ndarray]:
+    k = n_samples(nsteps, stride)
+    n = p.nfree
+    out = {"t": np.zeros(k), "U": np.zeros((k, n)), "V": np.zeros((k, n)), "cu": np.zeros(k),
+           "s": np.zeros(k), "E": np.zeros(k)}
+    out["U"][0], out["V"][0] = p.U0, p.V0
+    out["cu"][0] = float(np.min(p.gaps(p.U0))) if p.contact.size else np.inf
+    out["E"][0] = p.energy(p.U0, p.V0)
+    return out
+
+
+def _trajectory(out: dict, k: int, done: int, min_gap: float, blow: int, dt: float,
+                stats: np.ndarray) -> Trajectory:
+    return Trajectory(t=out["t"][:k], U=out["U"][:k], V=out["V"][:k], contact_u=out["cu"][:k],
+                      stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_gap),
+                      steps_done=int(done),
+                      blowup_time=None if blow < 0 else float(blow * dt),
+                      extra=contact_extra(stats))
+
+
+def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Z = S^-1 C^T (n x n_c) and W = C Z, by n_c solves."""
+    Z = np.empty((n, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        Z[:, j] = fac.solve(e)
+        e[d] = 0.0
+    W = Z[cd, :]
+    return Z, np.ascontiguousarray(0.5 * (W + W.T))
+
+
+def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
+                   gamma: float) -> Trajectory:
+    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring)."""
+    if not beta > 0.0:
+        raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
+    dt, beta, gamma = float(dt), float(beta), float(gamma)
+    n = p.nfree
+    fac = Factor.of(p.M + (beta * dt * dt) * p.K)
+    cd = np.asarray(p.contact.dofs, np.int64)
+    keep_z = n * cd.size <= KEEP_Z_ENTRIES
+    if keep_z:
+        Z, W = delassus(fac, cd, n)
+    else:
+        W = delassus_only(fac, cd, n)
+        Z = np.zeros((1, 1))
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = initial_acceleration(p)
+    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
+                                                             initial=0.0)), 1e-300)
+    k, done, min_gap, blow = _newmark_kernel(
+        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
+        keep_z, p.massless, U, V, A, beta, gamma, dt, int(nsteps), int(stride),
+        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
+        stats, tol)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
+    """W = C S^-1 C^T without keeping Z."""
+    W = np.empty((cd.size, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        W[:, j] = fac.solve(e)[cd]
+        e[d] = 0.0
+    return np.ascontiguousarray(0.5 * (W + W.T))

@@ -1,0 +1,151 @@
+"""A 1D scene's bar embedded in 2D (plane strain, Q1 quads) or 3D (Q1 hexes).
+
+The bar (0, L) becomes the rectangle (0, L) x (0, 1) or the box (0, L) x (0, 1)^2 (a
+section of measure 1, so that energies and contact stresses equal the 1D ones), with
+`cells` elements across and `--nx` along. Its obstacle is the plane x = 0 under the
+whole face x = 0 (frictionless), the far end x = L is clamped (every component) when the
+1D scene's is. Lateral faces: `free` with nu = 0, or `sliding` (the normal component
+zero, no friction) with any nu; Young's modulus is chosen so that lambda + 2 mu equals
+the 1D E (the same wave speed). In both cases u = (u1(x, t), 0, 0) with u1 the 1D
+solution solves the 2D/3D problem, so the 1D scene's exact solution is the reference
+and the error norms are those of 1D, taken on the axis y = z = 0.
+
+At the discrete level too: the Q1 mass is kron(M_x, M_y(, M_z)) and K keeps the 1D
+subspace, so every 1D mass variant has the counterpart kron(M_x^variant, M_y, ...) and
+every scheme's run equals its 1D run up to round-off (until round-off splits an
+active set: the symmetry defect column shows the spread across the section).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import skfem as fe
+
+from contact_bench.api import fem_nd
+from contact_bench.api.fem import MASS_KINDS, mesh_nodes
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case
+from contact_bench.api.registry import make_case
+from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
+from contact_bench.core.errors import BenchError
+
+
+def _trapezoid_weights(a: np.ndarray) -> np.ndarray:
+    """The measure each node of a 1D grid stands for (half cells at the ends)."""
+    h = np.diff(a)
+    w = np.zeros(a.size)
+    w[:-1] += 0.5 * h
+    w[1:] += 0.5 * h
+    return w
+
+
+class EmbeddedBar(Case):
+    name = "embedded_bar"
+    summary = "a 1D scene's bar as a 2D/3D Q1 body (reference: the 1D exact solution)"
+    form = "sparse"
+    params = {
+        "of": Param("clamped_bar", "the 1D scene embedded"),
+        "dim": Param(2, "space dimension", choices=(2, 3)),
+        "cells": Param(2, "elements across the bar", low=1, high=64),
+        "sides": Param("free", "lateral faces: free (nu = 0) or sliding (any nu)",
+                       choices=("free", "sliding")),
+        "nu": Param(0.3, "Poisson's ratio with sliding sides", low=-0.99, high=0.49),
+    }
+
+    def validate(self) -> None:
+        if self.of == self.name or self.of.startswith(self.name + "["):
+            raise BenchError(f"{self.spec}: of = {self.of!r}: a bar, not an embedded bar")
+        bar = make_case(self.of)
+        if bar.form != "banded1d":
+            raise BenchError(f"{self.spec}: of = {self.of!r} is not a 1D scene")
+        if callable(bar.E) or callable(bar.rho):
+            raise BenchError(f"{self.spec}: of = {self.of!r} has x-dependent E or rho; "
+                             "allowed: scenes with constant E and rho")
+        self.bar = bar
+        self.L, self.rho, self.E, self.g = bar.L, bar.rho, bar.E, bar.g
+        self.far_end, self.u_L = bar.far_end, bar.u_L
+        self.T, self.nx, self.dt, self.stride = bar.T, bar.nx, bar.dt, bar.stride
+        self.reference = bar.reference
+        self.provides = bar.provides
+
+    def u0(self, x):
+        return self.bar.u0(x)
+
+    def v0(self, x):
+        return self.bar.v0(x)
+
+    def exact(self, T: float):
+        return self.bar.exact(T)
+
+    @property
+    def exact_energy(self) -> float | None:
+        return self.bar.exact_energy  # the section has measure 1
+
+    def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
+        if mass_kind not in MASS_KINDS:
+            raise ValueError(f"mass {mass_kind!r} has no tensor form; allowed: "
+                             f"{', '.join(MASS_KINDS)}")
+        dim = int(self.dim)
+        x = mesh_nodes(float(self.L), int(nx), grading)
+        y = np.linspace(0.0, 1.0, int(self.cells) + 1)
+        mesh = (fe.MeshQuad.init_tensor(x, y) if dim == 2
+                else fe.MeshHex.init_tensor(x, y, y))
+        nu = 0.0 if self.sides == "free" else float(self.nu)
+        # lambda + 2 mu = E (1 - nu) / ((1 + nu) (1 - 2 nu)) is the 1D E
+        E_nd = float(self.E) * (1 + nu) * (1 - 2 * nu) / (1 - nu)
+        body = fem_nd.assemble(mesh, E_nd, nu, float(self.rho))
+        M = fem_nd.mass_matrix(body, "kron:" + mass_kind)
+        K = body.K
+        P = body.dof_coordinates  # (dim, nodes); node s has dofs dim s + c
+        nodes = P.shape[1]
+        n = dim * nodes
+        g = np.zeros(dim)
+        g[0] = -float(self.g)
+        F = fem_nd.body_force(M, dim, g)
+        U = np.zeros(n)
+        V = np.zeros(n)
+        U[0::dim] = np.asarray(self.u0(P[0]), float) * np.ones(nodes)
+        V[0::dim] = np.asarray(self.v0(P[0]), float) * np.ones(nodes)
+        fixed = np.zeros(n, bool)
+        far = np.isclose(P[0], x[-1], rtol=0, atol=1e-12 * float(self.L))
+        if self.far_end == "clamped":
+            for c in range(dim):
+                fixed[dim * np.flatnonzero(far) + c] = True
+            U[0::dim][far] = float(self.u_L)
+            V[fixed] = 0.0
+        if self.sides == "sliding":
+            for c in range(1, dim):
+                side = np.isclose(P[c], 0.0) | np.isclose(P[c], 1.0)
+                fixed[dim * np.flatnonzero(side) + c] = True
+        free = np.flatnonzero(~fixed)
+        fix = np.flatnonzero(fixed)
+        Kf = K[free][:, free].tocsr()
+        Kfd = K[free][:, fix]
+        Ud = U[fix]
+        Ff = F[free] - Kfd @ Ud
+        offset = float(0.5 * Ud @ (K[fix][:, fix] @ Ud) - F[fix] @ Ud)
+        index = np.full(n, -1)
+        index[free] = np.arange(free.size)
+        face = np.flatnonzero(np.isclose(P[0], 0.0, rtol=0, atol=1e-12 * float(self.L)))
+        weights = np.ones(face.size)
+        for c in range(1, dim):
+            weights *= _trapezoid_weights(y)[np.searchsorted(y, P[c][face])]
+        contact = ContactSet(dofs=index[dim * face], gap0=np.zeros(face.size), weights=weights)
+        on_axis = np.ones(nodes, bool)
+        for c in range(1, dim):
+            on_axis &= P[c] == 0.0
+        axis_nodes = np.flatnonzero(on_axis & ~(far & (self.far_end == "clamped")))
+        axis_nodes = axis_nodes[np.argsort(P[0][axis_nodes])]
+        axis = AxisView(dofs=index[dim * axis_nodes], x=x,
+                        u_fixed=float(self.u_L) if self.far_end == "clamped" else None)
+        # the x-displacement of every section: equal across it
+        order = np.lexsort(tuple(P[c] for c in range(dim - 1, -1, -1)))  # x slowest
+        groups = (dim * order).reshape(x.size, -1)
+        if self.far_end == "clamped":
+            groups = groups[:-1]
+        problem = SparseProblem(
+            M=M[free][:, free].tocsr(), K=Kf, F=Ff, U0=U[free], V0=V[free], contact=contact,
+            dim=dim, hmin=min(float(np.min(np.diff(x))), float(y[1] - y[0])),
+            c_max=float(np.sqrt(float(self.E) / float(self.rho))), energy_offset=offset,
+            mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],))
+        return problem
