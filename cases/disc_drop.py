@@ -1,0 +1,158 @@
+"""GetFEM's disc drop (`demo_dynamic_contact.m`, Renard and Chouly): an elastic disc falls
+onto a rigid plane.
+
+Disc of radius 20 centred at (0, 20) (it touches y = 0 undeformed), plane strain, lambda =
+mu = 20 (E = 50, nu = 0.25), rho = 1, downward body force 0.1, lifted by `lift` (default
+5), v0 = 0; obstacle y >= 0 on the lower half of the boundary, frictionless; T = 40, dt =
+0.01. `degree` 1 or 2 (P1 or P2 elements on a P2-geometry mesh whose boundary nodes lie on
+the circle); `--nx` counts the element rings along the radius (a ring mesh, mirror
+symmetric about x = 0). A larger lift is a harder, faster impact.
+
+References it has exactly (`references`): free fall u = (0, lift - g t^2 / 2) until the
+first impact at sqrt(2 lift / g); the energy E0 = m g lift (frictionless, elastic); the
+impulse balance (rigid translations lie in ker K: the contact impulse equals the change
+of momentum plus m g times the elapsed time); the x -> -x symmetry (the symmetry defect
+column: mirrored vertical displacements are equal). It has no closed-form u after the
+impact (no Hertz law for a disc): the error columns stay empty. A scheme's 1D mass
+variant maps to its 2D kind: consistent and lumped as named (lumped refused for P2), the
+redistributed ones (massless contact node) to the Khenous-Laborde-Renard redistribution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import skfem as fe
+
+from contact_bench.api import fem_nd
+from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case
+from contact_bench.api.sparse import ContactSet, SparseProblem
+
+
+class DiscDrop(Case):
+    name = "disc_drop"
+    summary = "GetFEM's elastic disc dropped on a plane (2D plane strain, P1/P2)"
+    form = "sparse"
+    params = {
+        "degree": Param(2, "polynomial degree of the elements", choices=(1, 2)),
+        "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
+                      low=1e-6, high=1e3),
+    }
+    R, centre_y = 20.0, 20.0
+    lam = mu = 20.0
+    rho, g = 1.0, 0.1
+    T, nx, dt, stride = 40.0, 5, 0.01, 10
+
+    @property
+    def E(self) -> float:  # the P-wave modulus lambda + 2 mu: wave_speed = c_p
+        return self.lam + 2 * self.mu
+
+    @property
+    def L(self) -> float:
+        return 2 * self.R
+
+    @property
+    def impact_time(self) -> float:
+        """The first impact of the free fall, sqrt(2 lift / g)."""
+        return math.sqrt(2 * float(self.lift) / self.g)
+
+    @property
+    def exact_energy(self) -> float:
+        """E0 = m g lift of the continuous disc (the mesh's m differs by its geometry)."""
+        return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
+
+    def free_fall(self, t: np.ndarray) -> np.ndarray:
+        """The vertical displacement of every point before the first impact."""
+        return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
+
+    def mesh(self, nx: int) -> fe.MeshTri2:
+        """The ring mesh: nx rings of 6 k nodes, triangulated on the half x >= 0 and
+        mirrored; P2 geometry with the boundary's edge midpoints on the circle."""
+        p, t = ring_disc(int(nx))
+        p = p * self.R
+        p[1] += self.centre_y
+        m = fe.MeshTri2.from_mesh(fe.MeshTri1(p, t))
+        D = m.dofs.get_facet_dofs(m.boundary_facets()).flatten()
+        loc = m.doflocs.copy()
+        c = np.array([[0.0], [self.centre_y]])
+        r = loc[:, D] - c
+        loc[:, D] = c + self.R * r / np.linalg.norm(r, axis=0)
+        return replace(m, doflocs=loc)
+
+    def body(self, nx: int) -> fem_nd.Elasticity:
+        nu = self.lam / (2 * (self.lam + self.mu))
+        E = self.mu * (3 * self.lam + 2 * self.mu) / (self.lam + self.mu)
+        return fem_nd.assemble(self.mesh(nx), E, nu, self.rho, degree=int(self.degree))
+
+    def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
+        if grading != 1.0:
+            raise ValueError(f"grading = {grading!r}: the disc's ring mesh is uniform "
+                             "(allowed: 1)")
+        body = self.body(nx)
+        P = body.dof_coordinates
+        # the lower half: outward normal pointing down (GetFEM: n_y < -0.01)
+        facets = body.boundary_facets(lambda x: x[1] < self.centre_y - 0.01 * self.R)
+        scalar = np.unique(body.scalar.get_dofs(facets).flatten())
+        kind = canonical_mass(mass_kind)
+        M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
+                               scalar)
+        Mc = fem_nd.mass_matrix(body, "consistent")
+        F = fem_nd.body_force(Mc, 2, np.array([0.0, -self.g]))
+        n = body.ndofs
+        U0 = np.zeros(n)
+        U0[1::2] = float(self.lift)
+        fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+        w = np.asarray(fe.LinearForm(lambda v, _: v).assemble(fb))[scalar]
+        contact = ContactSet(dofs=2 * scalar + 1, gap0=P[1, scalar].copy(), weights=w)
+        return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
+                             dim=2, hmin=body.hmin, c_max=body.wave_speed,
+                             mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
+                             extra={"mass": float(np.sum(Mc @ np.tile([0.0, 1.0], n // 2)))})
+
+
+def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit disc centred at 0: node 0 the centre, ring k (1..n) of 6 k nodes from the
+    bottom (angle -pi/2) counter-clockwise; triangles (3, 6 n^2), counter-clockwise,
+    mirror symmetric about x = 0."""
+    pts = [np.zeros((2, 1))]
+    first = [0]
+    for k in range(1, n + 1):
+        a = -np.pi / 2 + 2 * np.pi * np.arange(6 * k) / (6 * k)
+        first.append(first[-1] + (6 * (k - 1) if k > 1 else 1))
+        pts.append(k / n * np.vstack([np.cos(a), np.sin(a)]))
+
+    def node(k: int, j: int) -> int:
+        return 0 if k == 0 else first[k] + j % (6 * k)
+
+    def mirror(k: int, j: int) -> int:
+        return 0 if k == 0 else node(k, 6 * k - j)
+
+    tris: list[tuple[int, int, int]] = []
+    for k in range(1, n + 1):  # the half x >= 0: inner 0..3(k-1), outer 0..3k
+        half: list[tuple[tuple[int, int], ...]] = []
+        i = j = 0
+        ni, no = 3 * (k - 1), 3 * k
+        while i < ni or j < no:
+            if k == 1 or i == ni or (j < no and (j + 1) * ni <= (i + 1) * no):
+                half.append(((k - 1, i), (k, j), (k, j + 1)))
+                j += 1
+            else:
+                half.append(((k - 1, i), (k, j), (k - 1, i + 1)))
+                i += 1
+        for a, b, c in half:
+            tris.append((node(*a), node(*b), node(*c)))
+            tris.append((mirror(*a), mirror(*c), mirror(*b)))
+    return np.hstack(pts), np.array(tris, np.int64).T
+
+
+def mirror_pairs(P: np.ndarray) -> np.ndarray:
+    """(pairs, 2) scalar dofs at (x, y) and (-x, y), x > 0."""
+    scale = float(np.max(np.abs(P)))
+    key = {(round(x / scale, 9), round(y / scale, 9)): s for s, (x, y) in enumerate(P.T)}
+    right = np.flatnonzero(P[0] > 1e-9 * scale)
+    return np.array([[s, key[(round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9))]]
+                     for s in right], np.int64)
