@@ -13,7 +13,7 @@ consistent         the assembled vector mass rho u.v
 lumped             row sums on the diagonal (P1, Q1; P2 refused: negative masses)
 kron:<kind>        Q1 tensor meshes: the 1D variant `<kind>` of `contact_bench.api.fem`
                    along x (node 0 at x = x0), Kronecker product with the consistent 1D
-                   masses across (`lumped` along x gives the lumped Q1 mass)
+                   masses across (`lumped`: lumped across too, the Q1 row sums)
 redistributed      Khenous, Laborde and Renard: zero rows and columns at the contact
                    nodes, their mass moved to the other entries so that the total mass,
                    first and second moments are kept (least-squares change; the rest
@@ -170,7 +170,8 @@ def lumped(body: Elasticity) -> sp.csr_matrix:
 def tensor_mass(body: Elasticity, kind: str) -> sp.csr_matrix:
     """On a Q1 tensor mesh (first axis x, the others across): the 1D variant `kind`
     along x (its node 0 at the smallest x), Kronecker product with the consistent 1D
-    masses across. `consistent` equals the assembled Q1 mass to round-off."""
+    masses across (lumped ones for `lumped`, so that it is the diagonal row-sum mass).
+    `consistent` equals the assembled Q1 mass to round-off."""
     if not isinstance(body.scalar.elem, fe.ElementQuad1 | fe.ElementHex1):
         raise ValueError(f"kron:{kind} needs a Q1 tensor mesh, got "
                          f"{type(body.scalar.elem).__name__}")
@@ -180,8 +181,8 @@ def tensor_mass(body: Elasticity, kind: str) -> sp.csr_matrix:
         raise ValueError("kron mass needs a tensor mesh (every node on the axes' grid)")
     idx = [np.searchsorted(a, P[k]) for k, a in enumerate(axes)]
     mats = [mass_variant_1d(assemble_1d(axes[0], body.rho, 1.0), kind).to_sparse()]
-    mats += [mass_variant_1d(assemble_1d(a, 1.0, 1.0), "consistent").to_sparse()
-             for a in axes[1:]]
+    across = "lumped" if kind == "lumped" else "consistent"
+    mats += [mass_variant_1d(assemble_1d(a, 1.0, 1.0), across).to_sparse() for a in axes[1:]]
     T = mats[0]
     for A in mats[1:]:
         T = sp.kron(T, A, format="csr")

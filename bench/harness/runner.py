@@ -326,11 +326,12 @@ def _execute(plan: _Plan) -> Run:
     else:
         row["status"] = "ok"
         exact = reference(case, plan.T_run) if case.reference else None
+        grid, samples = semi, traj  # what the error norms read
         if sparse and exact is not None:  # a 1D reference, read on the problem's axis
             if semi.axis is None:
                 exact = None
             else:
-                semi, traj = semi.axis, on_axis(semi.axis, traj)
+                grid, samples = semi.axis, on_axis(semi.axis, traj)
         if exact is None:
             notes.append("errors: no reference solution")
         else:
@@ -338,10 +339,10 @@ def _execute(plan: _Plan) -> Run:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
                 _warmed_metrics.append(True)
             if type(exact) not in _warmed_references:  # and the reference's own
-                metrics.warm_up_reference(exact, semi.x, traj.t, case.provides)
+                metrics.warm_up_reference(exact, grid.x, traj.t, case.provides)
                 _warmed_references.add(type(exact))
             start = time.perf_counter()
-            row.update(error_metrics(semi, traj, exact, case.provides, plan.shared))
+            row.update(error_metrics(grid, samples, exact, case.provides, plan.shared))
             norm_s = time.perf_counter() - start
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
             if missing:

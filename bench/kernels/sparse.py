@@ -223,13 +223,16 @@ def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - c
 
 @njit(cache=True)
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
-                    massless, U, V, A, beta, gamma, dt, nsteps, stride, offset,
+                    massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
     bdt2 = beta * dt * dt
-    Ut = np.empty(n)
+    k1 = (gamma + 0.5 - beta) / beta
+    k2 = 1.0 / beta
+    kv = gamma / (beta * dt)
+    idt = 1.0 / dt
     rhs = np.empty(n)
     X = np.empty(n)
     work = np.empty(n)
@@ -246,9 +249,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
         min_gap = min(min_gap, gap0[i] + U[cd[i]])
     k = 1
     for step in range(1, nsteps + 1):
-        for i in range(n):
-            Ut[i] = U[i] + dt * V[i] + (0.5 - beta) * dt * dt * A[i]
-        csr_matvec(Mp, Mi, Mx, Ut, rhs)
+        csr_matvec(Mp, Mi, Mx, P, rhs)
         for i in range(n):
             rhs[i] += bdt2 * F[i]
         lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
@@ -278,13 +279,16 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             mu[:] = 0.0
             lam[:] = 0.0
         for i in range(n):
-            if massless[i]:
-                V[i] = (X[i] - U[i]) / dt
-                A[i] = 0.0
-            else:
-                a1 = (X[i] - Ut[i]) / bdt2
-                V[i] += dt * ((1.0 - gamma) * A[i] + gamma * a1)
-                A[i] = a1
+            if massless[i]:  # no inertia: backward-difference velocity, no acceleration
+                v = X[i] - U[i]
+                V[i] = v * idt
+                P[i] = X[i] + v
+                Q[i] = v
+            else:  # d = beta dt^2 a^{n+1}
+                d = X[i] - P[i]
+                V[i] = kv * d + Q[i] * idt
+                P[i] = k1 * d + (X[i] + Q[i])
+                Q[i] = k2 * d + Q[i]
             U[i] = X[i]
         _stats_update(stats, status, lam, step, dt)
         for i in range(nc):
@@ -370,12 +374,16 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
     stats = _new_stats()
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     A = initial_acceleration(p)
+    # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
+    # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
+    P = U + dt * V + (0.5 - beta) * dt * dt * A
+    Q = dt * V + dt * dt * (1.0 - gamma) * A
     tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                              initial=0.0)), 1e-300)
     k, done, min_gap, blow = _newmark_kernel(
         *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
-        keep_z, p.massless, U, V, A, beta, gamma, dt, int(nsteps), int(stride),
+        keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
         float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
         stats, tol)
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
