@@ -11,6 +11,11 @@ energy against time, contact intervals, peak force, contact on/off switches, tim
 step and its ratio to GetFEM's. Conventions in docs/getfem-side-by-side.md.
 
     python benchmarks/getfem_side_by_side.py [--nx 5] [--T 40] [--out FILE]
+    python benchmarks/getfem_side_by_side.py --demo 1d
+
+`--demo 1d`: GetFEM's `demo_dynamic_contact_1D.py` (version 0, pure Signorini contact,
+Newmark beta 1/4, standard and redistributed mass) run in GetFEM beside contact-bench's
+`standard` and `redistributed` on `clamped_bar` at the demo's nx 20, dt 0.002, T 12.
 
 Skipped with a one-line message where GetFEM is absent. The same file is the GetFEM
 worker (`--getfem-worker`, run by the system python; it imports no contact_bench).
@@ -131,6 +136,83 @@ def getfem_run(mesh_npz: str, contact: str, T: float, dt: float, degree: int = 2
             "seconds_per_step_total": (time.perf_counter() - t0) / NT}
 
 
+def getfem_1d_run(mass_type: int, NX: int = 20, T: float = 12.0, dt: float = 0.002,
+                  beta: float = 0.25, gamma: float = 0.5) -> dict:
+    """GetFEM's `interface/tests/python/demo_dynamic_contact_1D.py`, version 0 (pure
+    Signorini contact), implicit branch, P1, in GetFEM: its matrices, Dirichlet rows and
+    updates; mass_type 0 standard, 1 redistributed (M11 += M00 + M01). Linear solves by
+    GetFEM's MUMPS (its SuperLU binding crashes in Debian's 5.4). Energy of every step."""
+    import getfem as gf
+
+    gf.util_trace_level(0)
+
+    def solve(A, b):
+        return np.asarray(gf.linsolve_mumps(A, b)).ravel()
+
+    m = gf.Mesh("cartesian", np.arange(0, 1 + 1.0 / NX, 1.0 / NX))
+    mfu = gf.MeshFem(m)
+    mfu.set_classical_fem(1)
+    mim = gf.MeshIm(m, 4)
+    md = gf.Model("real")
+    md.add_fem_variable("u", mfu)
+    U0 = mfu.eval("0.5-0.5*x").ravel()
+    n = U0.size
+    V0 = np.zeros(n)
+    M = gf.asm_generic(mim, 2, "u*Test_u", -1, md)
+    K = gf.asm_generic(mim, 2, "Grad_u*Grad_Test_u", -1, md)
+    for i in range(2):
+        K[n - 1, n - 2 + i] = 0.0
+        M[n - 1, n - 2 + i] = 0.0
+    M[n - 1, n - 1] = 1.0
+    K[n - 1, n - 1] = 1.0
+    M2 = gf.Spmat("copy", M)
+    if mass_type == 1:
+        M[1, 1] += M[0, 0]
+        M[0, 0] = 0.0
+        M[1, 1] += M[1, 0]
+        M[0, 1] = M[1, 0] = 0.0
+        M2 = gf.Spmat("copy", M)
+        M2[0, 0] = 1.0
+    MV0 = M.mult(V0)
+    MA0 = -K.mult(U0)
+    if mass_type >= 1:
+        MA0[0] = 0.0
+    K_m = gf.Spmat("copy", K)
+    K_m.scale(dt * dt * beta)
+    K_N = gf.Spmat("add", M, K_m)
+    K_N_C = gf.Spmat("copy", K_N)
+    for i in range(2):
+        K_N_C[0, i] = 0.0
+    K_N_C[0, 0] = 1.0
+    NT = int(round(T / dt)) + 1
+    E, u_contact = np.zeros(NT), np.zeros(NT)
+    start = time.perf_counter()
+    for nit in range(NT):
+        if nit > 0:
+            B = M.mult(U0) + dt * MV0 + (dt * dt * (1 - 2 * beta) / 2.0) * MA0
+            U1 = solve(K_N, B)
+            MV1 = np.copy(MV0)
+            if U1[0] < 0:
+                B2 = np.copy(B)
+                B2[0] = 0.0
+                U1 = solve(K_N_C, B2)
+                Fc1 = (K_N.mult(U1) - B) / (beta * dt * dt)
+            else:
+                Fc1 = np.zeros(n)
+            MA1 = Fc1 - K.mult(U1)
+            MV1 += dt * ((1.0 - gamma) * MA0 + gamma * MA1)
+            V1 = solve(M2, MV1)
+            V1[n - 1] = 0.0
+            if mass_type >= 1:
+                V1[0] = (U1[0] - U0[0]) / dt
+            MA0 = MA1
+            U0, V0, MV0 = U1, V1, MV1
+        E[nit] = 0.5 * (M.mult(V0) @ V0 + K.mult(U0) @ U0)
+        u_contact[nit] = U0[0]
+    return {"E": E.tolist(), "u_contact": u_contact.tolist(),
+            "seconds_per_step": (time.perf_counter() - start) / (NT - 1)}
+
+
 # ----------------------------------------------------------- the contact-bench side
 def export_mesh(case, nx: int, path: str) -> None:
     """The scene's P2-geometry triangles as (2, 6, elements) points in GetFEM's GT_PK(2,2)
@@ -204,6 +286,36 @@ def table(results: dict[str, dict], dt: float, T: float, E0_exact: float) -> str
     return "\n".join(lines)
 
 
+def table_1d(python: str) -> str:
+    """GetFEM's 1D demo (version 0, implicit) beside contact-bench on clamped_bar, nx 20,
+    dt 0.002, T 12: energy differences relative to E0 = 1/8."""
+    from contact_bench.harness.runner import run_one
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "1d.json")
+        subprocess.run([python, os.path.abspath(__file__), "--getfem-1d", out], check=True)
+        with open(out) as f:
+            gf = json.load(f)
+    lines = ["| GetFEM 1D demo mass | contact-bench scheme | max abs(E_cb - E_gf) / E0, t < 1 |"
+             " same, t <= 12 | first step with another contact status | E(12) GetFEM |"
+             " E(12) contact-bench | s per step GetFEM / contact-bench |",
+             "|---|---|---|---|---|---|---|---|"]
+    for mt, spec in (("0", "standard"), ("1", "redistributed[variant=getfem]"),
+                     ("1", "redistributed")):
+        run = run_one("clamped_bar", spec, nx=20, dt=0.002, T=12.0, stride=1)
+        E, G = run.trajectory.energy, np.asarray(gf[mt]["E"])
+        d = np.abs(E - G) / G[0]
+        u, g = run.trajectory.contact_u, np.asarray(gf[mt]["u_contact"])
+        other = np.flatnonzero((u == 0) != (g == 0))
+        first = f"{other[0]} (t = {other[0] * 0.002:.3f})" if other.size else "none"
+        cb = run.row["wall_s"] / 6000
+        lines.append(f"| {'standard' if mt == '0' else 'redistributed'} | {spec} | "
+                     f"{d[:500].max():.2g} | {d.max():.2g} | {first} | {G[-1]:.12g} | "
+                     f"{E[-1]:.12g} | {gf[mt]['seconds_per_step'] * 1e3:.3g} ms / "
+                     f"{cb * 1e6:.3g} us = {gf[mt]['seconds_per_step'] / cb:.0f} |")
+    return "\n".join(lines)
+
+
 def getfem_available(python: str) -> str | None:
     """None if `python` imports getfem, else the reason."""
     try:
@@ -221,10 +333,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dt", type=float, default=0.01)
     ap.add_argument("--schemes", default="standard,redistributed")
     ap.add_argument("--out", default=None, help="also write the table to this file")
+    ap.add_argument("--demo", choices=("disc", "1d"), default="disc",
+                    help="the disc drop (2D) or the 1D demo on the clamped bar")
     args = ap.parse_args(argv)
     why = getfem_available(GETFEM_PYTHON)
     if why:
         print(f"skipped: GetFEM is absent ({why}; apt-get install python3-getfem)")
+        return 0
+    if args.demo == "1d":
+        text = table_1d(GETFEM_PYTHON)
+        print(text)
+        if args.out:
+            with open(args.out, "w") as f:
+                f.write(text + "\n")
         return 0
     from contact_bench.api.registry import make_case
 
@@ -257,5 +378,9 @@ if __name__ == "__main__":
         res = getfem_run(mesh_npz, contact, **json.loads(kw))
         with open(out, "w") as f:
             json.dump(res, f)
+        sys.exit(0)
+    if len(sys.argv) > 1 and sys.argv[1] == "--getfem-1d":
+        with open(sys.argv[2], "w") as f:
+            json.dump({str(mt): getfem_1d_run(mt) for mt in (0, 1)}, f)
         sys.exit(0)
     sys.exit(main())
