@@ -65,6 +65,18 @@ class DiscDrop(Case):
         """E0 = m g lift of the continuous disc (the mesh's m differs by its geometry)."""
         return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
 
+    quantities = frozenset({"free_fall"})
+
+    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+        """err_free_fall: the largest vertical displacement error of any dof against the
+        free fall over the samples before the impact, relative to the lift."""
+        before = traj.t < self.impact_time - 1.5 * float(row["dt"])
+        if not before.any():
+            return {}
+        U = traj.U[before][:, problem.extra["vertical"] > 0]
+        err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
+        return {"err_free_fall": float(err) / float(self.lift)}
+
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         """The vertical displacement of every point before the first impact."""
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
@@ -112,7 +124,8 @@ class DiscDrop(Case):
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
-                             extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2)))})
+                             extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
+                                    "vertical": np.tile([0.0, 1.0], n // 2)})
 
 
 def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:

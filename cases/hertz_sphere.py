@@ -61,6 +61,20 @@ class HertzSphere(Case):
     def L(self) -> float:
         return 2 * self.R
 
+    quantities = frozenset({"contact_duration", "peak_force"})
+
+    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+        """Relative gaps to Hertz's contact time (first contact start to end, plus the
+        step: the impact is at t = 0) and peak force (the row's contact columns)."""
+        h = self.hertz()
+        out = {}
+        if row.get("first_contact_end") is not None and np.isfinite(row["first_contact_end"]):
+            tc = row["first_contact_end"] - row["first_contact_start"] + float(row["dt"])
+            out["err_contact_duration"] = abs(tc / h.contact_time - 1.0)
+        if row.get("peak_contact_force") is not None:
+            out["err_peak_force"] = abs(row["peak_contact_force"] / h.peak_force - 1.0)
+        return out
+
     def hertz(self) -> HertzImpact:
         return HertzImpact(R=self.R, E=self.Young, nu=self.nu, rho=self.rho, v=float(self.v))
 

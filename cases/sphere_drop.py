@@ -59,6 +59,18 @@ class SphereDrop(Case):
     def exact_energy(self) -> float:
         return 4.0 / 3.0 * math.pi * self.R**3 * self.rho * self.g * float(self.lift)
 
+    quantities = frozenset({"free_fall"})
+
+    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+        """err_free_fall: the largest vertical displacement error of any dof against the
+        free fall over the samples before the impact, relative to the lift."""
+        before = traj.t < self.impact_time - 1.5 * float(row["dt"])
+        if not before.any():
+            return {}
+        U = traj.U[before][:, problem.extra["vertical"] > 0]
+        err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
+        return {"err_free_fall": float(err) / float(self.lift)}
+
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
 

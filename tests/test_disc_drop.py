@@ -99,3 +99,6 @@ def test_standard_gains_energy_redistributed_does_not():
     assert rows["standard"]["chatter"] > rows["redistributed"]["chatter"]
     assert rows["redistributed"]["energy_drift_max"] < 0.02
     assert rows["redistributed"]["status"] == "ok"
+    for row in rows.values():  # the reference quantity's column: free fall before t = 10
+        assert row["err_free_fall"] < 1e-10
+        assert row["err_peak_force"] is None  # not a quantity this scene provides

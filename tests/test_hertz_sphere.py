@@ -60,3 +60,14 @@ def test_within_ten_percent_of_hertz_and_impulse_balance():
     impulse = dt * (np.cumsum(R) - 0.5 * R - 0.5 * R[0])
     assert np.max(np.abs(mom - mom[0] - impulse)) < 1e-8 * p.extra["mass"] * float(case.v)
     assert np.max(np.abs(traj.energy / traj.energy[0] - 1)) < 1e-3
+
+
+def test_rows_carry_the_gaps_to_hertz():
+    row = run_one("hertz_sphere", "redistributed").row
+    h = make_case("hertz_sphere").hertz()
+    tc = row["first_contact_end"] - row["first_contact_start"] + row["dt"]
+    assert row["err_contact_duration"] == pytest.approx(abs(tc / h.contact_time - 1), rel=1e-12)
+    assert row["err_contact_duration"] < 0.10
+    assert row["err_peak_force"] == pytest.approx(
+        abs(row["peak_contact_force"] / h.peak_force - 1), rel=1e-12)
+    assert row["err_free_fall"] is None

@@ -35,6 +35,7 @@ from contact_bench.harness.metrics import (
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
 
+QUANTITY_COLUMNS = ("err_free_fall", "err_contact_duration", "err_peak_force")
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "wall_s",
@@ -42,6 +43,8 @@ COLUMNS = (
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
+    # a scene's reference quantities (`Case.quantities`), relative errors
+    *QUANTITY_COLUMNS,
 )
 
 _warmed: set[tuple[type, str]] = set()
@@ -316,6 +319,8 @@ def _execute(plan: _Plan) -> Run:
     row["wall_s"] = time.perf_counter() - start
     if sparse:
         row.update(contact_metrics(semi, traj))
+    if case.quantities:
+        row.update(case.quantity_errors(semi, traj, row))
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)
