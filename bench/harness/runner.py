@@ -24,6 +24,7 @@ from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError
 from contact_bench.harness import metrics
+from contact_bench.harness.impacts import impact_metrics
 from contact_bench.harness.metrics import (
     ERROR_COLUMNS,
     NEEDS,
@@ -45,6 +46,8 @@ COLUMNS = (
     "symmetry_defect",
     # a scene's reference quantities (`Case.quantities`), relative errors
     *QUANTITY_COLUMNS,
+    # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
+    "impacts", "rebound_ratio", "energy_after_first_impact",
 )
 
 _warmed: set[tuple[type, str]] = set()
@@ -319,6 +322,7 @@ def _execute(plan: _Plan) -> Run:
     row["wall_s"] = time.perf_counter() - start
     if sparse:
         row.update(contact_metrics(semi, traj))
+        row.update(impact_metrics(semi, traj))
     if case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
 

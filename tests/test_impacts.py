@@ -1,0 +1,42 @@
+"""contact_bench.harness.impacts: impacts, energy after each and rebound ratios, on a
+synthetic trajectory and on the hertz_sphere scene."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from contact_bench.harness.impacts import impact_metrics, impact_table
+from contact_bench.harness.runner import run_one
+
+
+def test_synthetic_two_impacts():
+    # one dof of mass 2 moving vertically; contact area 1, force = -stress
+    problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0,
+                              contact=SimpleNamespace(weights=np.array([1.0])),
+                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+    t = np.arange(10.0)
+    v = np.array([-1, -1, -0.5, 0.8, 0.8, -0.8, 0.0, 0.4, 0.4, 0.4])
+    stress = -np.array([0, 0, 1, 1, 0, 0, 2, 0, 0, 0.0])
+    energy = np.array([1, 1, 1, 1, 0.64, 0.64, 0.64, 0.16, 0.16, 0.16])
+    traj = SimpleNamespace(t=t, V=v[:, None], stress=stress, energy=energy)
+    table = impact_table(problem, traj)
+    assert table["impact"].tolist() == [1, 2]
+    assert table["start"].tolist() == [2.0, 6.0] and table["end"].tolist() == [3.0, 6.0]
+    assert table["energy_after"].tolist() == pytest.approx([0.64, 0.16])
+    assert table["rebound_ratio"].tolist() == pytest.approx([0.8, 0.5])
+    row = impact_metrics(problem, traj)
+    assert row == pytest.approx({"impacts": 2.0, "rebound_ratio": 0.8,
+                                 "energy_after_first_impact": -0.36})
+    # no vertical translation declared: no impact columns
+    assert impact_metrics(SimpleNamespace(extra={}), traj) == {}
+
+
+def test_hertz_sphere_rebounds_elastically():
+    row = run_one("hertz_sphere", "redistributed").row
+    assert row["impacts"] == 1
+    assert row["rebound_ratio"] == pytest.approx(1.0, abs=0.01)
+    assert abs(row["energy_after_first_impact"]) < 1e-4
