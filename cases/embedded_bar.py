@@ -19,6 +19,7 @@ active set: the symmetry defect column shows the spread across the section).
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 import skfem as fe
 
 from contact_bench.api import fem_nd
@@ -43,6 +44,9 @@ class EmbeddedBar(Case):
     name = "embedded_bar"
     summary = "a 1D scene's bar as a 2D/3D Q1 body (reference: the 1D exact solution)"
     form = "sparse"
+    #: those of the default `of` (clamped_bar); an instance takes its own scene's
+    reference = "exact"
+    provides = frozenset({"u", "v", "stress", "energy"})
     params = {
         "of": Param("clamped_bar", "the 1D scene embedded"),
         "dim": Param(2, "space dimension", choices=(2, 3)),
@@ -80,6 +84,20 @@ class EmbeddedBar(Case):
     @property
     def exact_energy(self) -> float | None:
         return self.bar.exact_energy  # the section has measure 1
+
+    def _normal_stress(self, P: np.ndarray, face: np.ndarray, index: np.ndarray,
+                       x: np.ndarray, dim: int) -> sp.csr_matrix:
+        """sigma_xx at each contact node: E (u_x(x1) - u_x(0)) / h along its line, the
+        first element's gradient, exact for u = (u1(x), 0, 0) (the 1D E u_x(0))."""
+        key = {tuple(np.round(P[1:, s], 12)): s for s in np.flatnonzero(P[0] == x[1])}
+        nxt = np.array([key[tuple(np.round(P[1:, s], 12))] for s in face])
+        h = float(x[1] - x[0])
+        rows = np.repeat(np.arange(face.size), 2)
+        cols = np.stack([index[dim * face], index[dim * nxt]], axis=1).ravel()
+        vals = np.tile([-float(self.E) / h, float(self.E) / h], face.size)
+        keep = cols >= 0  # a clamped next node contributes nothing (its value is u_L)
+        return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])),
+                             shape=(face.size, int(np.count_nonzero(index >= 0))))
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if mass_kind not in MASS_KINDS:
@@ -130,7 +148,14 @@ class EmbeddedBar(Case):
         weights = np.ones(face.size)
         for c in range(1, dim):
             weights *= _trapezoid_weights(y)[np.searchsorted(y, P[c][face])]
-        contact = ContactSet(dofs=index[dim * face], gap0=np.zeros(face.size), weights=weights)
+        My = sp.diags([np.diff(y) / 6, _trapezoid_weights(y) * 2 / 3, np.diff(y) / 6],
+                      [-1, 0, 1], format="csr")  # the consistent mass across, rho = 1
+        Mf = My if dim == 2 else sp.kron(My, My, format="csr")
+        t = np.searchsorted(y, P[1][face])
+        if dim == 3:
+            t = t * y.size + np.searchsorted(y, P[2][face])
+        contact = ContactSet(dofs=index[dim * face], gap0=np.zeros(face.size), weights=weights,
+                             face_mass=sp.csr_matrix(Mf[t][:, t]))
         on_axis = np.ones(nodes, bool)
         for c in range(1, dim):
             on_axis &= P[c] == 0.0
@@ -147,5 +172,7 @@ class EmbeddedBar(Case):
             M=M[free][:, free].tocsr(), K=Kf, F=Ff, U0=U[free], V0=V[free], contact=contact,
             dim=dim, hmin=min(float(np.min(np.diff(x))), float(y[1] - y[0])),
             c_max=float(np.sqrt(float(self.E) / float(self.rho))), energy_offset=offset,
-            mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],))
+            mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],),
+            E_contact=float(self.E), h_contact=float(x[1] - x[0]),
+            normal_stress=self._normal_stress(P, face, index, x, dim))
         return problem

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.sparse as sp
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
@@ -28,6 +29,7 @@ from contact_bench.api.plugin import Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
+from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
 
 
 class Nitsche(Scheme):
@@ -96,3 +98,33 @@ class Nitsche(Scheme):
         q = (gam - th * E / h, th * E / h)
         return run_boundary(semi, dt, nsteps, stride, self.beta, self.gamma,
                             inactive * (E / h), 1.0 / gam, p, q, th, 1.0)
+
+    # the general sparse problem (implicit), with the problem's normal stress B at the
+    # contact dofs and nodal quadrature on the zone (weights w_i) for the contact term:
+    # P = gam C + B, Q = gam C + theta B; K' = K - (theta / gam) B^T M_f B with the
+    # zone's consistent mass M_f (coercive for gamma0 > 1, as in 1D); gam = gamma0 E / h at
+    # the zone (`contact_bench.kernels.sparse.ContactLaw`)
+    forms = frozenset({"banded1d", "sparse"})
+
+    def cannot_run(self, case) -> str | None:
+        if case.form == "sparse" and self.beta == 0.0:
+            return "the explicit (beta = 0) step has no sparse path yet"
+        return None
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        B = problem.normal_stress
+        if B is None or not (problem.E_contact > 0 and problem.h_contact > 0):
+            raise ValueError("nitsche needs the problem's normal_stress, E_contact, h_contact")
+        gam = self.gamma0 * problem.E_contact / problem.h_contact
+        th = float(self.theta)
+        c = problem.contact
+        n = problem.nfree
+        C = sp.csr_matrix((np.ones(c.size), (np.arange(c.size), c.dofs)), shape=(c.size, n))
+        B = sp.csr_matrix(B)
+        w = np.asarray(c.weights, float)
+        Mf = sp.diags(w) if c.face_mass is None else sp.csr_matrix(c.face_mass)
+        law = ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
+                         y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
+                         K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)))
+        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, law=law)
+

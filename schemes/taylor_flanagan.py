@@ -43,6 +43,7 @@ from contact_bench.kernels.common import (
 )
 from contact_bench.kernels.lumped import tf_lumped_kernel
 from contact_bench.kernels.newmark import newmark_limit
+from contact_bench.kernels.sparse import central_sparse
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
@@ -71,6 +72,18 @@ class TaylorFlanagan(MassiveContactNodeScheme):
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         self.check_massive(semi)
         return run_taylor_flanagan(semi, dt, nsteps, stride)
+
+    # the general sparse problem with the lumped mass: each contact dof is stopped on its
+    # own (`contact_bench.kernels.sparse.central_sparse`)
+    forms = frozenset({"banded1d", "sparse"})
+
+    def cannot_run(self, case) -> str | None:
+        if case.form == "sparse" and self.mass != "lumped":
+            return "on a sparse problem it needs mass=lumped (a diagonal mass, no solve)"
+        return None
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return central_sparse(problem, dt, nsteps, stride)
 
 
 @njit(cache=True)

@@ -38,6 +38,10 @@ class ContactSet:
     dofs: np.ndarray  # (n_c,) int64 indices into the free dofs
     gap0: np.ndarray  # (n_c,) initial gaps (the undeformed distance to the plane)
     weights: np.ndarray  # (n_c,) > 0
+    #: the zone's consistent (scalar) mass over the contact dofs, n_c x n_c, whose row
+    #: sums are the weights; None: diag(weights). Nitsche's stress-stress term uses it
+    #: (with nodal weights there, coercivity would need gamma0 above 9 on Q1 faces)
+    face_mass: sp.csr_matrix | None = None
 
     @property
     def size(self) -> int:
@@ -82,6 +86,14 @@ class SparseProblem:
     mass_kind: str = "consistent"
     axis: AxisView | None = None
     equal_groups: tuple[np.ndarray, ...] = ()
+    #: the stiffness scale at the contact zone, for penalty and Nitsche parameters
+    #: (kappa = gamma_p E / h): the P-wave modulus lambda + 2 mu there and the element
+    #: size normal to the zone (0: not given)
+    E_contact: float = 0.0
+    h_contact: float = 0.0
+    #: the normal stress at each contact dof as a linear map of U (n_c x n, CSR;
+    #: compression negative), for Nitsche; None: not given
+    normal_stress: sp.csr_matrix | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property

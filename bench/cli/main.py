@@ -15,7 +15,7 @@ from contact_bench.cli.sweep_cli import run_command as run_sweep_command
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import provenance, return_freed_memory
 from contact_bench.harness.io import write_text
-from contact_bench.harness.runner import Run, reference, run_table
+from contact_bench.harness.runner import Run, form_mismatch, reference, run_table
 
 if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
     import pandas as pd
@@ -57,6 +57,7 @@ def cmd_list(args: argparse.Namespace) -> int:
                    f" far end={case.far_end}; defaults T={case.T:g} nx={case.nx} dt={case.dt:g}"
                    f"{stride}; reference={ref}; provides={','.join(sorted(cls.provides)) or '-'}"
                    + (f" (not: {','.join(absent)})" if absent else ""))
+        out.append(f"  {'':<20} form={cls.form}")
         for key, p in cls.params.items():
             out.append(f"  {'':<22}{key} = {p.default!r} ({p.allowed()}) {p.doc}")
     out.append("Schemes:")
@@ -70,8 +71,11 @@ def cmd_list(args: argparse.Namespace) -> int:
         out.append(f"  {'':<20} implicit={tr.implicit} massless_contact_node="
                    f"{tr.massless_contact_node} contact={tr.contact} energy={tr.energy}"
                    f" mass={sch.mass_kind()} stability_limit={stab} order={order}")
+        out.append(f"  {'':<20} forms={','.join(sorted(cls.forms))} (problem forms it "
+                   "integrates: banded1d = the 1D bar's bands, sparse = the general problem)")
         refused = [c for c, ccls in cases().plugins.items()
-                   if sch.cannot_run(ccls()) or ccls().cannot_run(sch)]
+                   if form_mismatch(ccls(), sch) or sch.cannot_run(ccls())
+                   or ccls().cannot_run(sch)]
         if refused:
             out.append(f"  {'':<20} cannot run (defaults): {', '.join(refused)}")
         for key, p in cls.params.items():

@@ -262,7 +262,9 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     """The problem in the case's form with the scheme's mass variant."""
     if case.form == SPARSE:
         try:
-            return case.sparse_problem(nx, grading, scheme.mass_kind())
+            problem = case.sparse_problem(nx, grading, scheme.mass_kind())
+            problem.check()
+            return problem
         except ValueError as exc:
             raise BenchError(f"case {case.spec}: {exc}") from None
     return discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())

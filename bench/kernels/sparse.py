@@ -128,10 +128,11 @@ def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
+def lcp_solve(W, q, mu, active, tol, warm=False):  # pragma: no cover - compiled
     """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
 
-    Principal pivoting from the active set {q < 0}: block pivots (every violator
+    Principal pivoting from the active set {q < 0} (`warm`: from the given `active`, the
+    previous step's, usually the answer already): block pivots (every violator
     changes side) while they reduce the number of violators, then Murty's least-index
     rule (one pivot at a time, finite for a P-matrix). `tol` is the gap violation
     ignored (round-off, a length); mu's is tol / max W_ii. Returns the number of pivots
@@ -142,8 +143,9 @@ def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
     for i in range(n):
         wmax = max(wmax, W[i, i])
     tol_mu = tol / wmax if wmax > 0.0 else tol
-    for i in range(n):
-        active[i] = q[i] < 0.0
+    if not warm:
+        for i in range(n):
+            active[i] = q[i] < 0.0
     best = n + 1
     murty = False
     for it in range(LCP_MAX_PIVOTS * (n + 1)):
@@ -170,6 +172,39 @@ def lcp_solve(W, q, mu, active, tol):  # pragma: no cover - compiled
         else:
             murty = True
             active[first] = not active[first]
+    return -1
+
+
+@njit(cache=True)
+def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
+    """mu = c max(0, -g) with g = q + W mu (penalty springs of stiffness c on the
+    contact dofs, W symmetric positive definite): the piecewise-linear system solved by
+    active-set iteration from {q < 0} (each set's linear system exactly). Returns the
+    number of iterations (-1 if it gave up)."""
+    n = q.size
+    for i in range(n):
+        active[i] = q[i] < 0.0
+    for it in range(LCP_MAX_PIVOTS * (n + 1)):
+        idx = np.flatnonzero(active)
+        mu[:] = 0.0
+        if idx.size:
+            sub = np.empty((idx.size, idx.size))
+            rhs = np.empty(idx.size)
+            for a in range(idx.size):  # (I + W_AA C_A) g_A = q_A
+                rhs[a] = q[idx[a]]
+                for b in range(idx.size):
+                    sub[a, b] = W[idx[a], idx[b]] * c[idx[b]] + (1.0 if a == b else 0.0)
+            gA = np.linalg.solve(sub, rhs)
+            for a in range(idx.size):
+                mu[idx[a]] = -c[idx[a]] * gA[a]
+        g = q + W @ mu
+        same = True
+        for i in range(n):
+            if (g[i] < 0.0) != active[i]:
+                same = False
+                active[i] = g[i] < 0.0
+        if same:
+            return it
     return -1
 
 
@@ -224,7 +259,8 @@ def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - c
 @njit(cache=True)
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
                     massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
+                    kappa, Pp, Pi, Px, y0, ew, sc):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -243,6 +279,13 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     active = np.zeros(nc, np.bool_)
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
+    # a piecewise-linear law (penalty, Nitsche: `ContactLaw`) on y = P X + y0, or exact
+    # contact on the gaps (P = C, y0 = gap0)
+    penalty = kappa.size > 0
+    y = np.empty(nc)
+    st = 0.0
+    was_in_contact = False
+    cpen = kappa * bdt2
     E0 = E_out[0]
     min_gap = np.inf
     for i in range(nc):
@@ -254,16 +297,22 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             rhs[i] += bdt2 * F[i]
         lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
         pen = False
+        csr_matvec(Pp, Pi, Px, X, gf)
         for i in range(nc):
-            gf[i] = gap0[i] + X[cd[i]]
+            gf[i] += y0[i]
             pen = pen or gf[i] < 0.0
         if pen:
-            lcp_solve(W, gf, mu, active, tol)
+            if penalty:
+                penalty_solve(W, gf, cpen, mu, active)
+            else:
+                lcp_solve(W, gf, mu, active, tol, was_in_contact)
             if keep_z:
-                for j in range(nc):
-                    if mu[j] != 0.0:
-                        for i in range(n):
-                            X[i] += Z[i, j] * mu[j]
+                on = np.flatnonzero(mu)
+                for i in range(n):  # X += Z mu over the nonzero mu (Z's rows contiguous)
+                    acc = 0.0
+                    for j in on:
+                        acc += Z[i, j] * mu[j]
+                    X[i] += acc
             else:
                 rhs[:] = 0.0
                 for j in range(nc):
@@ -272,12 +321,13 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 for i in range(n):
                     X[i] += w[i]
             for j in range(nc):
-                if active[j]:
+                if active[j] and not penalty:
                     X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
                 lam[j] = mu[j] / bdt2
         else:
             mu[:] = 0.0
             lam[:] = 0.0
+        was_in_contact = pen
         for i in range(n):
             if massless[i]:  # no inertia: backward-difference velocity, no acceleration
                 v = X[i] - U[i]
@@ -295,6 +345,13 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             min_gap = min(min_gap, gap0[i] + U[cd[i]])
         if step % stride == 0 or step == nsteps:
             e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            if penalty:  # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2
+                csr_matvec(Pp, Pi, Px, U, y)
+                st = 0.0
+                for i in range(nc):
+                    yi = min(0.0, y[i] + y0[i])
+                    e += 0.5 * ew * kappa[i] * yi * yi
+                    st += sc[i] * yi
             t_out[k] = step * dt
             U_out[k, :] = U
             V_out[k, :] = V
@@ -302,7 +359,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             for i in range(nc):
                 g = min(g, gap0[i] + U[cd[i]])
             cu_out[k] = g
-            s_out[k] = -lam.sum() / area
+            s_out[k] = st / area if penalty else -lam.sum() / area
             E_out[k] = e
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
@@ -310,9 +367,33 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     return k, nsteps, min_gap, -1
 
 
-def initial_acceleration(p: SparseProblem) -> np.ndarray:
-    """M A0 = F - K U0 on the dofs with mass (0 on the massless ones)."""
-    r = p.F - p.K @ p.U0
+@dataclass
+class ContactLaw:
+    """A piecewise-linear contact force at t_{n+1}: on y = P U + y0 (n_c values) the
+    force is -sum_i c_i min(0, y_i) q_i (q_i the rows of Q), which adds
+    K_extra to the stiffness; its energy ew sum_i c_i / 2 min(0, y_i)^2, its sampled
+    stress sum_i sc_i min(0, y_i) / (zone's measure).
+
+    penalty: P = Q = C (the contact dofs), y0 = gap0, c = sc = kappa_i, ew = 1.
+    Nitsche: P = gam C + B, Q = gam C + theta B (B: the normal stress at the contact
+    dofs), y0 = gam gap0, c = w_i / gam, ew = theta, sc = w_i, K_extra = -(theta / gam)
+    B^T M_f B (M_f the zone's mass, `ContactSet.face_mass`).
+    """
+
+    P: sp.csr_matrix
+    Q: sp.csr_matrix
+    y0: np.ndarray
+    c: np.ndarray
+    ew: float
+    sc: np.ndarray
+    K_extra: sp.csr_matrix | None = None
+
+
+def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
+    """M A0 = r on the dofs with mass (0 on the massless ones); r = F - K U0 unless
+    given (a contact law's force at t = 0 included)."""
+    if r is None:
+        r = p.F - p.K @ p.U0
     A = np.zeros(p.nfree)
     heavy = ~p.massless
     Mh = p.M[heavy][:, heavy]
@@ -356,24 +437,52 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
 
 
 def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
-                   gamma: float) -> Trajectory:
-    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring)."""
+                   gamma: float, kappa: np.ndarray | None = None,
+                   law: ContactLaw | None = None) -> Trajectory:
+    """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring), or
+    a piecewise-linear `law` (`ContactLaw`: Nitsche), or penalty springs: `kappa` (one
+    stiffness per contact dof) gives the force kappa_i max(0, -g_i) at t_{n+1}; the
+    law's step is solved exactly (`penalty_solve`), its energy is sampled."""
     if not beta > 0.0:
         raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
     dt, beta, gamma = float(dt), float(beta), float(gamma)
     n = p.nfree
-    fac = Factor.of(p.M + (beta * dt * dt) * p.K)
     cd = np.asarray(p.contact.dofs, np.int64)
-    keep_z = n * cd.size <= KEEP_Z_ENTRIES
-    if keep_z:
-        Z, W = delassus(fac, cd, n)
+    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, n))
+    if kappa is not None:
+        kappa = np.asarray(kappa, float)
+        law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+    K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
+    fac = Factor.of(p.M + (beta * dt * dt) * K)
+    keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
+    if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
+        Z = np.empty((n, cd.size))
+        Qc = sp.csc_matrix(law.Q.T)
+        for j in range(cd.size):
+            Z[:, j] = fac.solve(Qc[:, j].toarray().ravel())
+        W = np.ascontiguousarray(law.P @ Z)
+        Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
+        lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
     else:
-        W = delassus_only(fac, cd, n)
-        Z = np.zeros((1, 1))
+        Pm, y0 = C, np.asarray(p.contact.gap0, float)
+        lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
+        if keep_z:
+            Z, W = delassus(fac, cd, n)
+        else:
+            W = delassus_only(fac, cd, n)
+            Z = np.zeros((1, 1))
     out = _buffers(p, nsteps, stride)
+    if law is not None:  # the sampled energy with the law's terms
+        y = np.minimum(0.0, Pm @ p.U0 + y0)
+        out["E"][0] = float(p.energy(p.U0, p.V0) + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
+                            + 0.5 * ew * np.sum(lk * y * y))
     stats = _new_stats()
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    A = initial_acceleration(p)
+    if law is not None:  # the full force at t = 0: K' and the law's, if active
+        r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
+        A = initial_acceleration(p, r)
+    else:
+        A = initial_acceleration(p)
     # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
     # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
     P = U + dt * V + (0.5 - beta) * dt * dt * A
@@ -381,11 +490,11 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
     tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                              initial=0.0)), 1e-300)
     k, done, min_gap, blow = _newmark_kernel(
-        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
         keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
         float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats, tol)
+        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc)
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
 
 
@@ -398,3 +507,94 @@ def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
         W[:, j] = fac.solve(e)[cd]
         e[d] = 0.0
     return np.ascontiguousarray(0.5 * (W + W.T))
+
+
+# ------------------------------------------------------- explicit central difference
+
+
+@njit(cache=True)
+def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stride, offset,
+                    t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+    """Kick-drift central difference with a diagonal mass m (> 0 everywhere), carrying
+    (U^n, V^{n-1/2}); a contact dof whose predicted gap is negative gets the force
+    lambda = max(0, -m V^{n+1/2} / dt) that stops it (Taylor-Flanagan)."""
+    n = U.size
+    nc = cd.size
+    c = dt / m
+    Un = np.empty(n)
+    tmp = np.empty(n)
+    lam = np.zeros(nc)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for i in range(nc):
+        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        if step > 1:  # kick and drift fused with the product K U: one pass
+            for i in range(n):
+                ku = 0.0
+                for kk in range(Kp[i], Kp[i + 1]):
+                    ku += Kx[kk] * U[Ki[kk]]
+                v = Vh[i] + c[i] * (F[i] - ku)
+                Vh[i] = v
+                Un[i] = U[i] + dt * v
+        else:
+            for i in range(n):
+                Un[i] = U[i] + dt * Vh[i]
+        for j in range(nc):
+            d = cd[j]
+            lam[j] = 0.0
+            if gap0[j] + Un[d] < 0.0:
+                lj = -Vh[d] * m[d] / dt
+                if lj > 0.0:
+                    lam[j] = lj
+                    Un[d] += dt * c[d] * lj
+                    Vh[d] += c[d] * lj
+        U, Un = Un, U
+        _stats_update(stats, status, lam, step, dt)
+        for i in range(nc):
+            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Kp, Ki, Kx, U, tmp)
+            for i in range(n):
+                tmp[i] = Vh[i] + 0.5 * dt * ((F[i] - tmp[i]) / m[i])
+            e = -(F @ U) + offset
+            for i in range(n):
+                e += 0.5 * m[i] * tmp[i] * tmp[i]
+            csr_matvec(Kp, Ki, Kx, U, Un)
+            e += 0.5 * (U @ Un)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = tmp
+            g = np.inf
+            for i in range(nc):
+                g = min(g, gap0[i] + U[cd[i]])
+            cu_out[k] = g
+            s_out[k] = -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    """The explicit central difference with a diagonal mass and the Taylor-Flanagan
+    contact force (module docstring). ValueError unless M is diagonal and positive."""
+    M = sp.csr_matrix(p.M)
+    m = np.asarray(M.diagonal(), float)
+    if M.nnz != np.count_nonzero(m) or not np.all(m > 0):
+        raise ValueError("central_sparse needs a diagonal mass with positive entries (lumped)")
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = initial_acceleration(p)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    Vh = V + 0.5 * dt * A
+    k, done, min_gap, blow = _central_kernel(
+        m, *csr_arrays(p.K), np.asarray(p.F, float), np.asarray(p.contact.dofs, np.int64),
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, Vh,
+        float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
+        out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
