@@ -24,7 +24,9 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
 import skfem as fe
+from skfem.helpers import sym_grad, trace
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
@@ -120,10 +122,14 @@ class DiscDrop(Case):
         U0[1::2] = float(self.lift)
         fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
         w = np.asarray(fe.LinearForm(lambda v, _: v).assemble(fb))[scalar]
-        contact = ContactSet(dofs=2 * scalar + 1, gap0=P[1, scalar].copy(), weights=w)
+        face_mass, normal_stress = contact_operators(body, fb, scalar, 1)
+        contact = ContactSet(dofs=2 * scalar + 1, gap0=P[1, scalar].copy(), weights=w,
+                             face_mass=face_mass)
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
+                             E_contact=self.E, h_contact=self.R / int(nx),
+                             normal_stress=normal_stress,
                              extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
                                     "vertical": np.tile([0.0, 1.0], n // 2)})
 
@@ -170,3 +176,25 @@ def mirror_pairs(P: np.ndarray) -> np.ndarray:
     right = np.flatnonzero(P[0] > 1e-9 * scale)
     return np.array([[s, key[(round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9))]]
                      for s in right], np.int64)
+
+
+def contact_operators(body: fem_nd.Elasticity, fb: fe.FacetBasis, scalar: np.ndarray,
+                      c: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """The contact zone's consistent scalar mass M_f (row sums: the weights) and the
+    normal stress sigma_cc at the contact dofs as a map of the displacement: the L2
+    projection onto the zone's trace space, B = M_f^-1 G with G_ij = int sigma_cc(phi_j)
+    psi_i over the zone (compression negative; the plane's normal is axis c)."""
+    lam, mu = body.lam, body.mu
+
+    @fe.BilinearForm
+    def sigma_cc(u, v, _):
+        eps = sym_grad(u)
+        return (lam * trace(eps) + 2 * mu * eps[c, c]) * v
+
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=fb.find,
+                       quadrature=(fb.X, fb.W))
+    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).tocsr()[scalar][:, scalar]
+    G = sigma_cc.assemble(fv, fb).tocsr()[scalar]
+    B = np.linalg.solve(Mf.toarray(), G.toarray())
+    B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
+    return sp.csr_matrix(Mf), sp.csr_matrix(B)

@@ -20,7 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import scipy.sparse as sp
 import skfem as fe
+from skfem.helpers import sym_grad, trace
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
@@ -100,9 +102,34 @@ class SphereDrop(Case):
         U0[2::3] = float(self.lift)
         fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
         w = np.asarray(fe.LinearForm(lambda v, _: v).assemble(fb))[scalar]
-        contact = ContactSet(dofs=3 * scalar + 2, gap0=P[2, scalar].copy(), weights=w)
+        face_mass, normal_stress = contact_operators(body, fb, scalar, 2)
+        contact = ContactSet(dofs=3 * scalar + 2, gap0=P[2, scalar].copy(), weights=w,
+                             face_mass=face_mass)
         vertical = np.tile([0.0, 0.0, 1.0], n // 3)
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=3, hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
+                             E_contact=self.E, h_contact=self.R / int(nx),
+                             normal_stress=normal_stress,
                              extra={"mass": float(np.sum(M @ vertical)), "vertical": vertical})
 
+
+def contact_operators(body: fem_nd.Elasticity, fb: fe.FacetBasis, scalar: np.ndarray,
+                      c: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """The contact zone's consistent scalar mass M_f (row sums: the weights) and the
+    normal stress sigma_cc at the contact dofs as a map of the displacement: the L2
+    projection onto the zone's trace space, B = M_f^-1 G with G_ij = int sigma_cc(phi_j)
+    psi_i over the zone (compression negative; the plane's normal is axis c)."""
+    lam, mu = body.lam, body.mu
+
+    @fe.BilinearForm
+    def sigma_cc(u, v, _):
+        eps = sym_grad(u)
+        return (lam * trace(eps) + 2 * mu * eps[c, c]) * v
+
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=fb.find,
+                       quadrature=(fb.X, fb.W))
+    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).tocsr()[scalar][:, scalar]
+    G = sigma_cc.assemble(fv, fb).tocsr()[scalar]
+    B = np.linalg.solve(Mf.toarray(), G.toarray())
+    B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
+    return sp.csr_matrix(Mf), sp.csr_matrix(B)
