@@ -21,6 +21,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
 import skfem as fe
 from skfem.helpers import ddot, sym_grad, trace
 
@@ -132,13 +133,22 @@ class HertzSphere(Case):
         V0[1::2] = -float(self.v)
         fb = fe.FacetBasis(mesh, elem, facets=facets)
         w = np.asarray(_axi_load.assemble(fb))[contact_s]
+        # the zone's axisymmetric face mass and normal stress sigma_zz (Nitsche), as the
+        # L2 projection onto the zone's trace space
+        fv = fe.FacetBasis(mesh, fe.ElementVector(elem), facets=facets, quadrature=(fb.X, fb.W))
+        Mf = _axi_face_mass.assemble(fb).tocsr()[contact_s][:, contact_s]
+        G = _axi_sigma_zz.assemble(fv, fb, lam=lam, mu=mu).tocsr()[contact_s][:, free]
+        B = np.linalg.solve(Mf.toarray(), G.toarray())
+        B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
         contact = ContactSet(dofs=index[2 * contact_s + 1], gap0=P[1, contact_s].copy(),
-                             weights=w)
+                             weights=w, face_mass=sp.csr_matrix(Mf))
         Mf = M[free][:, free].tocsr()
         mass = float(np.sum(M @ np.tile([0.0, 1.0], n // 2)))
         return SparseProblem(M=Mf, K=K[free][:, free].tocsr(), F=np.zeros(free.size),
                              U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
                              hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
+                             E_contact=self.E, h_contact=body.hmin,
+                             normal_stress=sp.csr_matrix(B),
                              extra={"mass": mass,  # and the vertical translation:
                                     "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})
 
@@ -155,6 +165,18 @@ def _axi_stiffness(u, v, w):
 @fe.BilinearForm
 def _axi_mass(u, v, w):
     return 2 * np.pi * w.x[0] * w.rho * u * v
+
+
+@fe.BilinearForm
+def _axi_face_mass(u, v, w):
+    return 2 * np.pi * w.x[0] * u * v
+
+
+@fe.BilinearForm
+def _axi_sigma_zz(u, v, w):
+    eps = sym_grad(u)
+    return 2 * np.pi * w.x[0] * (w.lam * (trace(eps) + u.value[0] / w.x[0])
+                                 + 2 * w.mu * eps[1, 1]) * v
 
 
 @fe.LinearForm
