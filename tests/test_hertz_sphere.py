@@ -71,3 +71,19 @@ def test_rows_carry_the_gaps_to_hertz():
     assert row["err_peak_force"] == pytest.approx(
         abs(row["peak_contact_force"] / h.peak_force - 1), rel=1e-12)
     assert row["err_free_fall"] is None
+
+
+def test_zone_normal_stress_is_exact_for_uniform_strains():
+    case = make_case("hertz_sphere")
+    p = case.sparse_problem(4, 1.0, "consistent")
+    X = Basis(case.mesh(4), ElementTriP2()).doflocs
+    lam, mu = case.lam_mu
+    keep = np.ones(2 * X.shape[1], bool)
+    keep[0::2][X[0] < 1e-12] = False
+    U = np.zeros(2 * X.shape[1])
+    U[1::2] = -0.01 * X[1]  # eps_zz = -0.01
+    assert np.allclose(p.normal_stress @ U[keep], -(lam + 2 * mu) * 0.01, rtol=1e-10)
+    U[:] = 0.0
+    U[0::2] = 0.01 * X[0]  # eps_rr = hoop = 0.01: sigma_zz = 2 lambda 0.01
+    assert np.allclose(p.normal_stress @ U[keep], 2 * lam * 0.01, rtol=1e-10)
+    assert np.allclose(np.asarray(p.contact.face_mass.sum(axis=1)).ravel(), p.contact.weights)
