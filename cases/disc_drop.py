@@ -47,7 +47,7 @@ class DiscDrop(Case):
     R, centre_y = 20.0, 20.0
     lam = mu = 20.0
     rho, g = 1.0, 0.1
-    T, nx, dt, stride = 40.0, 5, 0.01, 10
+    T, nx, dt, stride = 40.0, 5, 0.01, 1
 
     @property
     def E(self) -> float:  # the P-wave modulus lambda + 2 mu: wave_speed = c_p

@@ -43,7 +43,7 @@ class HertzSphere(Case):
                        high=4.0),
     }
     R, Young, nu, rho = 1.0, 1.0, 0.3, 1.0
-    nx, dt, stride = 8, 0.01, 10
+    nx, dt, stride = 8, 0.01, 1
 
     @property
     def T(self) -> float:

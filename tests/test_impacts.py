@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from contact_bench.harness.impacts import impact_metrics, impact_table
+from contact_bench.harness.impacts import impact_metrics, impact_table, impulse_residual
 from contact_bench.harness.runner import run_one
 
 
@@ -51,3 +51,22 @@ def test_clamped_bar_quantity_columns():
     assert row["err_free_fall"] is None  # not a quantity of this scene
     chatter = run_one("clamped_bar", "standard", T=3.0).row
     assert chatter["err_contact_duration"] > 0.5  # the standard mass lets go at once
+
+
+def test_impulse_residual_of_a_balanced_and_a_broken_history():
+    """A mass 2 under a load -1 with a contact force R: p_k - p_0 = -t_k + the trapezoid
+    impulse of R holds for the constructed velocities; a kick breaks it."""
+    dt = 0.5
+    t = dt * np.arange(8)
+    R = np.array([0, 0, 3, 4, 2, 0, 0, 0.0])
+    impulse = dt * (np.cumsum(R) - 0.5 * R - 0.5 * R[0])
+    p = -1.0 * t + impulse
+    problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0, F=np.array([-1.0]),
+                              contact=SimpleNamespace(weights=np.array([1.0])),
+                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+    traj = SimpleNamespace(t=t, V=(p / 2.0)[:, None], stress=-R, energy=np.ones(8))
+    assert impulse_residual(problem, traj, dt) < 1e-15
+    kicked = SimpleNamespace(t=t, V=((p + 0.1 * (t > 2)) / 2.0)[:, None], stress=-R,
+                             energy=np.ones(8))
+    assert impulse_residual(problem, kicked, dt) == pytest.approx(0.1 / impulse[-1])
+    assert impulse_residual(problem, traj, 2 * dt) is None  # not every step

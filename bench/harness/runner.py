@@ -47,7 +47,7 @@ COLUMNS = (
     # a scene's reference quantities (`Case.quantities`), relative errors
     *QUANTITY_COLUMNS,
     # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
-    "impacts", "rebound_ratio", "energy_after_first_impact",
+    "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 
 _warmed: set[tuple[type, str]] = set()
@@ -324,7 +324,7 @@ def _execute(plan: _Plan) -> Run:
     row["wall_s"] = time.perf_counter() - start
     if sparse:
         row.update(contact_metrics(semi, traj))
-        row.update(impact_metrics(semi, traj))
+        row.update(impact_metrics(semi, traj, dt))
     if case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
 
