@@ -1,21 +1,19 @@
 """GetFEM's disc drop (`demo_dynamic_contact.m`, Renard and Chouly): an elastic disc falls
 onto a rigid plane.
 
-Disc of radius 20 centred at (0, 20) (it touches y = 0 undeformed), plane strain, lambda =
-mu = 20 (E = 50, nu = 0.25), rho = 1, downward body force 0.1, lifted by `lift` (default
-5), v0 = 0; obstacle y >= 0 on the lower half of the boundary, frictionless; T = 40, dt =
-0.01. `degree` 1 or 2 (P1 or P2 elements on a P2-geometry mesh whose boundary nodes lie on
-the circle); `--nx` counts the element rings along the radius (a ring mesh, mirror
-symmetric about x = 0). A larger lift is a harder, faster impact.
+Disc of radius 20 centred at (0, 20) (touching y = 0), plane strain, lambda = mu = 20, rho
+= 1, downward body force 0.1, lifted by `lift` (default 5; larger: a harder impact), v0 =
+0; obstacle y >= 0 on the lower half of the boundary, frictionless; T = 40, dt = 0.01.
+`degree` 1 or 2 on a P2-geometry ring mesh (`--nx` rings along the radius, mirror
+symmetric about x = 0, boundary nodes on the circle).
 
-References it has exactly (`references`): free fall u = (0, lift - g t^2 / 2) until the
-first impact at sqrt(2 lift / g); the energy E0 = m g lift (frictionless, elastic); the
-impulse balance (rigid translations lie in ker K: the contact impulse equals the change
-of momentum plus m g times the elapsed time); the x -> -x symmetry (the symmetry defect
-column: mirrored vertical displacements are equal). It has no closed-form u after the
-impact (no Hertz law for a disc): the error columns stay empty. A scheme's 1D mass
-variant maps to its 2D kind: consistent and lumped as named (lumped refused for P2), the
-redistributed ones (massless contact node) to the Khenous-Laborde-Renard redistribution.
+Exact references: the free fall u = (0, lift - g t^2 / 2) until t = sqrt(2 lift / g)
+(err_free_fall); E0 = m g lift; the impulse balance; the x -> -x symmetry (the symmetry
+defect column). No closed form after the impact: the numerical reference is
+`reference_scheme` on twice the rings with dt / 2 (err_u_numerical at the shared
+vertices, err_contact_force_numerical). A scheme's 1D mass variant maps to its 2D kind:
+consistent and lumped as named (lumped refused for P2), the redistributed ones to the
+Khenous-Laborde-Renard redistribution.
 """
 
 from __future__ import annotations
@@ -32,6 +30,7 @@ from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case
+from contact_bench.api.registry import make_scheme
 from contact_bench.api.sparse import ContactSet, SparseProblem
 
 
@@ -67,17 +66,57 @@ class DiscDrop(Case):
         """E0 = m g lift of the continuous disc (the mesh's m differs by its geometry)."""
         return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
 
-    quantities = frozenset({"free_fall"})
+    quantities = frozenset({"free_fall", "u_numerical", "contact_force_numerical"})
+    #: the numerical reference: this scheme on the mesh with twice the rings, dt / 2
+    reference_scheme = "redistributed"
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
         """err_free_fall: the largest vertical displacement error of any dof against the
-        free fall over the samples before the impact, relative to the lift."""
-        before = traj.t < self.impact_time - 1.5 * float(row["dt"])
-        if not before.any():
-            return {}
-        U = traj.U[before][:, problem.extra["vertical"] > 0]
-        err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
-        return {"err_free_fall": float(err) / float(self.lift)}
+        free fall over the samples before the impact, relative to the lift. Against the
+        numerical reference (`reference_scheme` at 2 nx, dt / 2, sampled at the run's
+        times): err_u_numerical, the largest error of u at the mesh's vertices (shared by
+        both meshes) over the largest |u_ref|, and err_contact_force_numerical, the
+        l2 error over the samples of the total contact force over its l2 norm."""
+        out: dict[str, float] = {}
+        dt = float(row["dt"])
+        before = traj.t < self.impact_time - 1.5 * dt
+        if before.any():
+            U = traj.U[before][:, problem.extra["vertical"] > 0]
+            err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
+            out["err_free_fall"] = float(err) / float(self.lift)
+        nx, stride = int(row["nx"]), int(row["stride"])
+        if traj.t.size < 2 or problem.U0.size != self.body(nx).ndofs:
+            return out
+        ref, ref_p, ref_P = self._numerical(nx, dt, traj.t[-1], stride)
+        k = min(ref.t.size, traj.t.size)
+        P = self.body(nx).dof_coordinates
+        nv = self.mesh(nx).nvertices  # scikit-fem numbers the vertices' dofs first
+        scale = float(self.R)
+        where = {tuple(np.round(q / scale, 9)): s for s, q in enumerate(ref_P.T)}
+        fine = np.array([where[tuple(np.round(q / scale, 9))] for q in P[:, :nv].T])
+        cols = np.ravel(np.stack([2 * np.arange(nv), 2 * np.arange(nv) + 1], axis=1))
+        rcols = np.ravel(np.stack([2 * fine, 2 * fine + 1], axis=1))
+        du = traj.U[:k][:, cols] - ref.U[:k][:, rcols]
+        out["err_u_numerical"] = float(np.max(np.abs(du)) / np.max(np.abs(ref.U[:k])))
+        force = -traj.stress[:k] * float(np.sum(problem.contact.weights))
+        rforce = -ref.stress[:k] * float(np.sum(ref_p.contact.weights))
+        if np.any(rforce):
+            out["err_contact_force_numerical"] = float(
+                np.linalg.norm(force - rforce) / np.linalg.norm(rforce))
+        return out
+
+    def _numerical(self, nx: int, dt: float, T: float, stride: int):
+        """The reference run (cached on the scene for its parameters)."""
+        key = (int(self.degree), float(self.lift), nx, dt, round(T / dt), stride)
+        cache = _NUMERICAL
+        if key not in cache:
+            if len(cache) >= 2:  # bound the memory: the last two references
+                cache.pop(next(iter(cache)))
+            scheme = make_scheme(self.reference_scheme)
+            p = self.sparse_problem(2 * nx, 1.0, scheme.mass_kind())
+            run = scheme.integrate_sparse(p, dt / 2, 2 * int(round(T / dt)), 2 * stride)
+            cache[key] = (run, p, self.body(2 * nx).dof_coordinates)
+        return cache[key]
 
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         """The vertical displacement of every point before the first impact."""
@@ -132,6 +171,10 @@ class DiscDrop(Case):
                              normal_stress=normal_stress,
                              extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
                                     "vertical": np.tile([0.0, 1.0], n // 2)})
+
+
+#: numerical reference runs by (degree, lift, nx, dt, steps, stride)
+_NUMERICAL: dict = {}
 
 
 def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:

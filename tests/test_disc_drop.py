@@ -123,3 +123,13 @@ def test_contact_operators_and_the_penalty_and_nitsche_paths():
         row = run_one("disc_drop", spec, nx=NX, T=20.0).row
         assert row["status"] == "ok", (spec, row["notes"])
         assert row["err_free_fall"] < 1e-10 and row["energy_drift_max"] < 0.02, (spec, row)
+
+
+def test_numerical_reference_columns():
+    """Against redistributed on twice the rings with dt / 2: redistributed itself is
+    close, standard (chatter, energy gain) is far, in u and in the contact force."""
+    rows = {s: run_one("disc_drop", s, nx=NX, T=20.0).row for s in ("standard", "redistributed")}
+    good, bad = rows["redistributed"], rows["standard"]
+    assert good["err_u_numerical"] < 0.2 and good["err_contact_force_numerical"] < 0.2
+    assert bad["err_u_numerical"] > 2 * good["err_u_numerical"]
+    assert bad["err_contact_force_numerical"] > 2 * good["err_contact_force_numerical"]

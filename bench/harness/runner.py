@@ -36,7 +36,8 @@ from contact_bench.harness.metrics import (
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
 
-QUANTITY_COLUMNS = ("err_free_fall", "err_contact_duration", "err_peak_force")
+QUANTITY_COLUMNS = ("err_free_fall", "err_contact_duration", "err_peak_force",
+                    "err_u_numerical", "err_contact_force_numerical")
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "wall_s",
