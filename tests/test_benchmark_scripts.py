@@ -90,11 +90,13 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
     ("startup", ["bogus"], "unknown scheme 'bogus'; allowed: hht, moreau_jean, nitsche, "
      "ode_adaptive, ode_verlet, penalty, redistributed, restitution, standard, "
      "taylor_flanagan"),
-    ("norm_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
-     "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
+    ("norm_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, disc_drop, "
+     "dropped_bar, embedded_bar, fast_impact, grazing, hertz_sphere, heterogeneous_bar, "
+     "long_time, pulse, rough_data, sphere_drop, steel_bar"),
     ("norm_cost", ["clamped_bar", "--nx", "0"], "nx must be an integer >= 1, got 0"),
-    ("eval_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, dropped_bar, "
-     "fast_impact, grazing, heterogeneous_bar, long_time, pulse, rough_data, steel_bar"),
+    ("eval_cost", ["bogus"], "unknown case 'bogus'; allowed: clamped_bar, disc_drop, "
+     "dropped_bar, embedded_bar, fast_impact, grazing, hertz_sphere, heterogeneous_bar, "
+     "long_time, pulse, rough_data, sphere_drop, steel_bar"),
     ("eval_cost", ["--cells-per-length", "0"], "--cells-per-length must be >= 1, got 0"),
     ("eval_cost", ["clamped_bar", "--cells-per-length", "100"], "--cells-per-length: the "
      "reference of clamped_bar is not a characteristics solution (ClampedBarExact)"),

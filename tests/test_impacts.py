@@ -70,3 +70,21 @@ def test_impulse_residual_of_a_balanced_and_a_broken_history():
                              energy=np.ones(8))
     assert impulse_residual(problem, kicked, dt) == pytest.approx(0.1 / impulse[-1])
     assert impulse_residual(problem, traj, 2 * dt) is None  # not every step
+
+
+def test_run_outputs_hold_the_impact_table(tmp_path):
+    from contact_bench.cli.main import main
+
+    code = main(["run", "--case", "disc_drop", "--scheme", "redistributed", "--scheme",
+                 "standard", "--nx", "2", "--T", "15", "--format", "csv", "--out",
+                 str(tmp_path)])
+    assert code == 0
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "impacts.csv")
+    assert list(table.columns) == ["case", "scheme", "nx", "dt", "impact", "start", "end",
+                                   "energy_after", "rebound_ratio"]
+    red = table[table["scheme"] == "redistributed"]
+    std = table[table["scheme"] == "standard"]
+    assert len(red) >= 1 and red["start"].iloc[0] == pytest.approx(10.0, abs=0.02)
+    assert len(std) > len(red)  # the standard mass chatters

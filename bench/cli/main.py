@@ -102,6 +102,16 @@ def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[
         exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
         written.append(contact_figure(these, exact, case.spec, out / f"{fname}.png"))
+    tables = [r.trajectory.extra["impact_table"].assign(
+        case=r.row["case"], scheme=r.row["scheme"], nx=r.row["nx"], dt=r.row["dt"])
+        for r in runs if r.trajectory is not None and "impact_table" in r.trajectory.extra]
+    if tables:  # impact by impact: start, end, energy after, rebound ratio
+        import pandas as pd
+
+        impacts = pd.concat(tables, ignore_index=True)
+        front = ["case", "scheme", "nx", "dt"]
+        impacts = impacts[front + [c for c in impacts.columns if c not in front]]
+        written.append(write_text(out / "impacts.csv", impacts.to_csv(index=False)))
     listing = "\n".join(f"- `{p.name}`" for p in written)
     write_text(out / "README.md", f"# Results\n\n{prov}\n\nFiles:\n{listing}\n")
     return written

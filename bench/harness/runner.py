@@ -24,7 +24,7 @@ from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError
 from contact_bench.harness import metrics
-from contact_bench.harness.impacts import impact_metrics
+from contact_bench.harness.impacts import impact_metrics, impact_table
 from contact_bench.harness.metrics import (
     ERROR_COLUMNS,
     NEEDS,
@@ -326,6 +326,9 @@ def _execute(plan: _Plan) -> Run:
     if sparse:
         row.update(contact_metrics(semi, traj))
         row.update(impact_metrics(semi, traj, dt))
+        table = impact_table(semi, traj)
+        if table is not None:  # impact by impact, for the run's outputs (impacts.csv)
+            traj.extra["impact_table"] = table
     if case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
 
