@@ -195,6 +195,16 @@ class Case(Plugin):
         resolution nx with the scheme's mass variant (`Scheme.mass_kind`)."""
         raise NotImplementedError
 
+    #: the reference quantities this scene provides beyond the fields of `provides`, each
+    #: giving the row a relative error column `err_<quantity>` (`quantity_errors`)
+    quantities: ClassVar[frozenset[str]] = frozenset()
+
+    def quantity_errors(self, problem: Any, traj: Trajectory, row: dict[str, Any]
+                        ) -> dict[str, float]:
+        """The relative errors `err_<q>` of a run in the quantities q of `quantities`
+        (the run's trajectory and the row's contact columns against the reference)."""
+        return {}
+
 
 # --------------------------------------------------------------------------- schemes
 

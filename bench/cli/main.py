@@ -201,6 +201,16 @@ def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]
         with use_style(style):
             fig = contact_figure(these, exact, case.spec)
         written += save_figure(fig, out / fname, formats, prov)
+    tables = [r.trajectory.extra["impact_table"].assign(
+        case=r.row["case"], scheme=r.row["scheme"], nx=r.row["nx"], dt=r.row["dt"])
+        for r in runs if r.trajectory is not None and "impact_table" in r.trajectory.extra]
+    if tables:  # impact by impact: start, end, energy after, rebound ratio
+        import pandas as pd
+
+        impacts = pd.concat(tables, ignore_index=True)
+        front = ["case", "scheme", "nx", "dt"]
+        impacts = impacts[front + [c for c in impacts.columns if c not in front]]
+        written.append(write_text(out / "impacts.csv", impacts.to_csv(index=False)))
     listing = "\n".join(f"- `{p.name}`" for p in written)
     write_text(out / "README.md", f"# Results\n\n{prov}\n\nFiles:\n{listing}\n")
     return written

@@ -35,6 +35,7 @@ from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError, shown_repr
 from contact_bench.harness import metrics
+from contact_bench.harness.impacts import impact_metrics, impact_table
 from contact_bench.harness.metrics import (
     ERROR_COLUMNS,
     NEEDS,
@@ -46,6 +47,8 @@ from contact_bench.harness.metrics import (
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
 
+QUANTITY_COLUMNS = ("err_free_fall", "err_contact_duration", "err_peak_force",
+                    "err_u_numerical", "err_contact_force_numerical")
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
@@ -53,6 +56,10 @@ COLUMNS = (
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
+    # a scene's reference quantities (`Case.quantities`), relative errors
+    *QUANTITY_COLUMNS,
+    # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
+    "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
 TIMING_COLUMNS = ("step_s", "run_s", "wall_s")
@@ -436,6 +443,12 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
         row["step_s"] = step_time(integrate, semi, dt, traj.steps_done, step_repeats)
     if sparse:
         row.update(contact_metrics(semi, traj))
+        row.update(impact_metrics(semi, traj, dt))
+        table = impact_table(semi, traj)
+        if table is not None:  # impact by impact, for the run's outputs (impacts.csv)
+            traj.extra["impact_table"] = table
+    if case.quantities:
+        row.update(case.quantity_errors(semi, traj, row))
 
     row.update(energy_metrics(traj))
     row["penetration_max"] = penetration(traj)

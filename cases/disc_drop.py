@@ -1,0 +1,243 @@
+"""GetFEM's disc drop (`demo_dynamic_contact.m`, Renard and Chouly): an elastic disc falls
+onto a rigid plane.
+
+Disc of radius 20 centred at (0, 20) (touching y = 0), plane strain, lambda = mu = 20, rho
+= 1, downward body force 0.1, lifted by `lift` (default 5; larger: a harder impact), v0 =
+0; obstacle y >= 0 on the lower half of the boundary, frictionless; T = 40, dt = 0.01.
+`degree` 1 or 2 on a P2-geometry ring mesh (`--nx` rings along the radius, mirror
+symmetric about x = 0, boundary nodes on the circle).
+
+Exact references: the free fall u = (0, lift - g t^2 / 2) until t = sqrt(2 lift / g)
+(err_free_fall); E0 = m g lift; the impulse balance; the x -> -x symmetry (the symmetry
+defect column). No closed form after the impact: the numerical reference is
+`reference_scheme` on twice the rings with dt / 2 (err_u_numerical at the shared
+vertices, err_contact_force_numerical). A scheme's 1D mass variant maps to its 2D kind:
+consistent and lumped as named (lumped refused for P2), the redistributed ones to the
+Khenous-Laborde-Renard redistribution.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+import skfem as fe
+from skfem.helpers import sym_grad, trace
+
+from contact_bench.api import fem_nd
+from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case
+from contact_bench.api.registry import make_scheme
+from contact_bench.api.sparse import ContactSet, SparseProblem
+
+
+class DiscDrop(Case):
+    name = "disc_drop"
+    summary = "GetFEM's elastic disc dropped on a plane (2D plane strain, P1/P2)"
+    form = "sparse"
+    params = {
+        "degree": Param(2, "polynomial degree of the elements", choices=(1, 2)),
+        "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
+                      low=1e-6, high=1e3),
+    }
+    R, centre_y = 20.0, 20.0
+    lam = mu = 20.0
+    rho, g = 1.0, 0.1
+    T, nx, dt, stride = 40.0, 5, 0.01, 1
+
+    @property
+    def E(self) -> float:  # the P-wave modulus lambda + 2 mu: wave_speed = c_p
+        return self.lam + 2 * self.mu
+
+    @property
+    def L(self) -> float:
+        return 2 * self.R
+
+    @property
+    def impact_time(self) -> float:
+        """The first impact of the free fall, sqrt(2 lift / g)."""
+        return math.sqrt(2 * float(self.lift) / self.g)
+
+    @property
+    def exact_energy(self) -> float:
+        """E0 = m g lift of the continuous disc (the mesh's m differs by its geometry)."""
+        return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
+
+    quantities = frozenset({"free_fall", "u_numerical", "contact_force_numerical"})
+    #: the numerical reference: this scheme on the mesh with twice the rings, dt / 2
+    reference_scheme = "redistributed"
+
+    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+        """err_free_fall: the largest vertical displacement error of any dof against the
+        free fall over the samples before the impact, relative to the lift. Against the
+        numerical reference (`reference_scheme` at 2 nx, dt / 2, sampled at the run's
+        times): err_u_numerical, the largest error of u at the mesh's vertices (shared by
+        both meshes) over the largest |u_ref|, and err_contact_force_numerical, the
+        l2 error over the samples of the total contact force over its l2 norm."""
+        out: dict[str, float] = {}
+        dt = float(row["dt"])
+        before = traj.t < self.impact_time - 1.5 * dt
+        if before.any():
+            U = traj.U[before][:, problem.extra["vertical"] > 0]
+            err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
+            out["err_free_fall"] = float(err) / float(self.lift)
+        nx, stride = int(row["nx"]), int(row["stride"])
+        if traj.t.size < 2 or problem.U0.size != self.body(nx).ndofs:
+            return out
+        ref, ref_p, ref_P = self._numerical(nx, dt, traj.t[-1], stride)
+        k = min(ref.t.size, traj.t.size)
+        P = self.body(nx).dof_coordinates
+        nv = self.mesh(nx).nvertices  # scikit-fem numbers the vertices' dofs first
+        scale = float(self.R)
+        where = {tuple(np.round(q / scale, 9)): s for s, q in enumerate(ref_P.T)}
+        fine = np.array([where[tuple(np.round(q / scale, 9))] for q in P[:, :nv].T])
+        cols = np.ravel(np.stack([2 * np.arange(nv), 2 * np.arange(nv) + 1], axis=1))
+        rcols = np.ravel(np.stack([2 * fine, 2 * fine + 1], axis=1))
+        du = traj.U[:k][:, cols] - ref.U[:k][:, rcols]
+        out["err_u_numerical"] = float(np.max(np.abs(du)) / np.max(np.abs(ref.U[:k])))
+        force = -traj.stress[:k] * float(np.sum(problem.contact.weights))
+        rforce = -ref.stress[:k] * float(np.sum(ref_p.contact.weights))
+        if np.any(rforce):
+            out["err_contact_force_numerical"] = float(
+                np.linalg.norm(force - rforce) / np.linalg.norm(rforce))
+        return out
+
+    def _numerical(self, nx: int, dt: float, T: float, stride: int):
+        """The reference run (cached on the scene for its parameters)."""
+        key = (int(self.degree), float(self.lift), nx, dt, round(T / dt), stride)
+        cache = _NUMERICAL
+        if key not in cache:
+            if len(cache) >= 2:  # bound the memory: the last two references
+                cache.pop(next(iter(cache)))
+            scheme = make_scheme(self.reference_scheme)
+            p = self.sparse_problem(2 * nx, 1.0, scheme.mass_kind())
+            run = scheme.integrate_sparse(p, dt / 2, 2 * int(round(T / dt)), 2 * stride)
+            cache[key] = (run, p, self.body(2 * nx).dof_coordinates)
+        return cache[key]
+
+    def free_fall(self, t: np.ndarray) -> np.ndarray:
+        """The vertical displacement of every point before the first impact."""
+        return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
+
+    def mesh(self, nx: int) -> fe.MeshTri2:
+        """The ring mesh: nx rings of 6 k nodes, triangulated on the half x >= 0 and
+        mirrored; P2 geometry with the boundary's edge midpoints on the circle."""
+        p, t = ring_disc(int(nx))
+        p = p * self.R
+        p[1] += self.centre_y
+        m = fe.MeshTri2.from_mesh(fe.MeshTri1(p, t))
+        D = m.dofs.get_facet_dofs(m.boundary_facets()).flatten()
+        loc = m.doflocs.copy()
+        c = np.array([[0.0], [self.centre_y]])
+        r = loc[:, D] - c
+        loc[:, D] = c + self.R * r / np.linalg.norm(r, axis=0)
+        return replace(m, doflocs=loc)
+
+    def body(self, nx: int) -> fem_nd.Elasticity:
+        nu = self.lam / (2 * (self.lam + self.mu))
+        E = self.mu * (3 * self.lam + 2 * self.mu) / (self.lam + self.mu)
+        return fem_nd.assemble(self.mesh(nx), E, nu, self.rho, degree=int(self.degree))
+
+    def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
+        if grading != 1.0:
+            raise ValueError(f"grading = {grading!r}: the disc's ring mesh is uniform "
+                             "(allowed: 1)")
+        body = self.body(nx)
+        P = body.dof_coordinates
+        # the lower half: outward normal pointing down (GetFEM: n_y < -0.01)
+        facets = body.boundary_facets(lambda x: x[1] < self.centre_y - 0.01 * self.R)
+        scalar = np.unique(body.scalar.get_dofs(facets).flatten())
+        kind = canonical_mass(mass_kind)
+        M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
+                               scalar)
+        # the load of the scheme's mass (as gravity acts on it): a massless dof carries
+        # none, so the free fall stays exact; every variant keeps the total mass
+        F = fem_nd.body_force(M, 2, np.array([0.0, -self.g]))
+        n = body.ndofs
+        U0 = np.zeros(n)
+        U0[1::2] = float(self.lift)
+        fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+        w = np.asarray(fe.LinearForm(lambda v, _: v).assemble(fb))[scalar]
+        face_mass, normal_stress = contact_operators(body, fb, scalar, 1)
+        contact = ContactSet(dofs=2 * scalar + 1, gap0=P[1, scalar].copy(), weights=w,
+                             face_mass=face_mass)
+        return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
+                             dim=2, hmin=body.hmin, c_max=body.wave_speed,
+                             mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
+                             E_contact=self.E, h_contact=self.R / int(nx),
+                             normal_stress=normal_stress,
+                             extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
+                                    "vertical": np.tile([0.0, 1.0], n // 2)})
+
+
+#: numerical reference runs by (degree, lift, nx, dt, steps, stride)
+_NUMERICAL: dict = {}
+
+
+def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit disc centred at 0: node 0 the centre, ring k (1..n) of 6 k nodes from the
+    bottom (angle -pi/2) counter-clockwise; triangles (3, 6 n^2), counter-clockwise,
+    mirror symmetric about x = 0."""
+    pts = [np.zeros((2, 1))]
+    first = [0]
+    for k in range(1, n + 1):
+        a = -np.pi / 2 + 2 * np.pi * np.arange(6 * k) / (6 * k)
+        first.append(first[-1] + (6 * (k - 1) if k > 1 else 1))
+        pts.append(k / n * np.vstack([np.cos(a), np.sin(a)]))
+
+    def node(k: int, j: int) -> int:
+        return 0 if k == 0 else first[k] + j % (6 * k)
+
+    def mirror(k: int, j: int) -> int:
+        return 0 if k == 0 else node(k, 6 * k - j)
+
+    tris: list[tuple[int, int, int]] = []
+    for k in range(1, n + 1):  # the half x >= 0: inner 0..3(k-1), outer 0..3k
+        half: list[tuple[tuple[int, int], ...]] = []
+        i = j = 0
+        ni, no = 3 * (k - 1), 3 * k
+        while i < ni or j < no:
+            if k == 1 or i == ni or (j < no and (j + 1) * ni <= (i + 1) * no):
+                half.append(((k - 1, i), (k, j), (k, j + 1)))
+                j += 1
+            else:
+                half.append(((k - 1, i), (k, j), (k - 1, i + 1)))
+                i += 1
+        for a, b, c in half:
+            tris.append((node(*a), node(*b), node(*c)))
+            tris.append((mirror(*a), mirror(*c), mirror(*b)))
+    return np.hstack(pts), np.array(tris, np.int64).T
+
+
+def mirror_pairs(P: np.ndarray) -> np.ndarray:
+    """(pairs, 2) scalar dofs at (x, y) and (-x, y), x > 0."""
+    scale = float(np.max(np.abs(P)))
+    key = {(round(x / scale, 9), round(y / scale, 9)): s for s, (x, y) in enumerate(P.T)}
+    right = np.flatnonzero(P[0] > 1e-9 * scale)
+    return np.array([[s, key[(round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9))]]
+                     for s in right], np.int64)
+
+
+def contact_operators(body: fem_nd.Elasticity, fb: fe.FacetBasis, scalar: np.ndarray,
+                      c: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+    """The contact zone's consistent scalar mass M_f (row sums: the weights) and the
+    normal stress sigma_cc at the contact dofs as a map of the displacement: the L2
+    projection onto the zone's trace space, B = M_f^-1 G with G_ij = int sigma_cc(phi_j)
+    psi_i over the zone (compression negative; the plane's normal is axis c)."""
+    lam, mu = body.lam, body.mu
+
+    @fe.BilinearForm
+    def sigma_cc(u, v, _):
+        eps = sym_grad(u)
+        return (lam * trace(eps) + 2 * mu * eps[c, c]) * v
+
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=fb.find,
+                       quadrature=(fb.X, fb.W))
+    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).tocsr()[scalar][:, scalar]
+    G = sigma_cc.assemble(fv, fb).tocsr()[scalar]
+    B = np.linalg.solve(Mf.toarray(), G.toarray())
+    B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
+    return sp.csr_matrix(Mf), sp.csr_matrix(B)

@@ -1,0 +1,213 @@
+"""An elastic sphere hitting a rigid plane at speed v, axisymmetric, against Hertz's law.
+
+Sphere R = 1, E = 1, nu = 0.3, rho = 1 (c_p about 1.16), touching the plane z = 0 at its
+pole at t = 0 with velocity -v (`v`, default 0.01), no gravity; T = 1.25 x Hertz's contact
+time (15.4 at v = 0.01), dt = 0.01. The meridian half-disc r >= 0: the disc's ring mesh
+graded towards the pole (`grade`: distances from the pole along each chord raised to that
+power), P2 on P2 geometry, `--nx` rings. Axisymmetric forms: weight 2 pi r, hoop strain
+u_r / r, u_r = 0 on the axis. Contact set: the vertical dofs of the lower half of the
+meridian; their forces sum to the total force.
+
+Reference quantities (`hertz`): Hertz's contact time and peak force
+(`contact_bench.exact.hertz`), the limit v / c -> 0 that the finite-element answer
+approaches as v and h shrink, not an exact solution of this problem: the error columns
+stay empty and benchmarks/hertz_gap.py tabulates the gaps. Exactly: the energy 1/2 m v^2
+and the impulse balance (vertical momentum change = contact impulse).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import scipy.sparse as sp
+import skfem as fe
+from skfem.helpers import ddot, sym_grad, trace
+
+from contact_bench.api import fem_nd
+from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Case
+from contact_bench.api.sparse import ContactSet, SparseProblem
+from contact_bench.exact.hertz import HertzImpact
+
+
+class HertzSphere(Case):
+    name = "hertz_sphere"
+    summary = "axisymmetric sphere on a plane at speed v (reference: Hertz's contact time, force)"
+    form = "sparse"
+    params = {
+        "v": Param(0.01, "impact speed", low=1e-6, high=1.0),
+        "grade": Param(2.0, "mesh grading exponent towards the pole (1: uniform)", low=1.0,
+                       high=4.0),
+    }
+    R, Young, nu, rho = 1.0, 1.0, 0.3, 1.0
+    nx, dt, stride = 8, 0.01, 1
+
+    @property
+    def T(self) -> float:
+        return round(1.25 * self.hertz().contact_time, 1)
+
+    @property
+    def lam_mu(self) -> tuple[float, float]:
+        return fem_nd.lame(self.Young, self.nu)
+
+    @property
+    def E(self) -> float:  # the P-wave modulus: wave_speed = c_p
+        lam, mu = self.lam_mu
+        return lam + 2 * mu
+
+    @property
+    def L(self) -> float:
+        return 2 * self.R
+
+    quantities = frozenset({"contact_duration", "peak_force"})
+
+    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+        """Relative gaps to Hertz's contact time (first contact start to end, plus the
+        step: the impact is at t = 0) and peak force (the row's contact columns)."""
+        h = self.hertz()
+        out = {}
+        if row.get("first_contact_end") is not None and np.isfinite(row["first_contact_end"]):
+            tc = row["first_contact_end"] - row["first_contact_start"] + float(row["dt"])
+            out["err_contact_duration"] = abs(tc / h.contact_time - 1.0)
+        if row.get("peak_contact_force") is not None:
+            out["err_peak_force"] = abs(row["peak_contact_force"] / h.peak_force - 1.0)
+        return out
+
+    def hertz(self) -> HertzImpact:
+        return HertzImpact(R=self.R, E=self.Young, nu=self.nu, rho=self.rho, v=float(self.v))
+
+    @property
+    def exact_energy(self) -> float:
+        return 0.5 * self.rho * 4.0 / 3.0 * math.pi * self.R**3 * float(self.v) ** 2
+
+    def mesh(self, nx: int) -> fe.MeshTri2:
+        """The meridian half-disc (r >= 0) of the ring mesh, graded towards the pole
+        (0, 0) and with its curved boundary on the circle."""
+        p, t = ring_half_disc(int(nx))
+        pole = np.array([[0.0], [-1.0]])
+        d = p - pole
+        dist = np.linalg.norm(d, axis=0)
+        chord = np.where(dist > 0, 2 * d[1] / np.where(dist > 0, dist, 1.0), 0.0)
+        scale = np.where(dist > 0, (dist / np.where(chord > 0, chord, 1.0))
+                         ** (float(self.grade) - 1.0), 0.0)
+        p = pole + d * scale
+        p = p * self.R + np.array([[0.0], [self.R]])
+        m = fe.MeshTri2.from_mesh(fe.MeshTri1(p, t))
+        loc = m.doflocs.copy()
+        D = m.dofs.get_facet_dofs(m.boundary_facets()).flatten()
+        D = D[loc[0, D] > 1e-12 * self.R]  # the circle, not the axis
+        c = np.array([[0.0], [self.R]])
+        r = loc[:, D] - c
+        loc[:, D] = c + self.R * r / np.linalg.norm(r, axis=0)
+        return replace(m, doflocs=loc)
+
+    def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
+        if grading != 1.0:
+            raise ValueError(f"grading = {grading!r}: the sphere's mesh grades by its "
+                             "`grade` parameter (allowed: 1)")
+        mesh = self.mesh(nx)
+        lam, mu = self.lam_mu
+        elem = fe.ElementTriP2()
+        scalar = fe.Basis(mesh, elem)
+        vector = fe.Basis(mesh, fe.ElementVector(elem), quadrature=scalar.quadrature)
+        K = _axi_stiffness.assemble(vector, lam=lam, mu=mu).tocsr()
+        Ms = _axi_mass.assemble(scalar, rho=self.rho).tocsr()
+        body = fem_nd.Elasticity(mesh, scalar, vector, K, Ms, lam, mu, self.rho)
+        P = body.dof_coordinates
+        facets = mesh.facets_satisfying(
+            lambda x: (x[1] < self.R * 0.99) & (x[0] > 1e-9 * self.R), boundaries_only=True)
+        contact_s = np.unique(scalar.get_dofs(facets).flatten())
+        kind = canonical_mass(mass_kind)
+        M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
+                               contact_s)
+        n = vector.N
+        fixed = np.zeros(n, bool)
+        fixed[2 * np.flatnonzero(P[0] < 1e-12 * self.R)] = True  # u_r = 0 on the axis
+        free = np.flatnonzero(~fixed)
+        index = np.full(n, -1)
+        index[free] = np.arange(free.size)
+        V0 = np.zeros(n)
+        V0[1::2] = -float(self.v)
+        fb = fe.FacetBasis(mesh, elem, facets=facets)
+        w = np.asarray(_axi_load.assemble(fb))[contact_s]
+        # the zone's axisymmetric face mass and normal stress sigma_zz (Nitsche), as the
+        # L2 projection onto the zone's trace space
+        fv = fe.FacetBasis(mesh, fe.ElementVector(elem), facets=facets, quadrature=(fb.X, fb.W))
+        Mf = _axi_face_mass.assemble(fb).tocsr()[contact_s][:, contact_s]
+        G = _axi_sigma_zz.assemble(fv, fb, lam=lam, mu=mu).tocsr()[contact_s][:, free]
+        B = np.linalg.solve(Mf.toarray(), G.toarray())
+        B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
+        contact = ContactSet(dofs=index[2 * contact_s + 1], gap0=P[1, contact_s].copy(),
+                             weights=w, face_mass=sp.csr_matrix(Mf))
+        Mf = M[free][:, free].tocsr()
+        mass = float(np.sum(M @ np.tile([0.0, 1.0], n // 2)))
+        return SparseProblem(M=Mf, K=K[free][:, free].tocsr(), F=np.zeros(free.size),
+                             U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
+                             hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
+                             E_contact=self.E, h_contact=body.hmin,
+                             normal_stress=sp.csr_matrix(B),
+                             extra={"mass": mass,  # and the vertical translation:
+                                    "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})
+
+
+@fe.BilinearForm
+def _axi_stiffness(u, v, w):
+    r = w.x[0]
+    eu, ev = sym_grad(u), sym_grad(v)
+    hu, hv = u.value[0] / r, v.value[0] / r  # hoop strains
+    return 2 * np.pi * r * (w.lam * (trace(eu) + hu) * (trace(ev) + hv)
+                            + 2 * w.mu * (ddot(eu, ev) + hu * hv))
+
+
+@fe.BilinearForm
+def _axi_mass(u, v, w):
+    return 2 * np.pi * w.x[0] * w.rho * u * v
+
+
+@fe.BilinearForm
+def _axi_face_mass(u, v, w):
+    return 2 * np.pi * w.x[0] * u * v
+
+
+@fe.BilinearForm
+def _axi_sigma_zz(u, v, w):
+    eps = sym_grad(u)
+    return 2 * np.pi * w.x[0] * (w.lam * (trace(eps) + u.value[0] / w.x[0])
+                                 + 2 * w.mu * eps[1, 1]) * v
+
+
+@fe.LinearForm
+def _axi_load(v, w):
+    return 2 * np.pi * w.x[0] * v
+
+
+def ring_half_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The x >= 0 half of the unit disc's ring mesh (`disc_drop.ring_disc`'s right half,
+    rebuilt here: plugins do not import each other), nodes renumbered."""
+    pts = [np.zeros((2, 1))]
+    first = [0]
+    for k in range(1, n + 1):
+        a = -np.pi / 2 + np.pi * np.arange(3 * k + 1) / (3 * k)
+        first.append(first[-1] + (3 * (k - 1) + 1 if k > 1 else 1))
+        pts.append(k / n * np.vstack([np.cos(a), np.sin(a)]))
+
+    def node(k: int, j: int) -> int:
+        return 0 if k == 0 else first[k] + j
+
+    tris = []
+    for k in range(1, n + 1):
+        i = j = 0
+        ni, no = 3 * (k - 1), 3 * k
+        while i < ni or j < no:
+            if k == 1 or i == ni or (j < no and (j + 1) * ni <= (i + 1) * no):
+                tris.append((node(k - 1, i), node(k, j), node(k, j + 1)))
+                j += 1
+            else:
+                tris.append((node(k - 1, i), node(k, j), node(k - 1, i + 1)))
+                i += 1
+    p = np.hstack(pts)
+    p[0, np.abs(p[0]) < 1e-14] = 0.0  # the axis exactly
+    return p, np.array(tris, np.int64).T
