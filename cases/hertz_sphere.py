@@ -35,7 +35,7 @@ from contact_bench.exact.hertz import HertzImpact
 
 class HertzSphere(Case):
     name = "hertz_sphere"
-    summary = "axisymmetric sphere on a plane at speed v (reference: Hertz's contact time, force)"
+    summary = "axisymmetric ball hits a plane at speed v; Hertz contact time, peak force"
     form = "sparse"
     params = {
         "v": Param(0.01, "impact speed", low=1e-6, high=1.0),

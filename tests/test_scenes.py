@@ -54,6 +54,8 @@ def _cli_table(args: list[str], capsys) -> pd.DataFrame:
 
 @pytest.mark.parametrize("name", cases().names())
 def test_scene_runs_through_the_cli_and_converges(name, capsys):
+    if make_case(name).reference is None:  # a body with reference quantities only
+        pytest.skip(f"{name}: no reference solution of u to converge to")
     spec, T, transit = _window(name)
     dt = 0.25 * transit / NXS[-1]  # CFL 1/4 on the finest mesh
     args = ["--case", spec, "--scheme", "redistributed", "--T", f"{T!r}", "--dt", f"{dt!r}"]

@@ -12,10 +12,12 @@ The times are those of the samples: a stride above 1 blurs them by up to a strid
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # pandas loads when a run has impacts to tabulate, not with the harness
+    import pandas as pd
 
 IMPACT_COLUMNS = ("impact", "start", "end", "energy_after", "rebound_ratio")
 
@@ -26,6 +28,8 @@ def impact_table(problem: Any, traj: Any) -> pd.DataFrame | None:
     mass = problem.extra.get("mass") if hasattr(problem, "extra") else None
     if vertical is None or not mass or traj.stress.size < 2:
         return None
+    import pandas as pd
+
     force = -np.asarray(traj.stress) * float(np.sum(problem.contact.weights))
     on = np.r_[False, force > 0.0, False]
     edges = np.flatnonzero(np.diff(on.astype(np.int8)))
