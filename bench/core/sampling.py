@@ -8,37 +8,90 @@ exceeds `BLOWUP_FACTOR` times |E(0)| (`blown_up`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, uint64
 
-from contact_bench.core.tridiag import QUAD_BLOCK, tri_quad
+from contact_bench.core.simd import vabs, vhsum, vload, vselect_le, vsplat
+from contact_bench.core.tridiag import QUAD_BLOCK, ROWSUM_RTOL, _snap
 
 BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
 
 
+@njit(cache=True, inline="always")
+def _row_sum(d, e, i):  # pragma: no cover - compiled
+    """Row i's sum d_i + e_{i-1} + e_i of the tridiagonal (d, e), 0 < i < n - 1, or 0 at
+    the rounding level of the row (as `contact_bench.core.tridiag.tri_quad` takes it)."""
+    r = (d[i] + e[i - uint64(1)]) + e[i]
+    a = (abs(d[i]) + abs(e[i - uint64(1)])) + abs(e[i])
+    return r if abs(r) > ROWSUM_RTOL * a else 0.0
+
+
+@njit(cache=True, inline="always")
+def _vrow_sum(d, e, i):  # pragma: no cover - compiled
+    """`_row_sum` of the rows i .. i + 7, lane by lane."""
+    dd, el, er = vload(d, i), vload(e, i - uint64(1)), vload(e, i)
+    r = (dd + el) + er
+    a = (vabs(dd) + vabs(el)) + vabs(er)
+    return vselect_le(vabs(r), vsplat(ROWSUM_RTOL) * a, vsplat(0.0), r)
+
+
+@njit(cache=True, inline="always")
+def _node_term(Md, Me, Kd, Ke, F, U, V, i):  # pragma: no cover - compiled
+    """Twice node i's share of the energy, 0 < i < n - 1: (r^M_i v_i^2 - e^M_i (v_{i+1} -
+    v_i)^2) + (r^K_i u_i^2 - e^K_i (u_{i+1} - u_i)^2) - 2 F_i u_i."""
+    v, u = V[i], U[i]
+    dv, du = V[i + uint64(1)] - v, U[i + uint64(1)] - u
+    return (((_row_sum(Md, Me, i) * v * v - Me[i] * dv * dv)
+             + (_row_sum(Kd, Ke, i) * u * u - Ke[i] * du * du)) - 2.0 * F[i] * u)
+
+
 @njit(cache=True)
 def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
-    """1/2 V.M.V + 1/2 U.K.U - F.U + offset.
+    """1/2 V.M.V + 1/2 U.K.U - F.U + offset, without cancellation.
 
-    The quadratic forms by `tri_quad` (strain energy from element differences, no
-    cancellation), F.U in blocks of QUAD_BLOCK terms, four interleaved partial sums
-    each: digits do not fade as the mesh grows."""
+    Each quadratic form as `contact_bench.core.tridiag.tri_quad` writes it, sum_i r_i x_i^2
+    - sum_i e_i (x_{i+1} - x_i)^2 with the row sums r_i (rounding-level ones taken as 0):
+    the strain energy from element differences, whose digits do not fade as the mesh
+    grows (docs/energy-summation.md). The two forms and F.U are fused into one term per
+    node (`_node_term`) and summed in one pass: rows 1 .. n-2 eight at a time in explicit
+    8 x double vectors (`contact_bench.core.simd`), one vector sum per block of
+    QUAD_BLOCK rows added into the total by `vhsum`, the rest one by one. The order is
+    fixed by the code (no reassociation by the compiler): the same bits on every machine.
+    """
     n = U.size
-    s = 0.0
-    i = 0
-    while i < n:
-        end = min(i + QUAD_BLOCK, n)
-        s0 = s1 = s2 = s3 = 0.0
-        while i + 4 <= end:
-            s0 += F[i] * U[i]
-            s1 += F[i + 1] * U[i + 1]
-            s2 += F[i + 2] * U[i + 2]
-            s3 += F[i + 3] * U[i + 3]
-            i += 4
-        while i < end:
-            s0 += F[i] * U[i]
-            i += 1
-        s += (s0 + s1) + (s2 + s3)
-    return 0.5 * tri_quad(Md, Me, V) + 0.5 * tri_quad(Kd, Ke, U) - s + offset
+    if n == 0:
+        return offset
+    if n == 1:
+        return (0.5 * (_snap(Md[0], abs(Md[0])) * V[0] * V[0]
+                       + _snap(Kd[0], abs(Kd[0])) * U[0] * U[0]) - F[0] * U[0] + offset)
+    v, u = V[0], U[0]
+    dv, du = V[1] - v, U[1] - u
+    total = (((_snap(Md[0] + Me[0], abs(Md[0]) + abs(Me[0])) * v * v - Me[0] * dv * dv)
+              + (_snap(Kd[0] + Ke[0], abs(Kd[0]) + abs(Ke[0])) * u * u - Ke[0] * du * du))
+             - 2.0 * F[0] * u)
+    last = uint64(n - 1)
+    v, u = V[last], U[last]
+    total += (((_snap(Md[last] + Me[last - uint64(1)],
+                      abs(Md[last]) + abs(Me[last - uint64(1)])) * v * v)
+               + (_snap(Kd[last] + Ke[last - uint64(1)],
+                        abs(Kd[last]) + abs(Ke[last - uint64(1)])) * u * u))
+              - 2.0 * F[last] * u)
+    two = vsplat(2.0)
+    i = uint64(1)
+    while i + uint64(8) <= last:
+        end = min(i + uint64(QUAD_BLOCK), last)
+        acc = vsplat(0.0)
+        while i + uint64(8) <= end:
+            vv, uu = vload(V, i), vload(U, i)
+            dv8, du8 = vload(V, i + uint64(1)) - vv, vload(U, i + uint64(1)) - uu
+            acc = acc + (((_vrow_sum(Md, Me, i) * vv * vv - vload(Me, i) * dv8 * dv8)
+                          + (_vrow_sum(Kd, Ke, i) * uu * uu - vload(Ke, i) * du8 * du8))
+                         - two * vload(F, i) * uu)
+            i += uint64(8)
+        total += vhsum(acc)
+    while i < last:
+        total += _node_term(Md, Me, Kd, Ke, F, U, V, i)
+        i += uint64(1)
+    return 0.5 * total + offset
 
 
 @njit(cache=True)
