@@ -455,21 +455,8 @@ def vrows4(typingctx, tab, f):
 
 
 # ---------------------------------------------------------------------------------------
-# Added for the sampled energy (`contact_bench.core.sampling.energy_of`): vabs(a), |a| lane
-# by lane (the sign bit cleared), and vhsum(a), the sum of the 8 lanes in a fixed order.
-@intrinsic
-def vabs(typingctx, a):
-    """|a| lane by lane."""
-    if not _vectors(a):
-        return None
-
-    def codegen(context, builder, sig, args):
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V, [_V]),
-                                            "llvm.fabs.v8f64")
-        return builder.call(fn, [args[0]])
-    return f64x8(a), codegen
-
-
+# Added for the sampled energy (`contact_bench.core.sampling.energy_rows`): vhsum(a), the
+# sum of the 8 lanes in a fixed order.
 @intrinsic
 def vhsum(typingctx, a):
     """((a0 + a4) + (a2 + a6)) + ((a1 + a5) + (a3 + a7)) (IEEE, in this order: the halves
