@@ -340,11 +340,17 @@ def record_lane_sample(k, t, nodes, X, V, stress, rM, Me, rK, Ke, F, offset,
     and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is returned (rM, rK: the
     `row_sums` of M and K, computed once per run; Me, Ke their off-diagonals)."""
     m = X.size // L
-    for c in range(L):
+    Uk, Vk = U_out[k], V_out[k]
+    Lu = uint64(L)
+    for c in range(L):  # lane by lane: one sequential write stream per output row
         i0 = c * m
-        for j in range(min(m, nodes - i0)):
-            U_out[k, i0 + j] = X[j * L + c]
-            V_out[k, i0 + j] = V[j * L + c]
+        cnt = min(m, nodes - i0)
+        if cnt <= 0:
+            break
+        cu, base = uint64(c), uint64(i0)
+        for j in range(uint64(cnt)):  # unsigned: no wraparound test per element
+            Uk[base + j] = X[j * Lu + cu]
+            Vk[base + j] = V[j * Lu + cu]
     energy = energy_rows(rM, Me, rK, Ke, F, U_out[k], V_out[k], offset)
     t_out[k] = t
     cu_out[k] = X[0]
