@@ -12,7 +12,7 @@ passes over the nodes:
   and starts row i of the next step (right-hand side G + T X, forward-sweep step).
 
 Sample steps take an unfused path that also forms V and writes the sample with the shared
-`record_sample` and `energy_of` of `contact_bench.core.sampling`. Needs n >= 3.
+`record_sample` and `energy_rows` of `contact_bench.core.sampling`. Needs n >= 3.
 """
 
 from __future__ import annotations
