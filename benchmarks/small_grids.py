@@ -74,21 +74,23 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
 
 def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) -> None:
     """What a recorded step costs beyond stepping, part by part, in ns per dof-step: the
-    shared `energy_of` and `record_sample` of `contact_bench.core.sampling` in a compiled
-    loop (sample buffers already written once), and the first write of fresh sample
+    shared `energy_rows` (row sums computed once, as the kernels do) and `record_sample`
+    of `contact_bench.core.sampling` in a compiled loop (sample buffers already written
+    once), and the first write of fresh sample
     buffers (`np.zeros`, as `contact_bench.kernels.common.allocate` makes them: the page
     faults). Minimum of `repeats`."""
     import numpy as np
     from numba import njit
 
-    from contact_bench.core.sampling import energy_of, record_sample
+    from contact_bench.core.sampling import energy_rows, record_sample, row_sums
 
     @njit
     def energies(Md, Me, Kd, Ke, F, U, V, reps):
+        rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)
         s = 0.0
         for _ in range(reps):
             U[0] += 1e-300
-            s += energy_of(Md, Me, Kd, Ke, F, U, V, 0.0)
+            s += energy_rows(rM, Me, rK, Ke, F, U, V, 0.0)
         return s
 
     @njit
@@ -96,7 +98,7 @@ def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) 
         for r in range(reps):
             record_sample(r, 0.1, U, V, 0.0, 1.0, t, Uo, Vo, cu, so, Eo)
 
-    print("| nx | energy_of | record_sample (warm) | fresh buffers (first write) |")
+    print("| nx | energy_rows | record_sample (warm) | fresh buffers (first write) |")
     print("|---|---|---|---|")
     rng = np.random.default_rng(0)
     for nx in nxs:
@@ -135,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="instead: one run of the scene to time T (the study's run: the "
                          "per-call set-up, factors and buffers, counts in every dof-step)")
     ap.add_argument("--recording-parts", action="store_true",
-                    help="time the parts of recording (energy_of, record_sample, fresh "
+                    help="time the parts of recording (energy_rows, record_sample, fresh "
                          "buffers) instead of the schemes")
     args = ap.parse_args(argv)
     if args.recording_parts:

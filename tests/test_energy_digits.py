@@ -45,6 +45,22 @@ def test_tri_quad_is_the_quadratic_form(seed: int) -> None:
                                rtol=1e-14)
 
 
+@pytest.mark.parametrize("n", [1, 2, 3, 9, 10, 11, 17, 258, 259, 266, 530])
+def test_energy_of_is_the_energy(n: int) -> None:
+    """energy_of (vector blocks of 8 rows, blocks of QUAD_BLOCK, scalar rest) is 1/2 V.M.V
+    + 1/2 U.K.U - F.U + offset to round-off, at sizes that end in each of its parts."""
+    rng = np.random.default_rng(n)
+    Md, Me = rng.normal(size=n) + 3.0, rng.normal(size=max(n - 1, 0))
+    Kd, Ke = rng.normal(size=n) + 3.0, rng.normal(size=max(n - 1, 0))
+    F, U, V = rng.normal(size=n), rng.normal(size=n), rng.normal(size=n)
+    exact = (Fraction(_exact_quad(Md, Me, V)) / 2 + Fraction(_exact_quad(Kd, Ke, U)) / 2
+             - sum(Fraction(float(f)) * Fraction(float(u)) for f, u in zip(F, U, strict=True))
+             + Fraction(0.25))
+    scale = 1.0 + sum(float(np.sum(np.abs(d) * x * x) + 2 * np.sum(np.abs(e * x[:-1] * x[1:])))
+                      for d, e, x in ((Md, Me, V), (Kd, Ke, U))) + float(np.sum(np.abs(F * U)))
+    assert abs(energy_of(Md, Me, Kd, Ke, F, U, V, 0.25) - float(exact)) <= 1e-14 * scale
+
+
 def test_rigid_translation_has_no_strain() -> None:
     """The assembled stiffness of a free bar on a graded mesh: a translation strains
     nothing (the float matrix's own U.K.U is 0.14 at 1e6 dofs on dropped_bar, the plain

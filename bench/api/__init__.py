@@ -23,14 +23,16 @@ from contact_bench.core.sampling import (
     BLOWUP_FACTOR,
     blown_up,
     energy_of,
+    energy_rows,
     is_sample,
     n_samples,
     record_sample,
+    row_sums,
 )
 
 __all__ = [
     "BLOWUP_FACTOR", "BenchError", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
     "Semidiscrete", "Traits", "Trajectory", "TrajectoryRecorder", "blown_up",
-    "discrete_energy", "energy_of", "is_sample", "make_case", "make_scheme", "n_samples",
-    "record_sample",
+    "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",
+    "n_samples", "record_sample", "row_sums",
 ]

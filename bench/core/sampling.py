@@ -8,45 +8,103 @@ exceeds `BLOWUP_FACTOR` times |E(0)| (`blown_up`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, uint64
 
-from contact_bench.core.tridiag import QUAD_BLOCK, tri_quad
+from contact_bench.core.simd import vhsum, vload, vsplat
+from contact_bench.core.tridiag import QUAD_BLOCK, _snap
 
 BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
 
 
 @njit(cache=True)
-def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
-    """1/2 V.M.V + 1/2 U.K.U - F.U + offset.
-
-    The quadratic forms by `tri_quad` (strain energy from element differences, no
-    cancellation), F.U in blocks of QUAD_BLOCK terms, four interleaved partial sums
-    each: digits do not fade as the mesh grows."""
-    n = U.size
-    s = 0.0
-    i = 0
-    while i < n:
-        end = min(i + QUAD_BLOCK, n)
-        s0 = s1 = s2 = s3 = 0.0
-        while i + 4 <= end:
-            s0 += F[i] * U[i]
-            s1 += F[i + 1] * U[i + 1]
-            s2 += F[i + 2] * U[i + 2]
-            s3 += F[i + 3] * U[i + 3]
-            i += 4
-        while i < end:
-            s0 += F[i] * U[i]
-            i += 1
-        s += (s0 + s1) + (s2 + s3)
-    return 0.5 * tri_quad(Md, Me, V) + 0.5 * tri_quad(Kd, Ke, U) - s + offset
+def row_sums(d, e):
+    """The row sums r_i = d_i + e_{i-1} + e_i of the symmetric tridiagonal (d, e), each
+    taken as 0 at the rounding level of its row (|r_i| <= ROWSUM_RTOL (|d_i| + |e_{i-1}| +
+    |e_i|)), as `contact_bench.core.tridiag.tri_quad` takes them: the coefficients of x_i^2
+    in `energy_rows`. They depend on the matrix only, so a kernel computes them once per
+    run, before its step loop."""
+    n = d.size
+    r = np.empty(n)
+    if n == 1:
+        r[0] = _snap(d[0], abs(d[0]))
+    if n < 2:
+        return r
+    r[0] = _snap(d[0] + e[0], abs(d[0]) + abs(e[0]))
+    for i in range(1, n - 1):
+        r[i] = _snap((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
+    r[n - 1] = _snap(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
+    return r
 
 
 @njit(cache=True)
+def energy_rows(rM, Me, rK, Ke, F, U, V, offset):
+    """1/2 V.M.V + 1/2 U.K.U - F.U + offset from the row sums rM, rK (`row_sums` of M and
+    K) and the off-diagonals Me, Ke, without cancellation.
+
+    Each quadratic form as `contact_bench.core.tridiag.tri_quad` writes it, sum_i r_i x_i^2
+    - sum_i e_i (x_{i+1} - x_i)^2: the strain energy from element differences, whose
+    digits do not fade as the mesh grows (docs/energy-summation.md). Both forms and F.U
+    are fused into one term per node, twice node i's share (r^M_i v_i^2 - e^M_i (v_{i+1}
+    - v_i)^2) + (r^K_i u_i^2 - e^K_i (u_{i+1} - u_i)^2) - 2 F_i u_i, summed in one pass:
+    rows 1 .. n-2 eight at a time in explicit 8 x double vectors (`contact_bench.core.simd`,
+    no branch in the loop), one vector sum per block of QUAD_BLOCK rows added into the
+    total by `vhsum`, the remaining rows one by one, rows 0 and n-1 first. The order is
+    fixed by the code (no reassociation by the compiler): the same bits on every machine.
+    """
+    n = U.size
+    if n == 0:
+        return offset
+    if n == 1:
+        return 0.5 * (rM[0] * V[0] * V[0] + rK[0] * U[0] * U[0]) - F[0] * U[0] + offset
+    v, u = V[0], U[0]
+    dv, du = V[1] - v, U[1] - u
+    total = ((rM[0] * v * v - Me[0] * dv * dv) + (rK[0] * u * u - Ke[0] * du * du)
+             - 2.0 * F[0] * u)
+    last = uint64(n - 1)
+    v, u = V[last], U[last]
+    total += (rM[last] * v * v + rK[last] * u * u) - 2.0 * F[last] * u
+    two = vsplat(2.0)
+    i = uint64(1)
+    while i + uint64(8) <= last:
+        end = min(i + uint64(QUAD_BLOCK), last)
+        acc = vsplat(0.0)
+        while i + uint64(8) <= end:
+            vv, uu = vload(V, i), vload(U, i)
+            dv8, du8 = vload(V, i + uint64(1)) - vv, vload(U, i + uint64(1)) - uu
+            acc = acc + (((vload(rM, i) * vv * vv - vload(Me, i) * dv8 * dv8)
+                          + (vload(rK, i) * uu * uu - vload(Ke, i) * du8 * du8))
+                         - two * vload(F, i) * uu)
+            i += uint64(8)
+        total += vhsum(acc)
+    while i < last:
+        v, u = V[i], U[i]
+        dv, du = V[i + uint64(1)] - v, U[i + uint64(1)] - u
+        total += (((rM[i] * v * v - Me[i] * dv * dv) + (rK[i] * u * u - Ke[i] * du * du))
+                  - 2.0 * F[i] * u)
+        i += uint64(1)
+    return 0.5 * total + offset
+
+
+@njit(cache=True)
+def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
+    """1/2 V.M.V + 1/2 U.K.U - F.U + offset for M = (Md, Me), K = (Kd, Ke): `energy_rows`
+    of their `row_sums` (the same bits). For one energy; a step loop computes the row
+    sums once and calls `energy_rows`."""
+    return energy_rows(row_sums(Md, Me), Me, row_sums(Kd, Ke), Ke, F, U, V, offset)
+
+
+@njit(cache=True, inline="always")
 def record_sample(k, t, U, V, stress, energy, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Write sample k: time, nodal U and V, u(0, t), contact stress, energy."""
+    """Write sample k: time, nodal U and V, u(0, t), contact stress, energy.
+
+    U and V are copied by an explicit loop over the row's nodes: numba's slice assignment
+    (`U_out[k, :] = U`) goes through its generic broadcasting copy, several times slower
+    on the short rows of small grids. Inlined into its callers: a call passing six arrays
+    costs as much as copying a small grid's row."""
     t_out[k] = t
-    U_out[k, :] = U
-    V_out[k, :] = V
+    for i in range(U.size):
+        U_out[k, i] = U[i]
+        V_out[k, i] = V[i]
     cu_out[k] = U[0]
     s_out[k] = stress
     E_out[k] = energy

@@ -452,3 +452,24 @@ def vrows4(typingctx, tab, f):
                 for c in range(4)]
         return context.make_tuple(builder, sig.return_type, cols)
     return types.UniTuple(f64x8, 4)(tab, f), codegen
+
+
+# ---------------------------------------------------------------------------------------
+# Added for the sampled energy (`contact_bench.core.sampling.energy_rows`): vhsum(a), the
+# sum of the 8 lanes in a fixed order.
+@intrinsic
+def vhsum(typingctx, a):
+    """((a0 + a4) + (a2 + a6)) + ((a1 + a5) + (a3 + a7)) (IEEE, in this order: the halves
+    added lane by lane, then the quarters, then the pair)."""
+    if not _vectors(a):
+        return None
+
+    def codegen(context, builder, sig, args):
+        x = args[0]
+        h = builder.fadd(builder.shuffle_vector(x, x, _mask(0, 1, 2, 3)),
+                         builder.shuffle_vector(x, x, _mask(4, 5, 6, 7)))
+        q = builder.fadd(builder.shuffle_vector(h, h, _mask(0, 1)),
+                         builder.shuffle_vector(h, h, _mask(2, 3)))
+        return builder.fadd(builder.extract_element(q, ir.Constant(_I32, 0)),
+                            builder.extract_element(q, ir.Constant(_I32, 1)))
+    return types.float64(a), codegen

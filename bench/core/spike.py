@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, uint64
 
-from contact_bench.core.sampling import energy_of
+from contact_bench.core.sampling import energy_rows
 from contact_bench.core.tridiag import factor_pt, pt_solve
 
 #: vector lanes (blocks); 16 doubles are two AVX-512 registers: latency of the
@@ -333,18 +333,25 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
 
 
 @njit(cache=True, fastmath=_FM)
-def record_lane_sample(k, t, nodes, X, V, stress, Md, Me, Kd, Ke, F, offset,
+def record_lane_sample(k, t, nodes, X, V, stress, rM, Me, rK, Ke, F, offset,
                        t_out, U_out, V_out, cu_out, s_out, E_out):
     """Sample k from the interleaved X, V of the nodes 0 .. nodes-1 (node c m + j at
     position j L + c, `lane_position`): U, V in node order, u(0, t) = X[0], the stress
-    and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is returned."""
+    and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is returned (rM, rK: the
+    `row_sums` of M and K, computed once per run; Me, Ke their off-diagonals)."""
     m = X.size // L
-    for c in range(L):
+    Uk, Vk = U_out[k], V_out[k]
+    Lu = uint64(L)
+    for c in range(L):  # lane by lane: one sequential write stream per output row
         i0 = c * m
-        for j in range(min(m, nodes - i0)):
-            U_out[k, i0 + j] = X[j * L + c]
-            V_out[k, i0 + j] = V[j * L + c]
-    energy = energy_of(Md, Me, Kd, Ke, F, U_out[k], V_out[k], offset)
+        cnt = min(m, nodes - i0)
+        if cnt <= 0:
+            break
+        cu, base = uint64(c), uint64(i0)
+        for j in range(uint64(cnt)):  # unsigned: no wraparound test per element
+            Uk[base + j] = X[j * Lu + cu]
+            Vk[base + j] = V[j * Lu + cu]
+    energy = energy_rows(rM, Me, rK, Ke, F, U_out[k], V_out[k], offset)
     t_out[k] = t
     cu_out[k] = X[0]
     s_out[k] = stress

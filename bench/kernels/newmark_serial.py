@@ -12,14 +12,14 @@ passes over the nodes:
   and starts row i of the next step (right-hand side G + T X, forward-sweep step).
 
 Sample steps take an unfused path that also forms V and writes the sample with the shared
-`record_sample` and `energy_of` of `contact_bench.core.sampling`. Needs n >= 3.
+`record_sample` and `energy_rows` of `contact_bench.core.sampling`. Needs n >= 3.
 """
 
 from __future__ import annotations
 
 from numba import njit
 
-from contact_bench.core.sampling import blown_up, energy_of, record_sample
+from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import eliminate_contact_node
 
 _FM = {"contract"}
@@ -70,6 +70,7 @@ def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, 
     n = X.size
     idt = 1.0 / dt
     min_u0 = u0
+    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = E_out[0]
     k = 1
     _forward(Md, Me, G, X, ef, invd, z, 0)
@@ -93,7 +94,7 @@ def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, 
                 X[0] = 2.0 * u1 - u0
                 Q[0] = u1 - u0
                 Vs[0] = (u1 - u0) * idt
-            energy = energy_of(Md, Me, Kd, Ke, F, z, Vs, offset)
+            energy = energy_rows(rM, Me, rK, Ke, F, z, Vs, offset)
             record_sample(k, step * dt, z, Vs, -mu * sscale, energy,
                           t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
@@ -155,6 +156,7 @@ def serial_explicit(Md, Me, Kd, Ke, F, Td, Te, G, ef, invd, X, Q, z, Vs, u0, k1,
     n = X.size
     idt = 1.0 / dt
     min_u0 = u0
+    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = E_out[0]
     k = 1
     lam = eliminate_contact_node(Kd, Ke, F, X, 1)
@@ -170,7 +172,7 @@ def serial_explicit(Md, Me, Kd, Ke, F, Td, Te, G, ef, invd, X, Q, z, Vs, u0, k1,
             for i in range(n):
                 Vs[i] = kv * z[i] + Q[i] * idt
             Vs[0] = v0 * idt
-            energy = energy_of(Md, Me, Kd, Ke, F, X, Vs, offset)
+            energy = energy_rows(rM, Me, rK, Ke, F, X, Vs, offset)
             record_sample(k, step * dt, X, Vs, -lam, energy,
                           t_out, U_out, V_out, cu_out, s_out, E_out)
             k += 1
