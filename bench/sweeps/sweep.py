@@ -712,11 +712,9 @@ def read_provenance(path: str | Path) -> str | None:
     return None
 
 
-#: columns a saved table must have for `report` (what the analysis reads)
+#: columns a saved table must have for `report` (what the analysis reads); the sweep's
+#: other columns, which a `run` table lacks (group, cfl, timings, traces), read as empty
 TABLE_COLUMNS = ("case", "scheme", "nx", "dt", "T", "steps", "status")
-#: columns of a sweep that a `run` table lacks: read as empty (its runs are in no group,
-#: untimed, without traces)
-SWEEP_ONLY_COLUMNS = ("group", "h", "cfl", "stability", "notes", "time_s", "energy_trace")
 
 
 def load_table(path: str | Path) -> pd.DataFrame:
@@ -753,10 +751,7 @@ def load_table(path: str | Path) -> pd.DataFrame:
                          f"{', '.join(missing[:5])} missing")
     if df.empty:
         raise BenchError(f"{shown(str(path))} is a sweep table with no rows")
-    for col in SWEEP_ONLY_COLUMNS:
-        if col not in df:
-            df[col] = None
-    for number, trace in enumerate(df["energy_trace"], start=1):
+    for number, trace in enumerate(df.get("energy_trace", ()), start=1):
         if isinstance(trace, str):
             try:
                 json.loads(trace)
