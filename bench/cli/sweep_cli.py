@@ -157,11 +157,10 @@ def cmd_sweep(args: argparse.Namespace, argv: Sequence[str]) -> int:
 
 def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.output.report import check_report_options, write_report
-    from contact_bench.sweeps.sweep import check_error_column, load_table
+    from contact_bench.sweeps.sweep import load_table
 
     out_folder(args.out)
     df = load_table(args.table)
-    check_error_column(df, args.error)
     check_report_options(df, args.error, args.fig_format, args.style, args.energy_runs)
     written = write_report(df, args.out, argv, args.error, args.fig_format, args.style,
                            args.energy_runs, _saved_time_orders(args.table))

@@ -35,7 +35,7 @@ from contact_bench.output.figures import (
     work_precision_figure,
 )
 from contact_bench.sweeps import analysis
-from contact_bench.sweeps.sweep import STABILITY_CLASSES
+from contact_bench.sweeps.sweep import STABILITY_CLASSES, check_error_column
 
 #: columns shown with 2 decimals (orders); other floats get 3 significant digits
 DECIMAL_COLUMNS = {"order", "measured order", "smooth order"}
@@ -237,9 +237,7 @@ def check_report_options(df: pd.DataFrame, error: str, fig_format: str | Sequenc
                          style: str | None, energy_runs: str) -> list[str]:
     """Every option of `report` checked against the table before anything is written;
     returns the figure formats. A bad one is a one-line BenchError naming it."""
-    if error not in df.columns or not error.startswith("err_"):
-        errs = ", ".join(c for c in df.columns if str(c).startswith("err_"))
-        raise BenchError(f"--error must be an error column of the table ({errs}); got {error!r}")
+    check_error_column(df, error)
     formats = check_formats(fig_format)
     check_style(style)
     if energy_runs not in ("finest", "all"):
