@@ -12,6 +12,10 @@ numerical damping of the high frequencies that grows with |alpha|.
 Energy: dissipated with a massless contact node (the default mass); with a massive one
 the exact contact at t_{n+1} is an inelastic shock of that node, as in `standard`, and
 the energy may grow at impacts despite the damping.
+
+On the general sparse problem the same step with exact contact on every contact dof
+through the Delassus matrix (`contact_bench.kernels.sparse.newmark_sparse` with
+`alpha`); the redistributed masses map to the scene's massless contact dofs.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from contact_bench.kernels.common import (
     massless_drift_bound,
     trajectory,
 )
+from contact_bench.kernels.sparse import newmark_sparse
 
 
 class HHT(Scheme):
@@ -83,6 +88,12 @@ class HHT(Scheme):
             bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
             out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
         return trajectory(out, k, done, min_u0, blow, dt)
+
+    forms = frozenset({"banded1d", "sparse"})
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma,
+                              alpha=float(self.alpha))
 
 
 @njit(cache=True)

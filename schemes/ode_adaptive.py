@@ -10,7 +10,9 @@ DOP853's dense output at the sample times.
 dt is only the sampling interval: the integrator picks its own steps, so `steps` in the
 results is T / dt and `Trajectory.extra` carries `nfev` and the solver's message. It is
 the accuracy reference in time, not a speed contender. Its declared bounds and their
-measurements: docs/schemes.md.
+measurements: docs/schemes.md. On the general sparse problem: the same integrator on
+the dofs with mass, the massless ones (with exact contact) solved at every evaluation
+(`contact_bench.kernels.sparse_family.adaptive_sparse`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Trai
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import velocity_scale
+from contact_bench.kernels.sparse_family import adaptive_sparse
 
 
 class OdeAdaptive(Scheme):
@@ -84,6 +87,11 @@ class OdeAdaptive(Scheme):
             steps_done=int(steps[k - 1]) if k else 0, blowup_time=blow,
             extra={"nfev": int(sol.nfev), "message": str(sol.message), "rtol": self.rtol},
         )
+
+    forms = frozenset({"banded1d", "sparse"})
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return adaptive_sparse(problem, dt, nsteps, stride, float(self.rtol))
 
     def warm_up(self, semi: Semidiscrete) -> None:
         Sd, Se = factor_pt(semi.M.diag[1:], semi.M.off[1:])

@@ -11,7 +11,9 @@ V += dt/2 A(U); U += dt V; V += dt/2 A(U), one solve with M_bar per step (factor
 the natural-order `verlet_kernel`). The contact node is not a state: u0 = u0(u1) at
 every step, v0 its exact derivative. Algebraically the same update as
 `redistributed[beta=0]`, written from the ODE. Declared bounds and their measurements:
-docs/schemes.md.
+docs/schemes.md. On the general sparse problem: the massless contact dofs solved from
+their rows with exact contact, their velocity the exact derivative
+(`contact_bench.kernels.sparse_family.verlet_sparse`).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from contact_bench.core.spike import L, lane_position, record_lane_sample, spike
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.newmark import kernel_form, massless_acceleration, newmark_limit
+from contact_bench.kernels.sparse_family import verlet_sparse
 
 #: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
 #: dof-steps) `integrate` takes the natural-order `verlet_kernel`, a plain serial sweep
@@ -60,6 +63,11 @@ class OdeVerlet(Scheme):
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         fast = kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike"
         return run_ode_verlet(semi, dt, nsteps, stride, fast)
+
+    forms = frozenset({"banded1d", "sparse"})
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return verlet_sparse(problem, dt, nsteps, stride)
 
 
 @njit(cache=True)

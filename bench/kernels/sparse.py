@@ -263,7 +263,7 @@ def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - c
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
                     massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
-                    kappa, Pp, Pi, Px, y0, ew, sc, fscale):  # pragma: no cover
+                    kappa, Pp, Pi, Px, y0, ew, sc, fscale, alpha):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -296,8 +296,13 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     k = 1
     for step in range(1, nsteps + 1):
         csr_matvec(Mp, Mi, Mx, P, rhs)
-        for i in range(n):
-            rhs[i] += bdt2 * F[i]
+        if alpha != 0.0:  # HHT: + alpha beta dt^2 K U^n
+            csr_matvec(Kp, Ki, Kx, U, w)
+            for i in range(n):
+                rhs[i] += bdt2 * (F[i] + alpha * w[i])
+        else:
+            for i in range(n):
+                rhs[i] += bdt2 * F[i]
         lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
         pen = False
         csr_matvec(Pp, Pi, Px, X, gf)
@@ -444,11 +449,13 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
 
 def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
                    gamma: float, kappa: np.ndarray | None = None,
-                   law: ContactLaw | None = None) -> Trajectory:
+                   law: ContactLaw | None = None, alpha: float = 0.0) -> Trajectory:
     """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring), or
     a piecewise-linear `law` (`ContactLaw`: Nitsche), or penalty springs: `kappa` (one
     stiffness per contact dof) gives the force kappa_i max(0, -g_i) at t_{n+1}; the
-    law's step is solved exactly (`penalty_solve`), its energy is sampled."""
+    law's step is solved exactly (`penalty_solve`), its energy is sampled. `alpha` != 0:
+    HHT-alpha, M A1 + (1 + alpha) K U1 - alpha K U0 = F + C^T lambda, S = M + (1 + alpha)
+    beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's)."""
     if not beta > 0.0:
         raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
     dt, beta, gamma = float(dt), float(beta), float(gamma)
@@ -459,7 +466,7 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         kappa = np.asarray(kappa, float)
         law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
     K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
-    fac = Factor.of(p.M + (beta * dt * dt) * K)
+    fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
     keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
     if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
         Z = np.empty((n, cd.size))
@@ -502,7 +509,7 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
         keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
         float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale)
+        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
 
 

@@ -1,0 +1,380 @@
+"""The massless-contact ODE (P_U^mod) on the general sparse problem: `ode_verlet`'s and
+`ode_adaptive`'s sparse paths.
+
+With every contact dof massless (a redistributed mass), the dofs with mass (h) carry
+the dynamics and the massless ones (m) are a function of them, the solution of their
+own rows with exact contact:
+
+    K_mm u_m = F_m - K_mh u_h + C^T lambda,  g = gap0 + C u_m >= 0 _|_ lambda >= 0,
+
+(K_mm factored once, the contact by the LCP on the Delassus matrix W = C K_mm^-1 C^T,
+as `contact_bench.kernels.sparse.quasistatic_sparse`), so that
+
+    M_hh u_h'' = (F - K U)_h,  U = (u_h, u_m(u_h)),
+
+is an ODE with a Lipschitz right-hand side (M_hh factored once unless diagonal). The
+massless dofs are not a state: their velocity is the exact derivative of u_m(u_h),
+K_mm v_m = -K_mh v_h with v = 0 on the contact dofs sitting on the obstacle (the 1D
+schemes' v0 = -(K01 / K00) v1, or 0 in contact).
+
+* `verlet_sparse`: velocity Verlet with a fixed step (the same update of the dofs with
+  mass as `quasistatic_sparse` at gamma = 1/2; the difference is the massless dofs'
+  velocity and the projection of the massless dofs at t = 0, as in 1D).
+* `adaptive_sparse`: scipy's DOP853 with error control on (u_h, v_h); the right-hand
+  side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+from contact_bench.kernels.sparse import (
+    Factor,
+    _buffers,
+    _energy,
+    _new_stats,
+    _stats_update,
+    _trajectory,
+    contact_extra,
+    csr_arrays,
+    csr_matvec,
+    lcp_solve,
+    lu_solve,
+)
+
+
+@dataclass
+class MasslessSplit:
+    """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
+    compiled kernels (module docstring)."""
+
+    hv: np.ndarray
+    mv: np.ndarray
+    cl: np.ndarray  # the contact dofs' positions in mv
+    Kh: tuple  # CSR rows K[hv] (all columns)
+    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
+    mfac: tuple  # K_mm factored
+    hfac: tuple  # M_hh factored (unless diagonal)
+    diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
+    W: np.ndarray  # C K_mm^-1 C^T
+    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
+    tol: float
+
+    @classmethod
+    def of(cls, p: SparseProblem) -> MasslessSplit:
+        massless = p.massless
+        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+        pos = np.full(p.nfree, -1)
+        pos[mv] = np.arange(mv.size)
+        cd = np.asarray(p.contact.dofs, np.int64)
+        if np.any(pos[cd] < 0) or hv.size == 0:
+            raise ValueError("the massless-contact ODE needs massless contact dofs "
+                             "(a redistributed mass) and dofs with mass")
+        cl = pos[cd]
+        K = sp.csr_matrix(p.K)
+        mfac = Factor.of(K[mv][:, mv])
+        Z = np.empty((mv.size, cd.size))
+        e = np.zeros(mv.size)
+        for j, c in enumerate(cl):
+            e[c] = 1.0
+            Z[:, j] = mfac.solve(e)
+            e[c] = 0.0
+        W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
+        keep = np.ones(p.nfree)
+        keep[mv] = 0.0
+        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+        Kmh.eliminate_zeros()
+        Mhh = sp.csr_matrix(p.M[hv][:, hv])
+        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
+                   mfac.arrays, hfac.arrays,
+                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
+                   np.ascontiguousarray(Z), tol)
+
+    def args(self) -> tuple:
+        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
+                self.diag_h, self.W, self.Z, self.tol)
+
+
+@njit(cache=True)
+def massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, warm,
+                   rm, um, wm, gf):  # pragma: no cover - compiled
+    """U[mv] <- u_m(u_h), the massless rows solved with exact contact; mu (out) the
+    obstacle's forces, active (in/out) the contact dofs on the obstacle. Returns whether
+    any contact dof would penetrate without the obstacle (the LCP ran)."""
+    nm, nc = mv.size, cl.size
+    csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh u_h
+    for b in range(nm):
+        rm[b] = F[mv[b]] - rm[b]
+    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
+             rm, um, wm)
+    pen = False
+    for j in range(nc):
+        gf[j] = gap0[j] + um[cl[j]]
+        pen = pen or gf[j] < 0.0
+    if pen:
+        lcp_solve(W, gf, mu, active, tol, warm)
+        on = np.flatnonzero(mu)
+        for b in range(nm):
+            acc = 0.0
+            for j in on:
+                acc += Z[b, j] * mu[j]
+            um[b] += acc
+        for j in range(nc):
+            if active[j]:
+                um[cl[j]] = -gap0[j]  # on the obstacle: the gap is 0 exactly
+    else:
+        mu[:] = 0.0
+        active[:] = False
+    for b in range(nm):
+        U[mv[b]] = um[b]
+    return pen
+
+
+@njit(cache=True)
+def heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, ah, wh
+                       ):  # pragma: no cover - compiled
+    """ah = M_hh^-1 (F - K U)_h."""
+    nh = hv.size
+    csr_matvec(Khp, Khi, Khx, U, rh)
+    for a in range(nh):
+        rh[a] = F[hv[a]] - rh[a]
+    if diag_h.size:
+        for a in range(nh):
+            ah[a] = rh[a] / diag_h[a]
+    else:
+        lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
+                 rh, ah, wh)
+
+
+@njit(cache=True)
+def massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, vm, wm
+                      ):  # pragma: no cover - compiled
+    """V[mv] <- d u_m / dt: K_mm v_m = -K_mh v_h, with v = 0 on the active contact dofs
+    (a correction Z nu, W_AA nu = -v_A)."""
+    nm = mv.size
+    csr_matvec(Kmp, Kmi, Kmx, V, rm)
+    for b in range(nm):
+        rm[b] = -rm[b]
+    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
+             rm, vm, wm)
+    idx = np.flatnonzero(active)
+    if idx.size:
+        sub = np.empty((idx.size, idx.size))
+        rhs = np.empty(idx.size)
+        for a in range(idx.size):
+            rhs[a] = -vm[cl[idx[a]]]
+            for b in range(idx.size):
+                sub[a, b] = W[idx[a], idx[b]]
+        nu = np.linalg.solve(sub, rhs)
+        for b in range(nm):
+            acc = 0.0
+            for a in range(idx.size):
+                acc += Z[b, idx[a]] * nu[a]
+            vm[b] += acc
+        for a in range(idx.size):
+            vm[cl[idx[a]]] = 0.0
+    for b in range(nm):
+        V[mv[b]] = vm[b]
+
+
+@njit(cache=True)
+def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx,
+                   mfac, hfac, diag_h, W, Z, tol, gap0, weights, U, V, dt, nsteps, stride,
+                   offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats
+                   ):  # pragma: no cover - compiled
+    """Velocity Verlet on the dofs with mass, the massless ones u_m(u_h) at every step
+    (module docstring); sample 0 is the projected initial state."""
+    n = U.size
+    nh, nm, nc = hv.size, mv.size, cl.size
+    rm = np.empty(nm)
+    um = np.empty(nm)
+    wm = np.empty(nm)
+    rh = np.empty(nh)
+    A = np.empty(nh)
+    wh = np.empty(nh)
+    w = np.empty(n)
+    gf = np.empty(nc)
+    mu = np.zeros(nc)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    was = massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active,
+                         False, rm, um, wm, gf)
+    heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
+    massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
+    E0 = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+    t_out[0] = 0.0
+    U_out[0, :] = U
+    V_out[0, :] = V
+    cu_out[0] = min_gap
+    s_out[0] = -mu.sum() / area
+    E_out[0] = E0
+    h = 0.5 * dt
+    k = 1
+    for step in range(1, nsteps + 1):
+        for a in range(nh):
+            i = hv[a]
+            V[i] += h * A[a]
+            U[i] += dt * V[i]
+        was = massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu,
+                             active, was, rm, um, wm, gf)
+        heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
+        for a in range(nh):
+            V[hv[a]] += h * A[a]
+        _stats_update(stats, status, mu, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+        if step % stride == 0 or step == nsteps:
+            massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
+            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[mv[cl[j]]])
+            cu_out[k] = g
+            s_out[k] = -mu.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    """Velocity Verlet on the massless-contact ODE (module docstring). ValueError unless
+    every contact dof is massless."""
+    split = MasslessSplit.of(p)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    k, done, min_gap, blow = _verlet_kernel(
+        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), *split.args(),
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V,
+        float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
+        out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+# ------------------------------------------------------------------- adaptive (DOP853)
+
+
+@njit(cache=True)
+def ode_rhs(y, U, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac, hfac, diag_h, W, Z,
+            tol, gap0, mu, active):  # pragma: no cover - compiled
+    """d/dt (u_h, v_h) = (v_h, M_hh^-1 (F - K U)_h) with U = (u_h, u_m(u_h)); U (the
+    full displacement), mu and active are scratch (active: the last evaluation's
+    contact set, the LCP's warm start)."""
+    nh, nm, nc = hv.size, mv.size, cl.size
+    for a in range(nh):
+        U[hv[a]] = y[a]
+    massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, True,
+                   np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
+    dy = np.empty(2 * nh)
+    dy[:nh] = y[nh:]
+    ah = np.empty(nh)
+    heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, np.empty(nh), ah, np.empty(nh))
+    dy[nh:] = ah
+    return dy
+
+
+@njit(cache=True)
+def ode_samples(Ys, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac, hfac, diag_h, W, Z,
+                tol, gap0, U_out, V_out, lam_out):  # pragma: no cover - compiled
+    """The full samples from the integrator's (u_h, v_h) columns: u_m(u_h), its
+    derivative and the obstacle's forces (lam_out, n_c per sample)."""
+    nh, nm, nc = hv.size, mv.size, cl.size
+    rm, um, wm, gf = np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)
+    mu = np.zeros(nc)
+    active = np.zeros(nc, np.bool_)
+    for s in range(Ys.shape[1]):
+        for a in range(nh):
+            U_out[s, hv[a]] = Ys[a, s]
+            V_out[s, hv[a]] = Ys[nh + a, s]
+        U = U_out[s]
+        V = V_out[s]
+        massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, False,
+                       rm, um, wm, gf)
+        massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
+        lam_out[s, :] = mu
+
+
+def speed_scale(p: SparseProblem) -> float:
+    """A speed the data can give: max|V0| + sqrt(2 g H), g the largest load per unit
+    mass of a dof, H = max|U0| (a free fall from the initial lift)."""
+    rows = np.asarray(p.M @ np.ones(p.nfree)).ravel()
+    heavy = rows > 0
+    g = float(np.max(np.abs(p.F[heavy]) / rows[heavy], initial=0.0))
+    return float(np.max(np.abs(p.V0), initial=0.0)
+                 + np.sqrt(2.0 * g * float(np.max(np.abs(p.U0), initial=0.0))))
+
+
+def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
+                    rtol: float) -> Trajectory:
+    """The massless-contact ODE by DOP853 with relative tolerance `rtol` and absolute
+    tolerance rtol (max|U0| + `speed_scale`); dt is the sampling interval only.
+    ValueError unless every contact dof is massless."""
+    from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
+
+    split = MasslessSplit.of(p)
+    hv = split.hv
+    F = np.asarray(p.F, float)
+    gap0 = np.asarray(p.contact.gap0, float)
+    steps = np.arange(0, nsteps + 1, stride)
+    if steps[-1] != nsteps:
+        steps = np.append(steps, nsteps)
+    assert steps.size == n_samples(nsteps, stride)
+    t_eval = steps * float(dt)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    y0 = np.concatenate([U[hv], V[hv]])
+    atol = rtol * (float(np.max(np.abs(U))) + speed_scale(p) + 1e-300)
+    nc = p.contact.size
+    args = (U, F, hv, split.mv, split.cl, *split.Kh, *split.Kmh, split.mfac, split.hfac,
+            split.diag_h, split.W, split.Z, split.tol, gap0, np.zeros(nc),
+            np.zeros(nc, np.bool_))
+    sol = solve_ivp(lambda t, y: ode_rhs(y, *args), (0.0, float(t_eval[-1])), y0,
+                    method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+    k = sol.t.size
+    Us = np.zeros((k, p.nfree))
+    Vs = np.zeros((k, p.nfree))
+    lam = np.zeros((k, nc))
+    ode_samples(np.ascontiguousarray(sol.y), F, hv, split.mv, split.cl, *split.Kh,
+                *split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z, split.tol,
+                gap0, Us, Vs, lam)
+    energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
+              + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
+    gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)
+    area = float(np.sum(p.contact.weights))
+    stats = _new_stats()
+    status = np.zeros(nc, bool)
+    for s in range(1, k):  # the contact statistics at the samples (not the inner steps)
+        _stats_update(stats, status, lam[s], int(steps[s]), float(dt))
+    blow = None
+    bad = ~np.isfinite(energy) | (np.abs(energy) > BLOWUP_FACTOR * max(abs(energy[0]), 1e-300))
+    if bad.any():
+        first = int(np.argmax(bad))
+        blow, k = float(sol.t[first]), first + 1
+    elif sol.status != 0:
+        blow = float(sol.t[-1]) if k else 0.0
+    extra = contact_extra(stats)
+    extra.update(nfev=int(sol.nfev), message=str(sol.message), rtol=rtol)
+    cu = gaps.min(axis=1)
+    return Trajectory(t=sol.t[:k], U=Us[:k], V=Vs[:k], contact_u=cu[:k],
+                      stress=-lam[:k].sum(axis=1) / area, energy=energy[:k],
+                      min_contact_u=float(cu[:k].min()) if k else 0.0,
+                      steps_done=int(steps[k - 1]) if k else 0, blowup_time=blow, extra=extra)
