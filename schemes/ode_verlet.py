@@ -29,7 +29,7 @@ from contact_bench.core.spike import L, lane_position, record_lane_sample, spike
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.newmark import kernel_form, massless_acceleration, newmark_limit
-from contact_bench.kernels.sparse_family import verlet_sparse
+from contact_bench.kernels.sparse_family import massless_ode_omega, verlet_sparse
 
 #: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
 #: dof-steps) `integrate` takes the natural-order `verlet_kernel`, a plain serial sweep
@@ -68,6 +68,11 @@ class OdeVerlet(Scheme):
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
         return verlet_sparse(problem, dt, nsteps, stride)
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the 1D formula at the problem's hmin is too large in 2D and 3D (0.29 x on the
+        # P2 disc): the ODE's own largest frequency (docs/sparse.md)
+        return 2.0 / massless_ode_omega(problem)
 
 
 @njit(cache=True)

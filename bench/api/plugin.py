@@ -335,6 +335,12 @@ class Scheme(Plugin):
         """Largest stable dt on a mesh with smallest element h and wave speed c (None: none)."""
         return None
 
+    def sparse_stability_limit(self, problem: Any) -> float | None:
+        """Largest stable dt on a `contact_bench.api.sparse.SparseProblem` (None: none);
+        by default `stability_limit` at the problem's smallest element and largest wave
+        speed, the 1D formula."""
+        return self.stability_limit(problem.hmin, problem.c_max)
+
     def cannot_run(self, case: Case) -> str | None:
         """A reason why the scheme cannot run this scene, or None."""
         return None

@@ -20,6 +20,11 @@ schemes' v0 = -(K01 / K00) v1, or 0 in contact).
 * `verlet_sparse`: velocity Verlet with a fixed step (the same update of the dofs with
   mass as `quasistatic_sparse` at gamma = 1/2; the difference is the massless dofs'
   velocity and the projection of the massless dofs at t = 0, as in 1D).
+* `massless_ode_omega`: the largest angular frequency of the ODE, which bounds the
+  explicit step: with every contact dof on the obstacle (pinning dofs only stiffens
+  the Schur complement below, so this contact state has the largest frequency),
+  omega_max^2 = the largest eigenvalue of (K_hh - K_hI K_II^-1 K_Ih, M_hh), I the
+  massless dofs off the contact set (scipy's `eigsh`, factored solves, no dense matrix).
 * `adaptive_sparse`: scipy's DOP853 with error control on (u_h, v_h); the right-hand
   side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh.
 """
@@ -269,6 +274,36 @@ def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Traj
         float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
         out["V"], out["cu"], out["s"], out["E"], stats)
     return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+def massless_ode_omega(p: SparseProblem) -> float:
+    """omega_max of the massless-contact ODE in its stiffest contact state (module
+    docstring); velocity Verlet is stable for dt omega_max < 2."""
+    from scipy.sparse.linalg import LinearOperator, eigsh
+
+    massless = p.massless
+    hv = np.flatnonzero(~massless)
+    free = massless.copy()
+    free[np.asarray(p.contact.dofs, np.int64)] = False  # pinned on the obstacle
+    iv = np.flatnonzero(free)
+    K = sp.csr_matrix(p.K)
+    Khh = sp.csr_matrix(K[hv][:, hv])
+    if iv.size:
+        KIh = sp.csr_matrix(K[iv][:, hv])
+        fac = Factor.of(K[iv][:, iv])
+
+        def schur(x: np.ndarray) -> np.ndarray:
+            x = np.ravel(x)
+            return Khh @ x - KIh.T @ fac.solve(KIh @ x)
+    else:
+        def schur(x: np.ndarray) -> np.ndarray:
+            return Khh @ np.ravel(x)
+    op = LinearOperator((hv.size, hv.size), matvec=schur, dtype=float)
+    Mhh = sp.csc_matrix(p.M[hv][:, hv])
+    if hv.size <= 2:
+        raise ValueError("the massless-contact ODE needs more than two dofs with mass")
+    lam = eigsh(op, k=1, M=Mhh, which="LA", tol=1e-10, return_eigenvectors=False)
+    return float(np.sqrt(lam[0]))
 
 
 # ------------------------------------------------------------------- adaptive (DOP853)
