@@ -14,12 +14,15 @@ of equilibrium; after that the energy moves only at switches of the contact stat
 
 from __future__ import annotations
 
+import numpy as np
+
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
 from contact_bench.kernels.sparse import newmark_sparse, quasistatic_sparse
+from contact_bench.kernels.sparse_family import massless_ode_omega
 
 
 class Redistributed(Scheme):
@@ -56,6 +59,13 @@ class Redistributed(Scheme):
     # the general sparse problem: the same Newmark step, exact contact on every contact
     # dof through the Delassus matrix (`contact_bench.kernels.sparse.newmark_sparse`)
     forms = frozenset({"banded1d", "sparse"})
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        if self.beta > 0.0:
+            return self.stability_limit(problem.hmin, problem.c_max)
+        # explicit: the massless-contact ODE's own largest frequency, as ode_verlet's (the
+        # 1D formula at the problem's hmin is too large in 2D and 3D: docs/sparse.md)
+        return float(1.0 / (np.sqrt(self.gamma / 2.0) * massless_ode_omega(problem)))
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
         if self.beta == 0.0:  # massless contact dofs solved from their rows

@@ -114,17 +114,17 @@ def test_hht_momentum_balance_with_its_gamma():
     assert np.abs(res).max() < 1e-10 * dt * np.abs(f).max()
 
 
-def test_ode_verlet_stability_limit_is_the_sparse_problems():
+@pytest.mark.parametrize("spec", ["ode_verlet", "redistributed[beta=0]"])
+def test_explicit_massless_stability_limit_is_the_sparse_problems(spec):
     """The declared limit on the sparse problem: stable at 0.95 x, blown up at 1.05 x
     (the 1D formula at the problem's hmin is 3.5 x too large on the P2 disc)."""
-    scheme = make_scheme("ode_verlet")
+    scheme = make_scheme(spec)
     p = make_case("disc_drop").sparse_problem(3, 1.0, scheme.mass_kind())
     limit = scheme.sparse_stability_limit(p)
     assert scheme.stability_limit(p.hmin, p.c_max) > 3 * limit
-    stable = run_one("disc_drop", "ode_verlet", nx=3, T=40, dt=0.95 * limit).row
+    stable = run_one("disc_drop", spec, nx=3, T=40, dt=0.95 * limit).row
     assert stable["status"] == "ok"
-    blown = run_one("disc_drop", "ode_verlet", nx=3, T=40, dt=1.05 * limit,
-                    allow_unstable=True).row
+    blown = run_one("disc_drop", spec, nx=3, T=40, dt=1.05 * limit, allow_unstable=True).row
     assert blown["status"] == "unstable"
 
 
