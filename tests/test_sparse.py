@@ -210,7 +210,8 @@ TOLERANCE = {"energy_drift_max": {"abs": 1e-9}, "penetration_max": {"rel": 1e-9,
 TOLERANCE.update({c: {"rel": 1e-9, "abs": 1e-10} for c in COLUMNS if c.startswith("err")})
 SCHEMES = ("redistributed", "redistributed[variant=getfem]", "standard[mass=conservative]",
            "standard", "taylor_flanagan[mass=lumped]", "penalty", "nitsche[theta=1]",
-           "nitsche[theta=0]", "nitsche[theta=-1]", "redistributed[beta=0]")
+           "nitsche[theta=0]", "nitsche[theta=-1]", "redistributed[beta=0]", "restitution",
+           "moreau_jean")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
