@@ -129,9 +129,14 @@ def test_disc_drop_rows(scheme):
         assert r["energy_final"] < r["energy_initial"] * (1 - 1e-3), r
 
 
-def test_a_lumped_mass_on_p2_is_not_applicable():
-    row = run_one("disc_drop", "restitution", nx=3, T=1.0).row
-    assert row["status"] == "not applicable" and "P2" in row["notes"]
+def test_what_cannot_run_says_why():
+    for case in ("disc_drop", "hertz_sphere", "sphere_drop[degree=2]"):
+        row = run_one(case, "restitution", nx=3, T=1.0).row  # lumped by default
+        assert row["status"] == "not applicable" and "P2" in row["notes"], case
+    # explicit on the axisymmetric P2 mesh: unstable below the declared (1D) limit, a
+    # blow-up row rather than NaNs handed to the contact solver
+    row = run_one("hertz_sphere", "restitution[mass=consistent]", T=1.0).row
+    assert row["status"] == "unstable" and row["blowup_time"] < 1.0, row["notes"]
     with pytest.raises(ValueError, match="massless"):
         paoli_schatzman_sparse(_disc(2, "redistributed"), DT, 2, 1, 0.0, 0.0)
     with pytest.raises(ValueError, match="massless"):

@@ -123,9 +123,13 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
         else:
             lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
         pen = False
+        finite = True
         for j in range(nc):  # the constrained combination g(X) + e g(U^{n-1})
             gf[j] = gap0[j] + X[cd[j]] + e * (gap0[j] + Um[cd[j]])
             pen = pen or gf[j] < 0.0
+            finite = finite and np.isfinite(gf[j])
+        if not finite:  # blown up between samples: no contact problem to solve
+            return k, step - 1, min_gap, step - 1
         if pen:
             if diag:  # W = diag(1 / s): the projection dof by dof
                 for j in range(nc):
@@ -257,6 +261,8 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
         pen = False
         for j in range(nc):
             d = cd[j]
+            if not np.isfinite(X[d]):  # blown up between samples
+                return k, step, min_gap, step
             if gap0[j] + U[d] + 0.5 * dt * V[d] <= 0.0:
                 idx[m] = j
                 m += 1
