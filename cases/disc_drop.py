@@ -141,6 +141,12 @@ class DiscDrop(Case):
         E = self.mu * (3 * self.lam + 2 * self.mu) / (self.lam + self.mu)
         return fem_nd.assemble(self.mesh(nx), E, nu, self.rho, degree=int(self.degree))
 
+    def cannot_run(self, scheme) -> str | None:
+        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
+            return ("a lumped mass on P2 elements has negative row sums at the vertices: "
+                    "use disc_drop[degree=1] or the scheme's mass=consistent")
+        return None
+
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
             raise ValueError(f"grading = {grading!r}: the disc's ring mesh is uniform "

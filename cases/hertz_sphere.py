@@ -104,6 +104,12 @@ class HertzSphere(Case):
         loc[:, D] = c + self.R * r / np.linalg.norm(r, axis=0)
         return replace(m, doflocs=loc)
 
+    def cannot_run(self, scheme) -> str | None:
+        if canonical_mass(scheme.mass_kind()) == "lumped":
+            return ("a lumped mass on P2 elements has negative row sums at the vertices: "
+                    "use the scheme's mass=consistent")
+        return None
+
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
             raise ValueError(f"grading = {grading!r}: the sphere's mesh grades by its "

@@ -84,6 +84,12 @@ class SphereDrop(Case):
         m = fe.MeshTet.init_ball(nrefs)
         return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
 
+    def cannot_run(self, scheme) -> str | None:
+        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
+            return ("a lumped mass on P2 elements has negative row sums at the vertices: "
+                    "use sphere_drop[degree=1] or the scheme's mass=consistent")
+        return None
+
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
             raise ValueError(f"grading = {grading!r}: the ball's mesh is uniform (allowed: 1)")

@@ -32,6 +32,7 @@ from contact_bench.kernels.common import (
     trajectory,
     velocity_scale,
 )
+from contact_bench.kernels.sparse_impact import moreau_jean_sparse
 
 MASSLESS_REASON = ("moreau_jean needs a contact node with mass: a velocity impact law "
                    "does not determine a massless node (use redistributed)")
@@ -78,6 +79,15 @@ class MoreauJean(MassiveContactNodeScheme):
             out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
         )
         return trajectory(out, k, done, min_u0, blow, dt)
+
+    # the general sparse problem: the same step, Newton's law on the contact dofs whose
+    # predicted gap is <= 0 (the LCP on the Delassus matrix of M + theta^2 dt^2 K); the
+    # sampled stress is the impulse over dt
+    # (`contact_bench.kernels.sparse_impact.moreau_jean_sparse`)
+    forms = frozenset({"banded1d", "sparse"})
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return moreau_jean_sparse(problem, dt, nsteps, stride, self.e, self.theta)
 
 
 @njit(cache=True)

@@ -39,6 +39,7 @@ from contact_bench.kernels.common import (
 )
 from contact_bench.kernels.lumped import ps_lumped_kernel
 from contact_bench.kernels.newmark import newmark_limit
+from contact_bench.kernels.sparse_impact import paoli_schatzman_sparse
 
 MASSLESS_REASON = (
     "restitution (Paoli-Schatzman) needs a contact node with mass: with M00 = 0 the "
@@ -73,6 +74,15 @@ class Restitution(MassiveContactNodeScheme):
     def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
         self.check_massive(semi)
         return run_paoli_schatzman(semi, dt, nsteps, stride, self.e, self.beta)
+
+    # the general sparse problem: the same two-step scheme, the impact law on every
+    # contact dof (a per-dof projection with a lumped mass and beta = 0, else the LCP on
+    # the Delassus matrix of S = M + beta dt^2 K:
+    # `contact_bench.kernels.sparse_impact.paoli_schatzman_sparse`)
+    forms = frozenset({"banded1d", "sparse"})
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        return paoli_schatzman_sparse(problem, dt, nsteps, stride, self.e, self.beta)
 
 
 @njit(cache=True)

@@ -212,7 +212,7 @@ TOLERANCE.update({c: {"rel": 1e-9, "abs": 1e-10} for c in COLUMNS if c.startswit
 SCHEMES = ("redistributed", "redistributed[variant=getfem]", "standard[mass=conservative]",
            "standard", "taylor_flanagan[mass=lumped]", "penalty", "nitsche[theta=1]",
            "nitsche[theta=0]", "nitsche[theta=-1]", "redistributed[beta=0]", "hht",
-           "ode_verlet")
+           "ode_verlet", "restitution", "moreau_jean")
 
 
 @pytest.mark.parametrize("dim", [2, 3])
