@@ -124,11 +124,10 @@ class HertzSphere(Case):
         M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
                                contact_s)
         n = vector.N
-        fixed = np.zeros(n, bool)
-        fixed[2 * np.flatnonzero(P[0] < 1e-12 * self.R)] = True  # u_r = 0 on the axis
-        free = np.flatnonzero(~fixed)
-        index = np.full(n, -1)
-        index[free] = np.arange(free.size)
+        # u_r = 0 on the axis: it slides along it
+        red = fem_nd.constrain(body, M, np.zeros(n),
+                               sliding=[lambda x: x[0] < 1e-12 * self.R])
+        free, index = red.free, red.index
         V0 = np.zeros(n)
         V0[1::2] = -float(self.v)
         fb = fe.FacetBasis(mesh, elem, facets=facets)
@@ -142,9 +141,8 @@ class HertzSphere(Case):
         B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
         contact = ContactSet(dofs=index[2 * contact_s + 1], gap0=P[1, contact_s].copy(),
                              weights=w, face_mass=sp.csr_matrix(Mf))
-        Mf = M[free][:, free].tocsr()
         mass = float(np.sum(M @ np.tile([0.0, 1.0], n // 2)))
-        return SparseProblem(M=Mf, K=K[free][:, free].tocsr(), F=np.zeros(free.size),
+        return SparseProblem(M=red.M, K=red.K, F=red.F,
                              U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
                              hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
                              E_contact=self.E, h_contact=body.hmin,

@@ -102,6 +102,96 @@ def test_redistribution_written_for_the_symmetric_unknowns_matters():
     assert np.abs(_moments(R, X) - _moments(body.Ms, X)).max() > 1e-5
 
 
+# ------------------------------------------------------------ Dirichlet and sliding
+
+
+def _plane(c: int, at: float):
+    return lambda x: np.isclose(x[c], at)
+
+
+def _box(dim: int, kind: str) -> fem_nd.Elasticity:
+    mesh = {"tri": fe.MeshTri().refined(1), "quad": fe.MeshQuad().refined(1),
+            "tet": fe.MeshTet(), "hex": fe.MeshHex()}[kind]
+    assert mesh.dim() == dim
+    return fem_nd.assemble(mesh, 1.0, 0.3, 1.0, degree=2 if kind in ("tri", "tet") else 1)
+
+
+#: (dim, element, sliding planes (axis, at), clamped planes, zero modes left):
+#: the rigid motions that the constraints allow (translations along a sliding plane,
+#: rotations about its normal axis when it is the only one)
+RIGID = [
+    (2, "tri", [], [], 3), (2, "quad", [(0, 0.0)], [], 1), (2, "tri", [(0, 0.0), (0, 1.0)], [], 1),
+    (2, "quad", [(0, 0.0), (1, 0.0)], [], 0), (2, "tri", [], [(0, 0.0)], 0),
+    (3, "hex", [], [], 6), (3, "tet", [(0, 0.0)], [], 3), (3, "hex", [(0, 0.0), (0, 1.0)], [], 3),
+    (3, "tet", [(0, 0.0), (1, 1.0)], [], 1), (3, "hex", [(0, 0.0), (1, 0.0), (2, 0.0)], [], 0),
+    (3, "tet", [], [(2, 1.0)], 0),
+]
+
+
+@pytest.mark.parametrize("dim, kind, sliding, clamped, modes", RIGID)
+def test_constrain_leaves_the_rigid_motions_the_constraints_allow(dim, kind, sliding, clamped,
+                                                                  modes):
+    from scipy.sparse.linalg import eigsh
+
+    body = _box(dim, kind)
+    M = fem_nd.mass_matrix(body, "consistent")
+    red = fem_nd.constrain(body, M, np.zeros(body.ndofs),
+                           dirichlet=[fem_nd.Dirichlet(_plane(*q)) for q in clamped],
+                           sliding=[_plane(*q) for q in sliding])
+    # the smallest eigenvalues of K x = lambda M x (shift-invert below zero: K singular)
+    lam = eigsh(red.K.tocsc(), k=8, M=red.M.tocsc(), sigma=-1.0, which="LM",
+                return_eigenvectors=False)
+    assert np.count_nonzero(np.abs(lam) < 1e-8) == modes
+    assert np.sort(np.abs(lam))[modes] > 1e-3  # the others are clearly not zero
+    # an allowed translation (along every sliding plane, none clamped) is in ker K
+    if modes and not clamped:
+        t = np.zeros(body.ndofs)
+        c = next(c for c in range(dim) if all(c != q[0] for q in sliding))
+        t[c::dim] = 1.0
+        assert np.abs(red.K @ t[red.free]).max() < 1e-12
+
+
+@pytest.mark.parametrize("kind", ["tri", "hex"])
+def test_constrain_prescribed_values_give_the_whole_body_energy(kind):
+    body = _box(2 if kind == "tri" else 3, kind)
+    dim, n = body.dim, body.ndofs
+    rng = np.random.default_rng(3)
+    M = fem_nd.mass_matrix(body, "consistent")
+    F = rng.normal(size=n)
+    red = fem_nd.constrain(body, M, F, sliding=[_plane(1, 0.0)], dirichlet=[
+        fem_nd.Dirichlet(_plane(0, 0.0), values=[0.3, 0.0, 0.1][:dim]),
+        fem_nd.Dirichlet(_plane(0, 1.0), components=[0], values=0.05)])
+    assert np.count_nonzero(red.lifted) > 0 and red.energy_offset != 0.0
+    D = np.setdiff1d(np.arange(n), red.free)
+    assert np.all(red.lifted[red.free] == 0.0)
+    for _ in range(2):  # a quadratic equal at every point: K, F and offset all right
+        U = rng.normal(size=red.free.size)
+        V = rng.normal(size=red.free.size)
+        Ue, Ve = red.expand(U), np.zeros(n)
+        Ve[red.free] = V  # the prescribed dofs at rest
+        whole = 0.5 * Ve @ (M @ Ve) + 0.5 * Ue @ (body.K @ Ue) - F @ Ue
+        reduced = 0.5 * V @ (red.M @ V) + 0.5 * U @ (red.K @ U) - red.F @ U + red.energy_offset
+        assert reduced == pytest.approx(whole, rel=1e-12, abs=1e-12 * abs(whole))
+    # the values where they were asked for
+    X = body.dof_coordinates
+    s = np.flatnonzero(np.isclose(X[0], 1.0))
+    assert np.all(red.lifted[dim * s] == 0.05) and set(dim * s) <= set(D)
+
+
+def test_constrain_refuses_a_slanted_plane_and_two_values():
+    mesh = fe.MeshTri(np.array([[0.0, 1.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.5]]),
+                      np.array([[0, 1, 2], [0, 2, 3]]).T)
+    body = fem_nd.assemble(mesh, 1.0, 0.3, 1.0)
+    M = fem_nd.mass_matrix(body, "consistent")
+    top = body.boundary_facets(lambda x: x[1] >= 1.0 - 1e-12)
+    assert top.size == 1
+    with pytest.raises(ValueError, match=f"sliding facet {top[0]} .* no axis-aligned plane"):
+        fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[top])
+    with pytest.raises(ValueError, match="two values"):
+        fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[_plane(0, 0.0)],
+                         dirichlet=[fem_nd.Dirichlet(_plane(0, 0.0), values=1.0)])
+
+
 # ------------------------------------------------------------------- solver pieces
 
 

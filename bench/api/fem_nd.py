@@ -20,13 +20,19 @@ redistributed      Khenous, Laborde and Renard: zero rows and columns at the con
                    stays SPD or it is refused)
 =================  =================================================================
 
+Boundaries (`constrain`): Dirichlet (chosen components prescribed on boundary facets)
+and sliding (the normal component zero on facets in axis-aligned planes) are eliminated
+with `skfem.condense`; the result keeps the energy of the whole body through its offset.
+The contact zone (`contact_zone`): the weights, consistent face mass and normal stress
+at the zone's dofs, the stress as the L2 projection onto the zone's trace space.
+
 Nothing here builds a dense n x n matrix: the redistribution solves a system of
 1 + d + d (d + 1) / 2 constraints.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -271,5 +277,119 @@ def mass_matrix(body: Elasticity, kind: str, contact_scalar: np.ndarray | None =
     return vector_mass(Ms, body.dim)
 
 
-__all__ = ["Elasticity", "assemble", "body_force", "element_for", "lame", "lumped",
-           "mass_matrix", "redistributed", "tensor_mass", "vector_mass"]
+#: boundary facets: a predicate on (dim, k) points (every point of a facet satisfies it)
+#: or the facet indices
+Facets = Callable[[np.ndarray], np.ndarray] | np.ndarray
+
+
+def facets_of(body: Elasticity, where: Facets) -> np.ndarray:
+    """Facet indices of `where` (a predicate: the boundary facets satisfying it)."""
+    if callable(where):
+        return body.boundary_facets(where)
+    return np.asarray(where, np.int64)
+
+
+@dataclass(frozen=True)
+class Dirichlet:
+    """Prescribed displacement components on boundary facets: `components` (0-based; None:
+    all) take `values` (one per component, or one for all; zero by default)."""
+
+    where: Facets
+    components: Sequence[int] | None = None
+    values: float | Sequence[float] = 0.0
+
+
+@dataclass(frozen=True)
+class Reduced:
+    """A body's system on its free dofs: M, K, F restricted (F less the stiffness
+    coupling to the prescribed values), `free` (free index -> dof), `lifted` (every dof:
+    the prescribed values, zero at the free ones) and the energy offset of the
+    eliminated dofs (1/2 Ud.K_dd.Ud - F_d.Ud: with it, the reduced energy of a state is
+    that of the whole body at `expand` of it, the prescribed dofs at rest)."""
+
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    F: np.ndarray
+    free: np.ndarray
+    lifted: np.ndarray
+    energy_offset: float
+
+    @property
+    def index(self) -> np.ndarray:
+        """dof -> free index (-1 at the eliminated dofs)."""
+        out = np.full(self.lifted.size, -1, np.int64)
+        out[self.free] = np.arange(self.free.size)
+        return out
+
+    def expand(self, U: np.ndarray) -> np.ndarray:
+        """The whole body's vector of a free one (the prescribed values elsewhere)."""
+        out = self.lifted.copy()
+        out[self.free] = U
+        return out
+
+
+def sliding_dofs(body: Elasticity, where: Facets) -> np.ndarray:
+    """The normal-component dofs of boundary facets each lying in an axis-aligned plane
+    (its vertices and its own dofs share one coordinate); ValueError naming a facet that
+    lies in no such plane."""
+    facets = facets_of(body, where)
+    if facets.size == 0:
+        return np.zeros(0, np.int64)
+    pts = body.mesh.p[:, body.mesh.facets[:, facets]]  # (dim, vertices, facets)
+    if body.scalar.facet_dofs.size:
+        own = body.dof_coordinates[:, body.scalar.facet_dofs[:, facets]]
+        pts = np.concatenate([pts, own], axis=1)
+    spread = np.ptp(pts, axis=1)  # (dim, facets)
+    tol = 1e-10 * float(np.max(np.ptp(body.mesh.p, axis=1)))
+    flat = spread <= tol
+    bad = np.flatnonzero(flat.sum(axis=0) != 1)
+    if bad.size:
+        f = int(facets[bad[0]])
+        raise ValueError(f"sliding facet {f} (points {pts[:, :, bad[0]].T.tolist()}) lies in "
+                         "no axis-aligned plane; allowed: facets normal to an axis")
+    normal = np.argmax(flat, axis=0)
+    dofs = [body.vector.get_dofs(facets[normal == c]).all(f"u^{c + 1}")
+            for c in range(body.dim) if np.any(normal == c)]
+    return np.unique(np.concatenate(dofs)).astype(np.int64)
+
+
+def constrain(body: Elasticity, M: sp.spmatrix, F: np.ndarray,
+              dirichlet: Sequence[Dirichlet] = (), sliding: Sequence[Facets] = ()) -> Reduced:
+    """Eliminate Dirichlet and sliding dofs (`skfem.condense`) from the body's K, the mass
+    M and the load F: the system on the free dofs (`Reduced`). A dof given two different
+    values is refused (ValueError)."""
+    n = body.ndofs
+    value = np.full(n, np.nan)
+
+    def put(dofs: np.ndarray, v: float) -> None:
+        clash = dofs[~np.isnan(value[dofs]) & (value[dofs] != v)]
+        if clash.size:
+            raise ValueError(f"dof {int(clash[0])} is given two values: "
+                             f"{float(value[clash[0]])!r} and {v!r}")
+        value[dofs] = v
+
+    for where in sliding:
+        put(sliding_dofs(body, where), 0.0)
+    for bc in dirichlet:
+        facets = facets_of(body, bc.where)
+        comps = range(body.dim) if bc.components is None else list(bc.components)
+        vals = np.broadcast_to(np.asarray(bc.values, float), (len(comps),))
+        for c, v in zip(comps, vals, strict=True):
+            if not 0 <= c < body.dim:
+                raise ValueError(f"component {c!r} outside 0..{body.dim - 1}")
+            put(body.vector.get_dofs(facets).all(f"u^{c + 1}"), float(v))
+    D = np.flatnonzero(~np.isnan(value))
+    lifted = np.where(np.isnan(value), 0.0, value)
+    K = sp.csr_matrix(body.K)
+    F = np.asarray(F, float)
+    Kf, Ff, _, free = fe.condense(K, F, x=lifted, D=D)
+    Mf = fe.condense(sp.csr_matrix(M), D=D, expand=False)
+    Ud = lifted[D]
+    offset = float(0.5 * Ud @ (K[D][:, D] @ Ud) - F[D] @ Ud)
+    return Reduced(M=sp.csr_matrix(Mf), K=sp.csr_matrix(Kf), F=np.asarray(Ff), free=free,
+                   lifted=lifted, energy_offset=offset)
+
+
+__all__ = ["Dirichlet", "Elasticity", "Reduced", "assemble", "body_force", "constrain",
+           "element_for", "facets_of", "lame", "lumped", "mass_matrix", "redistributed",
+           "sliding_dofs", "tensor_mass", "vector_mass"]
