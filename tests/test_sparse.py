@@ -192,6 +192,76 @@ def test_constrain_refuses_a_slanted_plane_and_two_values():
                          dirichlet=[fem_nd.Dirichlet(_plane(0, 0.0), values=1.0)])
 
 
+# ------------------------------------------------------------------ the contact zone
+
+ZONES = [  # (mesh, degree, zone predicate, axis, zone measure)
+    (fe.MeshTri().refined(2), 1, lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshTri().refined(1), 2, lambda x: x[0] < 1e-9, 0, 1.0),
+    (fe.MeshTri2.init_circle(2), 2, lambda x: x[1] < -0.3, 1, None),
+    (fe.MeshQuad.init_tensor(np.array([0.0, 0.4, 1.0]), np.array([0.0, 0.3, 1.0])), 1,
+     lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshTet().refined(1), 1, lambda x: x[2] < 1e-9, 2, 1.0),
+    (fe.MeshTet().refined(1), 2, lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshHex().refined(1), 1, lambda x: x[2] < 1e-9, 2, 1.0),
+]
+
+
+@pytest.mark.parametrize("mesh, degree, where, axis, measure", ZONES,
+                         ids=["P1 tri", "P2 tri", "P2 disc", "Q1 quad", "P1 tet", "P2 tet",
+                              "Q1 hex"])
+def test_contact_zone_normal_stress_is_exact_for_uniform_strains(mesh, degree, where, axis,
+                                                                 measure):
+    body = fem_nd.assemble(mesh, 3.0, 0.3, 1.0, degree)
+    plane = float(np.min(body.dof_coordinates[axis])) - 0.25
+    zone = fem_nd.contact_zone(body, where, axis, plane=plane)
+    X, d = body.dof_coordinates, body.dim
+    assert zone.dofs.size >= 3 and np.all(zone.dofs % d == axis)
+    np.testing.assert_allclose(zone.gap0, X[axis, zone.scalar] - plane, rtol=0, atol=0)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        A = rng.normal(size=(d, d))
+        U = np.ravel((A @ X).T) + rng.normal()  # a linear field (plus a translation)
+        eps = 0.5 * (A + A.T)
+        sigma = body.lam * np.trace(eps) + 2 * body.mu * eps[axis, axis]
+        np.testing.assert_allclose(zone.normal_stress @ U, sigma, rtol=0,
+                                   atol=1e-10 * abs(sigma) + 1e-12)
+    # (P2 triangle faces: the vertices' weights are zero, up to round-off)
+    np.testing.assert_allclose(np.asarray(zone.face_mass.sum(axis=1)).ravel(), zone.weights,
+                               rtol=0, atol=1e-13 * zone.weights.max())
+    if measure is not None:
+        assert zone.weights.sum() == pytest.approx(measure, rel=1e-13)
+
+
+def test_contact_zone_of_the_disc_is_the_dense_projection():
+    """The disc's operator against the dense solve it replaced: M_f^-1 G, with G assembled
+    here by scikit-fem independently of fem_nd."""
+    from skfem.helpers import sym_grad, trace
+
+    p = make_case("disc_drop[degree=2]").sparse_problem(2, 1.0, "consistent")
+    body = make_case("disc_drop[degree=2]").body(2)
+    facets = body.boundary_facets(lambda x: x[1] < 20.0 - 0.2)
+    fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=facets,
+                       quadrature=(fb.X, fb.W))
+    G = fe.BilinearForm(lambda u, v, _: (body.lam * trace(sym_grad(u)) + 2 * body.mu
+                                         * sym_grad(u)[1, 1]) * v).assemble(fv, fb).tocsr()
+    s = p.contact.dofs // 2
+    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).toarray()[s][:, s]
+    dense = np.linalg.solve(Mf, G[s].toarray())
+    assert np.abs(dense - p.normal_stress.toarray()).max() < 1e-12 * np.abs(dense).max()
+    assert np.abs(Mf - p.contact.face_mass.toarray()).max() == 0.0
+
+
+def test_contact_zone_refuses_a_crossed_plane_and_eliminated_dofs():
+    body = fem_nd.assemble(fe.MeshQuad().refined(1), 1.0, 0.3, 1.0)
+    with pytest.raises(ValueError, match="crosses the plane"):
+        fem_nd.contact_zone(body, lambda x: x[1] < 1e-9, 1, plane=0.1)
+    zone = fem_nd.contact_zone(body, lambda x: x[1] < 1e-9, 1)
+    red = fem_nd.constrain(body, body.K, np.zeros(body.ndofs), sliding=[lambda x: x[1] < 1e-9])
+    with pytest.raises(ValueError, match="eliminated"):
+        zone.contact_set(red.free)
+
+
 # ------------------------------------------------------------------- solver pieces
 
 

@@ -42,6 +42,7 @@ from skfem.helpers import ddot, sym_grad, trace
 
 from contact_bench.api.fem import assemble as assemble_1d
 from contact_bench.api.fem import mass_variant as mass_variant_1d
+from contact_bench.api.sparse import ContactSet
 
 ND_MASS_KINDS = ("consistent", "lumped", "redistributed")
 #: mesh type -> (degree -> scalar element)
@@ -390,6 +391,89 @@ def constrain(body: Elasticity, M: sp.spmatrix, F: np.ndarray,
                    lifted=lifted, energy_offset=offset)
 
 
-__all__ = ["Dirichlet", "Elasticity", "Reduced", "assemble", "body_force", "constrain",
-           "element_for", "facets_of", "lame", "lumped", "mass_matrix", "redistributed",
-           "sliding_dofs", "tensor_mass", "vector_mass"]
+@dataclass(frozen=True)
+class ContactZone:
+    """A contact zone on boundary facets against the plane x_axis = `plane` (the body on
+    the side x_axis >= plane: the obstacle's inward normal is +e_axis).
+
+    `scalar`: the zone's scalar dofs; `dofs`: their vector dofs of component `axis`;
+    `gap0`: their distance to the plane; `weights`: the integrals of their trace shape
+    functions over the zone (row sums of `face_mass`, the zone's consistent scalar mass);
+    `normal_stress` (n_c x every vector dof): sigma_nn at each zone dof as the L2
+    projection onto the zone's trace space, M_f^-1 G with G_ij = int sigma_nn(phi_j) psi_i
+    (compression negative), exact for uniform strains.
+    """
+
+    scalar: np.ndarray
+    dofs: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    face_mass: sp.csr_matrix
+    normal_stress: sp.csr_matrix
+
+    def contact_set(self, free: np.ndarray | None = None) -> ContactSet:
+        """The `ContactSet` over the free dofs `free` (free index -> dof; None: all)."""
+        dofs = self.dofs if free is None else _free_index(free, self.dofs)
+        return ContactSet(dofs=dofs, gap0=self.gap0, weights=self.weights,
+                          face_mass=self.face_mass)
+
+    def stress(self, free: np.ndarray | None = None) -> sp.csr_matrix:
+        """The normal stress as a map of the free dofs' U (the others held at zero)."""
+        return self.normal_stress if free is None else sp.csr_matrix(
+            self.normal_stress[:, free])
+
+
+def _free_index(free: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    index = np.searchsorted(free, dofs)
+    if np.any(index >= free.size) or np.any(free[np.minimum(index, free.size - 1)] != dofs):
+        raise ValueError("a contact dof is eliminated (Dirichlet or sliding)")
+    return index.astype(np.int64)
+
+
+def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
+                 axisymmetric: bool = False) -> ContactZone:
+    """The contact zone of the boundary facets `where` against the plane x_axis = plane
+    (`ContactZone`). `axisymmetric`: the body is a meridian section (x_0 the radius):
+    every integral weighted by 2 pi r and the hoop strain u_0 / r in the trace."""
+    from scipy.sparse.linalg import splu
+
+    if not 0 <= axis < body.dim:
+        raise ValueError(f"axis {axis!r} outside 0..{body.dim - 1}")
+    facets = facets_of(body, where)
+    if facets.size == 0:
+        raise ValueError("the contact zone has no boundary facet")
+    lam, mu, c = body.lam, body.mu, int(axis)
+
+    def weight(x: np.ndarray) -> np.ndarray:
+        return 2 * np.pi * x[0] if axisymmetric else 1.0
+
+    @fe.BilinearForm
+    def sigma_nn(u, v, w):
+        eps = sym_grad(u)
+        tr = trace(eps) + (u.value[0] / w.x[0] if axisymmetric else 0.0)
+        return weight(w.x) * (lam * tr + 2 * mu * eps[c, c]) * v
+
+    fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=facets,
+                       quadrature=(fb.X, fb.W))
+    scalar = np.unique(body.scalar.get_dofs(facets).flatten()).astype(np.int64)
+    gap0 = body.dof_coordinates[c, scalar] - float(plane)
+    if np.any(gap0 < 0):
+        raise ValueError(f"the contact zone crosses the plane x_{c} = {plane!r}")
+    Mf = fe.BilinearForm(lambda u, v, w: weight(w.x) * u * v).assemble(fb).tocsr()
+    Mf = sp.csr_matrix(Mf[scalar][:, scalar])
+    weights = np.asarray(fe.LinearForm(lambda v, w: weight(w.x) * v).assemble(fb))[scalar]
+    G = sigma_nn.assemble(fv, fb).tocsr()[scalar]
+    # M_f^-1 G on the columns G touches (the zone's layer of elements) only
+    cols = np.unique(G.indices)
+    X = splu(sp.csc_matrix(Mf)).solve(G[:, cols].toarray())
+    X[np.abs(X) < 1e-14 * np.abs(X).max()] = 0.0
+    r, k = np.nonzero(X)
+    B = sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
+    return ContactZone(scalar=scalar, dofs=body.dim * scalar + c, gap0=gap0, weights=weights,
+                       face_mass=Mf, normal_stress=B)
+
+
+__all__ = ["ContactZone", "Dirichlet", "Elasticity", "Reduced", "assemble", "body_force",
+           "constrain", "contact_zone", "element_for", "facets_of", "lame", "lumped",
+           "mass_matrix", "redistributed", "sliding_dofs", "tensor_mass", "vector_mass"]
