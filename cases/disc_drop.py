@@ -162,7 +162,8 @@ class DiscDrop(Case):
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
-                             E_contact=self.E, h_contact=self.R / int(nx),
+                             E_contact=self.E,
+                             h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
                              extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
                                     "vertical": np.tile([0.0, 1.0], n // 2)})

@@ -135,7 +135,7 @@ class HertzSphere(Case):
         return SparseProblem(M=red.M, K=red.K, F=red.F,
                              U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
                              hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
-                             E_contact=self.E, h_contact=body.hmin,
+                             E_contact=self.E, h_contact=fem_nd.contact_length(body, body.hmin),
                              normal_stress=zone.stress(free),
                              extra={"mass": mass,  # and the vertical translation:
                                     "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})

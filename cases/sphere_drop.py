@@ -102,7 +102,8 @@ class SphereDrop(Case):
         vertical = np.tile([0.0, 0.0, 1.0], n // 3)
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=3, hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
-                             E_contact=self.E, h_contact=self.R / int(nx),
+                             E_contact=self.E,
+                             h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
                              extra={"mass": float(np.sum(M @ vertical)), "vertical": vertical})
 

@@ -134,6 +134,25 @@ class Elasticity:
         return self.mesh.facets_satisfying(where, boundaries_only=True)
 
 
+def degree_of(body: Elasticity) -> int:
+    """The polynomial degree of the body's scalar Lagrange element."""
+    for table in _ELEMENTS.values():
+        for degree, elem in table.items():
+            if type(body.scalar.elem) is elem:
+                return int(degree)
+    raise ValueError(f"unknown element {type(body.scalar.elem).__name__}")
+
+
+def contact_length(body: Elasticity, h: float) -> float:
+    """The length of penalty and Nitsche parameters (`SparseProblem.h_contact`, gam =
+    gamma0 E / length) for elements of size h normal to the zone: h / p^2, p the degree.
+    The discrete trace inverse inequality (the normal stress on a facet bounded by the
+    strain energy of its element) scales with p^2 / h, so that with this length the
+    smallest coercive gamma0 of the symmetric Nitsche stiffness is alike for P1 and P2
+    (docs/impact-scenes.md: benchmarks/nitsche_coercivity.py)."""
+    return float(h) / degree_of(body) ** 2
+
+
 def element_for(mesh: fe.Mesh, degree: int) -> fe.Element:
     """The scalar Lagrange element of `degree` on this mesh type (ValueError if none)."""
     table = _ELEMENTS.get(type(mesh))
@@ -475,5 +494,6 @@ def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
 
 
 __all__ = ["ContactZone", "Dirichlet", "Elasticity", "Reduced", "assemble", "body_force",
-           "constrain", "contact_zone", "element_for", "facets_of", "lame", "lumped",
-           "mass_matrix", "redistributed", "sliding_dofs", "tensor_mass", "vector_mass"]
+           "constrain", "contact_length", "contact_zone", "degree_of", "element_for",
+           "facets_of", "lame", "lumped", "mass_matrix", "redistributed", "sliding_dofs",
+           "tensor_mass", "vector_mass"]
