@@ -187,6 +187,9 @@ def test_constrain_refuses_a_slanted_plane_and_two_values():
     assert top.size == 1
     with pytest.raises(ValueError, match=f"sliding facet {top[0]} .* no axis-aligned plane"):
         fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[top])
+    disc = fem_nd.assemble(fe.MeshTri2.init_circle(1), 1.0, 0.3, 1.0)  # curved facets
+    with pytest.raises(ValueError, match="no axis-aligned plane"):
+        fem_nd.constrain(disc, disc.K, np.zeros(disc.ndofs), sliding=[lambda x: x[1] < -0.5])
     with pytest.raises(ValueError, match="two values"):
         fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[_plane(0, 0.0)],
                          dirichlet=[fem_nd.Dirichlet(_plane(0, 0.0), values=1.0)])

@@ -350,24 +350,19 @@ class Reduced:
 
 def sliding_dofs(body: Elasticity, where: Facets) -> np.ndarray:
     """The normal-component dofs of boundary facets each lying in an axis-aligned plane
-    (its vertices and its own dofs share one coordinate); ValueError naming a facet that
-    lies in no such plane."""
+    (its outward normal +-e_c at every quadrature point, so curved facets are refused
+    too); ValueError naming a facet that lies in no such plane."""
     facets = facets_of(body, where)
     if facets.size == 0:
         return np.zeros(0, np.int64)
-    pts = body.mesh.p[:, body.mesh.facets[:, facets]]  # (dim, vertices, facets)
-    if body.scalar.facet_dofs.size:
-        own = body.dof_coordinates[:, body.scalar.facet_dofs[:, facets]]
-        pts = np.concatenate([pts, own], axis=1)
-    spread = np.ptp(pts, axis=1)  # (dim, facets)
-    tol = 1e-10 * float(np.max(np.ptp(body.mesh.p, axis=1)))
-    flat = spread <= tol
-    bad = np.flatnonzero(flat.sum(axis=0) != 1)
+    normals = np.asarray(fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets).normals)
+    aligned = np.all(np.abs(normals) >= 1.0 - 1e-10, axis=2)  # (dim, facets)
+    bad = np.flatnonzero(aligned.sum(axis=0) != 1)
     if bad.size:
-        f = int(facets[bad[0]])
-        raise ValueError(f"sliding facet {f} (points {pts[:, :, bad[0]].T.tolist()}) lies in "
-                         "no axis-aligned plane; allowed: facets normal to an axis")
-    normal = np.argmax(flat, axis=0)
+        n = np.round(normals[:, bad[0], 0], 6).tolist()
+        raise ValueError(f"sliding facet {int(facets[bad[0]])} (normal {n}) lies in no "
+                         "axis-aligned plane; allowed: facets normal to an axis")
+    normal = np.argmax(aligned, axis=0)
     dofs = [body.vector.get_dofs(facets[normal == c]).all(f"u^{c + 1}")
             for c in range(body.dim) if np.any(normal == c)]
     return np.unique(np.concatenate(dofs)).astype(np.int64)
