@@ -22,16 +22,14 @@ import math
 from dataclasses import replace
 
 import numpy as np
-import scipy.sparse as sp
 import skfem as fe
-from skfem.helpers import sym_grad, trace
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case
 from contact_bench.api.registry import make_scheme
-from contact_bench.api.sparse import ContactSet, SparseProblem
+from contact_bench.api.sparse import SparseProblem
 
 
 class DiscDrop(Case):
@@ -155,7 +153,7 @@ class DiscDrop(Case):
         P = body.dof_coordinates
         # the lower half: outward normal pointing down (GetFEM: n_y < -0.01)
         facets = body.boundary_facets(lambda x: x[1] < self.centre_y - 0.01 * self.R)
-        scalar = np.unique(body.scalar.get_dofs(facets).flatten())
+        scalar = np.unique(body.scalar.get_dofs(facets).flatten())  # for the mass
         kind = canonical_mass(mass_kind)
         M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
                                scalar)
@@ -165,16 +163,14 @@ class DiscDrop(Case):
         n = body.ndofs
         U0 = np.zeros(n)
         U0[1::2] = float(self.lift)
-        fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
-        w = np.asarray(fe.LinearForm(lambda v, _: v).assemble(fb))[scalar]
-        face_mass, normal_stress = contact_operators(body, fb, scalar, 1)
-        contact = ContactSet(dofs=2 * scalar + 1, gap0=P[1, scalar].copy(), weights=w,
-                             face_mass=face_mass)
+        zone = fem_nd.contact_zone(body, facets, axis=1)
+        contact = zone.contact_set()
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
-                             E_contact=self.E, h_contact=self.R / int(nx),
-                             normal_stress=normal_stress,
+                             E_contact=self.E,
+                             h_contact=fem_nd.contact_length(body, self.R / int(nx)),
+                             normal_stress=zone.normal_stress,
                              extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
                                     "vertical": np.tile([0.0, 1.0], n // 2)})
 
@@ -226,24 +222,3 @@ def mirror_pairs(P: np.ndarray) -> np.ndarray:
     return np.array([[s, key[(round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9))]]
                      for s in right], np.int64)
 
-
-def contact_operators(body: fem_nd.Elasticity, fb: fe.FacetBasis, scalar: np.ndarray,
-                      c: int) -> tuple[sp.csr_matrix, sp.csr_matrix]:
-    """The contact zone's consistent scalar mass M_f (row sums: the weights) and the
-    normal stress sigma_cc at the contact dofs as a map of the displacement: the L2
-    projection onto the zone's trace space, B = M_f^-1 G with G_ij = int sigma_cc(phi_j)
-    psi_i over the zone (compression negative; the plane's normal is axis c)."""
-    lam, mu = body.lam, body.mu
-
-    @fe.BilinearForm
-    def sigma_cc(u, v, _):
-        eps = sym_grad(u)
-        return (lam * trace(eps) + 2 * mu * eps[c, c]) * v
-
-    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=fb.find,
-                       quadrature=(fb.X, fb.W))
-    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).tocsr()[scalar][:, scalar]
-    G = sigma_cc.assemble(fv, fb).tocsr()[scalar]
-    B = np.linalg.solve(Mf.toarray(), G.toarray())
-    B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
-    return sp.csr_matrix(Mf), sp.csr_matrix(B)

@@ -104,7 +104,6 @@ class EmbeddedBar(Case):
         E_nd = float(self.E) * (1 + nu) * (1 - 2 * nu) / (1 - nu)
         body = fem_nd.assemble(mesh, E_nd, nu, float(self.rho))
         M = fem_nd.mass_matrix(body, "kron:" + mass_kind)
-        K = body.K
         P = body.dof_coordinates  # (dim, nodes); node s has dofs dim s + c
         nodes = P.shape[1]
         n = dim * nodes
@@ -115,26 +114,19 @@ class EmbeddedBar(Case):
         V = np.zeros(n)
         U[0::dim] = np.asarray(self.u0(P[0]), float) * np.ones(nodes)
         V[0::dim] = np.asarray(self.v0(P[0]), float) * np.ones(nodes)
-        fixed = np.zeros(n, bool)
-        far = np.isclose(P[0], x[-1], rtol=0, atol=1e-12 * float(self.L))
+        L = float(self.L)
+        far = np.isclose(P[0], x[-1], rtol=0, atol=1e-12 * L)
+        clamp = []
         if self.far_end == "clamped":
-            for c in range(dim):
-                fixed[dim * np.flatnonzero(far) + c] = True
-            U[0::dim][far] = float(self.u_L)
-            V[fixed] = 0.0
+            values = [float(self.u_L)] + [0.0] * (dim - 1)
+            clamp = [fem_nd.Dirichlet(lambda q: np.isclose(q[0], L, rtol=0, atol=1e-12 * L),
+                                      values=values)]
+        sides = []
         if self.sides == "sliding":
-            for c in range(1, dim):
-                side = np.isclose(P[c], 0.0) | np.isclose(P[c], 1.0)
-                fixed[dim * np.flatnonzero(side) + c] = True
-        free = np.flatnonzero(~fixed)
-        fix = np.flatnonzero(fixed)
-        Kf = K[free][:, free].tocsr()
-        Kfd = K[free][:, fix]
-        Ud = U[fix]
-        Ff = F[free] - Kfd @ Ud
-        offset = float(0.5 * Ud @ (K[fix][:, fix] @ Ud) - F[fix] @ Ud)
-        index = np.full(n, -1)
-        index[free] = np.arange(free.size)
+            sides = [lambda q: np.any([np.isclose(q[c], 0.0) | np.isclose(q[c], 1.0)
+                                       for c in range(1, dim)], axis=0)]
+        red = fem_nd.constrain(body, M, F, dirichlet=clamp, sliding=sides)
+        index = red.index
         face = np.flatnonzero(np.isclose(P[0], 0.0, rtol=0, atol=1e-12 * float(self.L)))
         weights = np.ones(face.size)
         for c in range(1, dim):
@@ -160,9 +152,10 @@ class EmbeddedBar(Case):
         if self.far_end == "clamped":
             groups = groups[:-1]
         problem = SparseProblem(
-            M=M[free][:, free].tocsr(), K=Kf, F=Ff, U0=U[free], V0=V[free], contact=contact,
+            M=red.M, K=red.K, F=red.F, U0=U[red.free], V0=V[red.free], contact=contact,
             dim=dim, hmin=min(float(np.min(np.diff(x))), float(y[1] - y[0])),
-            c_max=float(np.sqrt(float(self.E) / float(self.rho))), energy_offset=offset,
+            c_max=float(np.sqrt(float(self.E) / float(self.rho))),
+            energy_offset=red.energy_offset,
             mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],),
             E_contact=float(self.E), h_contact=float(x[1] - x[0]),
             normal_stress=self._normal_stress(P, face, index, x, dim))

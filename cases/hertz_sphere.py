@@ -21,7 +21,6 @@ import math
 from dataclasses import replace
 
 import numpy as np
-import scipy.sparse as sp
 import skfem as fe
 from skfem.helpers import ddot, sym_grad, trace
 
@@ -29,7 +28,7 @@ from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Case
-from contact_bench.api.sparse import ContactSet, SparseProblem
+from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact.hertz import HertzImpact
 
 
@@ -122,7 +121,6 @@ class HertzSphere(Case):
         K = _axi_stiffness.assemble(vector, lam=lam, mu=mu).tocsr()
         Ms = _axi_mass.assemble(scalar, rho=self.rho).tocsr()
         body = fem_nd.Elasticity(mesh, scalar, vector, K, Ms, lam, mu, self.rho)
-        P = body.dof_coordinates
         facets = mesh.facets_satisfying(
             lambda x: (x[1] < self.R * 0.99) & (x[0] > 1e-9 * self.R), boundaries_only=True)
         contact_s = np.unique(scalar.get_dofs(facets).flatten())
@@ -130,31 +128,21 @@ class HertzSphere(Case):
         M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
                                contact_s)
         n = vector.N
-        fixed = np.zeros(n, bool)
-        fixed[2 * np.flatnonzero(P[0] < 1e-12 * self.R)] = True  # u_r = 0 on the axis
-        free = np.flatnonzero(~fixed)
-        index = np.full(n, -1)
-        index[free] = np.arange(free.size)
+        # u_r = 0 on the axis: it slides along it
+        red = fem_nd.constrain(body, M, np.zeros(n),
+                               sliding=[lambda x: x[0] < 1e-12 * self.R])
+        free = red.free
         V0 = np.zeros(n)
         V0[1::2] = -float(self.v)
-        fb = fe.FacetBasis(mesh, elem, facets=facets)
-        w = np.asarray(_axi_load.assemble(fb))[contact_s]
-        # the zone's axisymmetric face mass and normal stress sigma_zz (Nitsche), as the
-        # L2 projection onto the zone's trace space
-        fv = fe.FacetBasis(mesh, fe.ElementVector(elem), facets=facets, quadrature=(fb.X, fb.W))
-        Mf = _axi_face_mass.assemble(fb).tocsr()[contact_s][:, contact_s]
-        G = _axi_sigma_zz.assemble(fv, fb, lam=lam, mu=mu).tocsr()[contact_s][:, free]
-        B = np.linalg.solve(Mf.toarray(), G.toarray())
-        B[np.abs(B) < 1e-14 * np.abs(B).max()] = 0.0
-        contact = ContactSet(dofs=index[2 * contact_s + 1], gap0=P[1, contact_s].copy(),
-                             weights=w, face_mass=sp.csr_matrix(Mf))
-        Mf = M[free][:, free].tocsr()
+        # the zone's axisymmetric face mass, weights and normal stress sigma_zz (Nitsche)
+        zone = fem_nd.contact_zone(body, facets, axis=1, axisymmetric=True)
+        contact = zone.contact_set(free)
         mass = float(np.sum(M @ np.tile([0.0, 1.0], n // 2)))
-        return SparseProblem(M=Mf, K=K[free][:, free].tocsr(), F=np.zeros(free.size),
+        return SparseProblem(M=red.M, K=red.K, F=red.F,
                              U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
                              hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
-                             E_contact=self.E, h_contact=body.hmin,
-                             normal_stress=sp.csr_matrix(B),
+                             E_contact=self.E, h_contact=fem_nd.contact_length(body, body.hmin),
+                             normal_stress=zone.stress(free),
                              extra={"mass": mass,  # and the vertical translation:
                                     "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})
 
@@ -173,21 +161,7 @@ def _axi_mass(u, v, w):
     return 2 * np.pi * w.x[0] * w.rho * u * v
 
 
-@fe.BilinearForm
-def _axi_face_mass(u, v, w):
-    return 2 * np.pi * w.x[0] * u * v
 
-
-@fe.BilinearForm
-def _axi_sigma_zz(u, v, w):
-    eps = sym_grad(u)
-    return 2 * np.pi * w.x[0] * (w.lam * (trace(eps) + u.value[0] / w.x[0])
-                                 + 2 * w.mu * eps[1, 1]) * v
-
-
-@fe.LinearForm
-def _axi_load(v, w):
-    return 2 * np.pi * w.x[0] * v
 
 
 def ring_half_disc(n: int) -> tuple[np.ndarray, np.ndarray]:

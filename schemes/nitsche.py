@@ -103,8 +103,10 @@ class Nitsche(Scheme):
     # the general sparse problem (implicit), with the problem's normal stress B at the
     # contact dofs and nodal quadrature on the zone (weights w_i) for the contact term:
     # P = gam C + B, Q = gam C + theta B; K' = K - (theta / gam) B^T M_f B with the
-    # zone's consistent mass M_f (coercive for gamma0 > 1, as in 1D); gam = gamma0 E / h at
-    # the zone (`contact_bench.kernels.sparse.ContactLaw`)
+    # zone's consistent mass M_f (coercive above a mesh-dependent gamma0, which the
+    # problem's h_contact = element size / degree^2 keeps near 1D's 1 for P1 and P2:
+    # docs/impact-scenes.md); gam = gamma0 E / h at the zone
+    # (`contact_bench.kernels.sparse.ContactLaw`)
     forms = frozenset({"banded1d", "sparse"})
 
     def cannot_run(self, case) -> str | None:

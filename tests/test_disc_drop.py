@@ -125,6 +125,38 @@ def test_contact_operators_and_the_penalty_and_nitsche_paths():
         assert row["err_free_fall"] < 1e-10 and row["energy_drift_max"] < 0.02, (spec, row)
 
 
+@pytest.mark.parametrize("degree", [1, 2])
+def test_default_nitsche_is_coercive_on_p1_and_p2(degree):
+    """K - (1 / gam) B^T M_f B is positive semi-definite at the default gamma0 = 5 with
+    room to spare: the smallest coercive gamma0 (the largest eigenvalue of the n_c-sized
+    pencil (B K^+ B^T, M_f^-1), times h / E) is below 2 on P1 and P2 alike, thanks to
+    h_contact = element size / degree^2 (it is 5.2 on P2 with the element size)."""
+    import scipy.linalg as la
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    p = make_case(f"disc_drop[degree={degree}]").sparse_problem(2, 1.0, "consistent")
+    B = sp.csr_matrix(p.normal_stress)
+    X = splu(sp.csc_matrix(p.K + 1e-9 * p.M)).solve(B.T.toarray())  # B kills rigid motions
+    S = B @ X
+    L = la.cholesky(p.contact.face_mass.toarray(), lower=True)
+    gamma0_min = la.eigvalsh(L.T @ (0.5 * (S + S.T)) @ L).max() * p.h_contact / p.E_contact
+    assert 1.0 < gamma0_min < 2.0
+    assert gamma0_min < make_scheme("nitsche").gamma0 / 2.5
+
+
+@pytest.mark.parametrize("theta", [1, 0, -1])
+def test_default_nitsche_runs_the_p2_disc(theta):
+    """With the element size as h_contact, the default nitsche blew up on the P2 disc
+    (theta 1), gained 17 x E0 (theta -1) or 70 % (theta 0) over T = 40 at nx = 3; theta 1
+    conserves the energy, 0 and -1 are not energy-conserving schemes (3 % and 10 % here)."""
+    row = run_one("disc_drop", f"nitsche[theta={theta}]", nx=3, T=40.0).row
+    assert row["status"] == "ok", row["notes"]
+    assert row["err_free_fall"] < 1e-10
+    assert row["energy_drift_max"] < (1e-3 if theta == 1 else 0.15)
+    assert row["penetration_max"] < 0.5  # of a lift of 5
+
+
 def test_numerical_reference_columns():
     """Against redistributed on twice the rings with dt / 2: redistributed itself is
     close, standard (chatter, energy gain) is far, in u and in the contact force."""

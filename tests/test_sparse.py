@@ -103,6 +103,169 @@ def test_redistribution_written_for_the_symmetric_unknowns_matters():
     assert np.abs(_moments(R, X) - _moments(body.Ms, X)).max() > 1e-5
 
 
+# ------------------------------------------------------------ Dirichlet and sliding
+
+
+def _plane(c: int, at: float):
+    return lambda x: np.isclose(x[c], at)
+
+
+def _box(dim: int, kind: str) -> fem_nd.Elasticity:
+    mesh = {"tri": fe.MeshTri().refined(1), "quad": fe.MeshQuad().refined(1),
+            "tet": fe.MeshTet(), "hex": fe.MeshHex()}[kind]
+    assert mesh.dim() == dim
+    return fem_nd.assemble(mesh, 1.0, 0.3, 1.0, degree=2 if kind in ("tri", "tet") else 1)
+
+
+#: (dim, element, sliding planes (axis, at), clamped planes, zero modes left):
+#: the rigid motions that the constraints allow (translations along a sliding plane,
+#: rotations about its normal axis when it is the only one)
+RIGID = [
+    (2, "tri", [], [], 3), (2, "quad", [(0, 0.0)], [], 1), (2, "tri", [(0, 0.0), (0, 1.0)], [], 1),
+    (2, "quad", [(0, 0.0), (1, 0.0)], [], 0), (2, "tri", [], [(0, 0.0)], 0),
+    (3, "hex", [], [], 6), (3, "tet", [(0, 0.0)], [], 3), (3, "hex", [(0, 0.0), (0, 1.0)], [], 3),
+    (3, "tet", [(0, 0.0), (1, 1.0)], [], 1), (3, "hex", [(0, 0.0), (1, 0.0), (2, 0.0)], [], 0),
+    (3, "tet", [], [(2, 1.0)], 0),
+]
+
+
+@pytest.mark.parametrize("dim, kind, sliding, clamped, modes", RIGID)
+def test_constrain_leaves_the_rigid_motions_the_constraints_allow(dim, kind, sliding, clamped,
+                                                                  modes):
+    from scipy.sparse.linalg import eigsh
+
+    body = _box(dim, kind)
+    M = fem_nd.mass_matrix(body, "consistent")
+    red = fem_nd.constrain(body, M, np.zeros(body.ndofs),
+                           dirichlet=[fem_nd.Dirichlet(_plane(*q)) for q in clamped],
+                           sliding=[_plane(*q) for q in sliding])
+    # the smallest eigenvalues of K x = lambda M x (shift-invert below zero: K singular)
+    lam = eigsh(red.K.tocsc(), k=8, M=red.M.tocsc(), sigma=-1.0, which="LM",
+                return_eigenvectors=False)
+    assert np.count_nonzero(np.abs(lam) < 1e-8) == modes
+    assert np.sort(np.abs(lam))[modes] > 1e-3  # the others are clearly not zero
+    # an allowed translation (along every sliding plane, none clamped) is in ker K
+    if modes and not clamped:
+        t = np.zeros(body.ndofs)
+        c = next(c for c in range(dim) if all(c != q[0] for q in sliding))
+        t[c::dim] = 1.0
+        assert np.abs(red.K @ t[red.free]).max() < 1e-12
+
+
+@pytest.mark.parametrize("kind", ["tri", "hex"])
+def test_constrain_prescribed_values_give_the_whole_body_energy(kind):
+    body = _box(2 if kind == "tri" else 3, kind)
+    dim, n = body.dim, body.ndofs
+    rng = np.random.default_rng(3)
+    M = fem_nd.mass_matrix(body, "consistent")
+    F = rng.normal(size=n)
+    red = fem_nd.constrain(body, M, F, sliding=[_plane(1, 0.0)], dirichlet=[
+        fem_nd.Dirichlet(_plane(0, 0.0), values=[0.3, 0.0, 0.1][:dim]),
+        fem_nd.Dirichlet(_plane(0, 1.0), components=[0], values=0.05)])
+    assert np.count_nonzero(red.lifted) > 0 and red.energy_offset != 0.0
+    D = np.setdiff1d(np.arange(n), red.free)
+    assert np.all(red.lifted[red.free] == 0.0)
+    for _ in range(2):  # a quadratic equal at every point: K, F and offset all right
+        U = rng.normal(size=red.free.size)
+        V = rng.normal(size=red.free.size)
+        Ue, Ve = red.expand(U), np.zeros(n)
+        Ve[red.free] = V  # the prescribed dofs at rest
+        whole = 0.5 * Ve @ (M @ Ve) + 0.5 * Ue @ (body.K @ Ue) - F @ Ue
+        reduced = 0.5 * V @ (red.M @ V) + 0.5 * U @ (red.K @ U) - red.F @ U + red.energy_offset
+        assert reduced == pytest.approx(whole, rel=1e-12, abs=1e-12 * abs(whole))
+    # the values where they were asked for
+    X = body.dof_coordinates
+    s = np.flatnonzero(np.isclose(X[0], 1.0))
+    assert np.all(red.lifted[dim * s] == 0.05) and set(dim * s) <= set(D)
+
+
+def test_constrain_refuses_a_slanted_plane_and_two_values():
+    mesh = fe.MeshTri(np.array([[0.0, 1.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.5]]),
+                      np.array([[0, 1, 2], [0, 2, 3]]).T)
+    body = fem_nd.assemble(mesh, 1.0, 0.3, 1.0)
+    M = fem_nd.mass_matrix(body, "consistent")
+    top = body.boundary_facets(lambda x: x[1] >= 1.0 - 1e-12)
+    assert top.size == 1
+    with pytest.raises(ValueError, match=f"sliding facet {top[0]} .* no axis-aligned plane"):
+        fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[top])
+    disc = fem_nd.assemble(fe.MeshTri2.init_circle(1), 1.0, 0.3, 1.0)  # curved facets
+    with pytest.raises(ValueError, match="no axis-aligned plane"):
+        fem_nd.constrain(disc, disc.K, np.zeros(disc.ndofs), sliding=[lambda x: x[1] < -0.5])
+    with pytest.raises(ValueError, match="two values"):
+        fem_nd.constrain(body, M, np.zeros(body.ndofs), sliding=[_plane(0, 0.0)],
+                         dirichlet=[fem_nd.Dirichlet(_plane(0, 0.0), values=1.0)])
+
+
+# ------------------------------------------------------------------ the contact zone
+
+ZONES = [  # (mesh, degree, zone predicate, axis, zone measure)
+    (fe.MeshTri().refined(2), 1, lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshTri().refined(1), 2, lambda x: x[0] < 1e-9, 0, 1.0),
+    (fe.MeshTri2.init_circle(2), 2, lambda x: x[1] < -0.3, 1, None),
+    (fe.MeshQuad.init_tensor(np.array([0.0, 0.4, 1.0]), np.array([0.0, 0.3, 1.0])), 1,
+     lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshTet().refined(1), 1, lambda x: x[2] < 1e-9, 2, 1.0),
+    (fe.MeshTet().refined(1), 2, lambda x: x[1] < 1e-9, 1, 1.0),
+    (fe.MeshHex().refined(1), 1, lambda x: x[2] < 1e-9, 2, 1.0),
+]
+
+
+@pytest.mark.parametrize("mesh, degree, where, axis, measure", ZONES,
+                         ids=["P1 tri", "P2 tri", "P2 disc", "Q1 quad", "P1 tet", "P2 tet",
+                              "Q1 hex"])
+def test_contact_zone_normal_stress_is_exact_for_uniform_strains(mesh, degree, where, axis,
+                                                                 measure):
+    body = fem_nd.assemble(mesh, 3.0, 0.3, 1.0, degree)
+    plane = float(np.min(body.dof_coordinates[axis])) - 0.25
+    zone = fem_nd.contact_zone(body, where, axis, plane=plane)
+    X, d = body.dof_coordinates, body.dim
+    assert zone.dofs.size >= 3 and np.all(zone.dofs % d == axis)
+    np.testing.assert_allclose(zone.gap0, X[axis, zone.scalar] - plane, rtol=0, atol=0)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        A = rng.normal(size=(d, d))
+        U = np.ravel((A @ X).T) + rng.normal()  # a linear field (plus a translation)
+        eps = 0.5 * (A + A.T)
+        sigma = body.lam * np.trace(eps) + 2 * body.mu * eps[axis, axis]
+        np.testing.assert_allclose(zone.normal_stress @ U, sigma, rtol=0,
+                                   atol=1e-10 * abs(sigma) + 1e-12)
+    # (P2 triangle faces: the vertices' weights are zero, up to round-off)
+    np.testing.assert_allclose(np.asarray(zone.face_mass.sum(axis=1)).ravel(), zone.weights,
+                               rtol=0, atol=1e-13 * zone.weights.max())
+    if measure is not None:
+        assert zone.weights.sum() == pytest.approx(measure, rel=1e-13)
+
+
+def test_contact_zone_of_the_disc_is_the_dense_projection():
+    """The disc's operator against the dense solve it replaced: M_f^-1 G, with G assembled
+    here by scikit-fem independently of fem_nd."""
+    from skfem.helpers import sym_grad, trace
+
+    p = make_case("disc_drop[degree=2]").sparse_problem(2, 1.0, "consistent")
+    body = make_case("disc_drop[degree=2]").body(2)
+    facets = body.boundary_facets(lambda x: x[1] < 20.0 - 0.2)
+    fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=facets,
+                       quadrature=(fb.X, fb.W))
+    G = fe.BilinearForm(lambda u, v, _: (body.lam * trace(sym_grad(u)) + 2 * body.mu
+                                         * sym_grad(u)[1, 1]) * v).assemble(fv, fb).tocsr()
+    s = p.contact.dofs // 2
+    Mf = fe.BilinearForm(lambda u, v, _: u * v).assemble(fb).toarray()[s][:, s]
+    dense = np.linalg.solve(Mf, G[s].toarray())
+    assert np.abs(dense - p.normal_stress.toarray()).max() < 1e-12 * np.abs(dense).max()
+    assert np.abs(Mf - p.contact.face_mass.toarray()).max() == 0.0
+
+
+def test_contact_zone_refuses_a_crossed_plane_and_eliminated_dofs():
+    body = fem_nd.assemble(fe.MeshQuad().refined(1), 1.0, 0.3, 1.0)
+    with pytest.raises(ValueError, match="crosses the plane"):
+        fem_nd.contact_zone(body, lambda x: x[1] < 1e-9, 1, plane=0.1)
+    zone = fem_nd.contact_zone(body, lambda x: x[1] < 1e-9, 1)
+    red = fem_nd.constrain(body, body.K, np.zeros(body.ndofs), sliding=[lambda x: x[1] < 1e-9])
+    with pytest.raises(ValueError, match="eliminated"):
+        zone.contact_set(red.free)
+
+
 # ------------------------------------------------------------------- solver pieces
 
 

@@ -20,13 +20,19 @@ redistributed      Khenous, Laborde and Renard: zero rows and columns at the con
                    stays SPD or it is refused)
 =================  =================================================================
 
+Boundaries (`constrain`): Dirichlet (chosen components prescribed on boundary facets)
+and sliding (the normal component zero on facets in axis-aligned planes) are eliminated
+with `skfem.condense`; the result keeps the energy of the whole body through its offset.
+The contact zone (`contact_zone`): the weights, consistent face mass and normal stress
+at the zone's dofs, the stress as the L2 projection onto the zone's trace space.
+
 Nothing here builds a dense n x n matrix: the redistribution solves a system of
 1 + d + d (d + 1) / 2 constraints.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +42,7 @@ from skfem.helpers import ddot, sym_grad, trace
 
 from contact_bench.api.fem import assemble as assemble_1d
 from contact_bench.api.fem import mass_variant as mass_variant_1d
+from contact_bench.api.sparse import ContactSet
 
 ND_MASS_KINDS = ("consistent", "lumped", "redistributed")
 #: mesh type -> (degree -> scalar element)
@@ -125,6 +132,25 @@ class Elasticity:
         """Boundary facets whose every point satisfies `where` (a predicate on (dim, k)
         coordinates): the contact zone or a Dirichlet/sliding boundary."""
         return self.mesh.facets_satisfying(where, boundaries_only=True)
+
+
+def degree_of(body: Elasticity) -> int:
+    """The polynomial degree of the body's scalar Lagrange element."""
+    for table in _ELEMENTS.values():
+        for degree, elem in table.items():
+            if type(body.scalar.elem) is elem:
+                return int(degree)
+    raise ValueError(f"unknown element {type(body.scalar.elem).__name__}")
+
+
+def contact_length(body: Elasticity, h: float) -> float:
+    """The length of penalty and Nitsche parameters (`SparseProblem.h_contact`, gam =
+    gamma0 E / length) for elements of size h normal to the zone: h / p^2, p the degree.
+    The discrete trace inverse inequality (the normal stress on a facet bounded by the
+    strain energy of its element) scales with p^2 / h, so that with this length the
+    smallest coercive gamma0 of the symmetric Nitsche stiffness is alike for P1 and P2
+    (docs/impact-scenes.md: benchmarks/nitsche_coercivity.py)."""
+    return float(h) / degree_of(body) ** 2
 
 
 def element_for(mesh: fe.Mesh, degree: int) -> fe.Element:
@@ -271,5 +297,198 @@ def mass_matrix(body: Elasticity, kind: str, contact_scalar: np.ndarray | None =
     return vector_mass(Ms, body.dim)
 
 
-__all__ = ["Elasticity", "assemble", "body_force", "element_for", "lame", "lumped",
-           "mass_matrix", "redistributed", "tensor_mass", "vector_mass"]
+#: boundary facets: a predicate on (dim, k) points (every point of a facet satisfies it)
+#: or the facet indices
+Facets = Callable[[np.ndarray], np.ndarray] | np.ndarray
+
+
+def facets_of(body: Elasticity, where: Facets) -> np.ndarray:
+    """Facet indices of `where` (a predicate: the boundary facets satisfying it)."""
+    if callable(where):
+        return body.boundary_facets(where)
+    return np.asarray(where, np.int64)
+
+
+@dataclass(frozen=True)
+class Dirichlet:
+    """Prescribed displacement components on boundary facets: `components` (0-based; None:
+    all) take `values` (one per component, or one for all; zero by default)."""
+
+    where: Facets
+    components: Sequence[int] | None = None
+    values: float | Sequence[float] = 0.0
+
+
+@dataclass(frozen=True)
+class Reduced:
+    """A body's system on its free dofs: M, K, F restricted (F less the stiffness
+    coupling to the prescribed values), `free` (free index -> dof), `lifted` (every dof:
+    the prescribed values, zero at the free ones) and the energy offset of the
+    eliminated dofs (1/2 Ud.K_dd.Ud - F_d.Ud: with it, the reduced energy of a state is
+    that of the whole body at `expand` of it, the prescribed dofs at rest)."""
+
+    M: sp.csr_matrix
+    K: sp.csr_matrix
+    F: np.ndarray
+    free: np.ndarray
+    lifted: np.ndarray
+    energy_offset: float
+
+    @property
+    def index(self) -> np.ndarray:
+        """dof -> free index (-1 at the eliminated dofs)."""
+        out = np.full(self.lifted.size, -1, np.int64)
+        out[self.free] = np.arange(self.free.size)
+        return out
+
+    def expand(self, U: np.ndarray) -> np.ndarray:
+        """The whole body's vector of a free one (the prescribed values elsewhere)."""
+        out = self.lifted.copy()
+        out[self.free] = U
+        return out
+
+
+def sliding_dofs(body: Elasticity, where: Facets) -> np.ndarray:
+    """The normal-component dofs of boundary facets each lying in an axis-aligned plane
+    (its outward normal +-e_c at every quadrature point, so curved facets are refused
+    too); ValueError naming a facet that lies in no such plane."""
+    facets = facets_of(body, where)
+    if facets.size == 0:
+        return np.zeros(0, np.int64)
+    normals = np.asarray(fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets).normals)
+    aligned = np.all(np.abs(normals) >= 1.0 - 1e-10, axis=2)  # (dim, facets)
+    bad = np.flatnonzero(aligned.sum(axis=0) != 1)
+    if bad.size:
+        n = np.round(normals[:, bad[0], 0], 6).tolist()
+        raise ValueError(f"sliding facet {int(facets[bad[0]])} (normal {n}) lies in no "
+                         "axis-aligned plane; allowed: facets normal to an axis")
+    normal = np.argmax(aligned, axis=0)
+    dofs = [body.vector.get_dofs(facets[normal == c]).all(f"u^{c + 1}")
+            for c in range(body.dim) if np.any(normal == c)]
+    return np.unique(np.concatenate(dofs)).astype(np.int64)
+
+
+def constrain(body: Elasticity, M: sp.spmatrix, F: np.ndarray,
+              dirichlet: Sequence[Dirichlet] = (), sliding: Sequence[Facets] = ()) -> Reduced:
+    """Eliminate Dirichlet and sliding dofs (`skfem.condense`) from the body's K, the mass
+    M and the load F: the system on the free dofs (`Reduced`). A dof given two different
+    values is refused (ValueError)."""
+    n = body.ndofs
+    value = np.full(n, np.nan)
+
+    def put(dofs: np.ndarray, v: float) -> None:
+        clash = dofs[~np.isnan(value[dofs]) & (value[dofs] != v)]
+        if clash.size:
+            raise ValueError(f"dof {int(clash[0])} is given two values: "
+                             f"{float(value[clash[0]])!r} and {v!r}")
+        value[dofs] = v
+
+    for where in sliding:
+        put(sliding_dofs(body, where), 0.0)
+    for bc in dirichlet:
+        facets = facets_of(body, bc.where)
+        comps = range(body.dim) if bc.components is None else list(bc.components)
+        vals = np.broadcast_to(np.asarray(bc.values, float), (len(comps),))
+        for c, v in zip(comps, vals, strict=True):
+            if not 0 <= c < body.dim:
+                raise ValueError(f"component {c!r} outside 0..{body.dim - 1}")
+            put(body.vector.get_dofs(facets).all(f"u^{c + 1}"), float(v))
+    D = np.flatnonzero(~np.isnan(value))
+    lifted = np.where(np.isnan(value), 0.0, value)
+    K = sp.csr_matrix(body.K)
+    F = np.asarray(F, float)
+    Kf, Ff, _, free = fe.condense(K, F, x=lifted, D=D)
+    Mf = fe.condense(sp.csr_matrix(M), D=D, expand=False)
+    Ud = lifted[D]
+    offset = float(0.5 * Ud @ (K[D][:, D] @ Ud) - F[D] @ Ud)
+    return Reduced(M=sp.csr_matrix(Mf), K=sp.csr_matrix(Kf), F=np.asarray(Ff), free=free,
+                   lifted=lifted, energy_offset=offset)
+
+
+@dataclass(frozen=True)
+class ContactZone:
+    """A contact zone on boundary facets against the plane x_axis = `plane` (the body on
+    the side x_axis >= plane: the obstacle's inward normal is +e_axis).
+
+    `scalar`: the zone's scalar dofs; `dofs`: their vector dofs of component `axis`;
+    `gap0`: their distance to the plane; `weights`: the integrals of their trace shape
+    functions over the zone (row sums of `face_mass`, the zone's consistent scalar mass);
+    `normal_stress` (n_c x every vector dof): sigma_nn at each zone dof as the L2
+    projection onto the zone's trace space, M_f^-1 G with G_ij = int sigma_nn(phi_j) psi_i
+    (compression negative), exact for uniform strains.
+    """
+
+    scalar: np.ndarray
+    dofs: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    face_mass: sp.csr_matrix
+    normal_stress: sp.csr_matrix
+
+    def contact_set(self, free: np.ndarray | None = None) -> ContactSet:
+        """The `ContactSet` over the free dofs `free` (free index -> dof; None: all)."""
+        dofs = self.dofs if free is None else _free_index(free, self.dofs)
+        return ContactSet(dofs=dofs, gap0=self.gap0, weights=self.weights,
+                          face_mass=self.face_mass)
+
+    def stress(self, free: np.ndarray | None = None) -> sp.csr_matrix:
+        """The normal stress as a map of the free dofs' U (the others held at zero)."""
+        return self.normal_stress if free is None else sp.csr_matrix(
+            self.normal_stress[:, free])
+
+
+def _free_index(free: np.ndarray, dofs: np.ndarray) -> np.ndarray:
+    index = np.searchsorted(free, dofs)
+    if np.any(index >= free.size) or np.any(free[np.minimum(index, free.size - 1)] != dofs):
+        raise ValueError("a contact dof is eliminated (Dirichlet or sliding)")
+    return index.astype(np.int64)
+
+
+def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
+                 axisymmetric: bool = False) -> ContactZone:
+    """The contact zone of the boundary facets `where` against the plane x_axis = plane
+    (`ContactZone`). `axisymmetric`: the body is a meridian section (x_0 the radius):
+    every integral weighted by 2 pi r and the hoop strain u_0 / r in the trace."""
+    from scipy.sparse.linalg import splu
+
+    if not 0 <= axis < body.dim:
+        raise ValueError(f"axis {axis!r} outside 0..{body.dim - 1}")
+    facets = facets_of(body, where)
+    if facets.size == 0:
+        raise ValueError("the contact zone has no boundary facet")
+    lam, mu, c = body.lam, body.mu, int(axis)
+
+    def weight(x: np.ndarray) -> np.ndarray:
+        return 2 * np.pi * x[0] if axisymmetric else 1.0
+
+    @fe.BilinearForm
+    def sigma_nn(u, v, w):
+        eps = sym_grad(u)
+        tr = trace(eps) + (u.value[0] / w.x[0] if axisymmetric else 0.0)
+        return weight(w.x) * (lam * tr + 2 * mu * eps[c, c]) * v
+
+    fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=facets,
+                       quadrature=(fb.X, fb.W))
+    scalar = np.unique(body.scalar.get_dofs(facets).flatten()).astype(np.int64)
+    gap0 = body.dof_coordinates[c, scalar] - float(plane)
+    if np.any(gap0 < 0):
+        raise ValueError(f"the contact zone crosses the plane x_{c} = {plane!r}")
+    Mf = fe.BilinearForm(lambda u, v, w: weight(w.x) * u * v).assemble(fb).tocsr()
+    Mf = sp.csr_matrix(Mf[scalar][:, scalar])
+    weights = np.asarray(fe.LinearForm(lambda v, w: weight(w.x) * v).assemble(fb))[scalar]
+    G = sigma_nn.assemble(fv, fb).tocsr()[scalar]
+    # M_f^-1 G on the columns G touches (the zone's layer of elements) only
+    cols = np.unique(G.indices)
+    X = splu(sp.csc_matrix(Mf)).solve(G[:, cols].toarray())
+    X[np.abs(X) < 1e-14 * np.abs(X).max()] = 0.0
+    r, k = np.nonzero(X)
+    B = sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
+    return ContactZone(scalar=scalar, dofs=body.dim * scalar + c, gap0=gap0, weights=weights,
+                       face_mass=Mf, normal_stress=B)
+
+
+__all__ = ["ContactZone", "Dirichlet", "Elasticity", "Reduced", "assemble", "body_force",
+           "constrain", "contact_length", "contact_zone", "degree_of", "element_for",
+           "facets_of", "lame", "lumped", "mass_matrix", "redistributed", "sliding_dofs",
+           "tensor_mass", "vector_mass"]

@@ -88,7 +88,8 @@ class SparseProblem:
     equal_groups: tuple[np.ndarray, ...] = ()
     #: the stiffness scale at the contact zone, for penalty and Nitsche parameters
     #: (kappa = gamma_p E / h): the P-wave modulus lambda + 2 mu there and the element
-    #: size normal to the zone (0: not given)
+    #: size normal to the zone divided by the degree squared (`fem_nd.contact_length`:
+    #: the trace inverse inequality scales with p^2 / h; 0: not given)
     E_contact: float = 0.0
     h_contact: float = 0.0
     #: the normal stress at each contact dof as a linear map of U (n_c x n, CSR;
