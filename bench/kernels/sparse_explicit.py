@@ -1,0 +1,270 @@
+"""Explicit stepping of a piecewise-linear contact law on the general sparse problem.
+
+The explicit (beta = 0) counterpart of `contact_bench.kernels.sparse.newmark_sparse`
+with a `ContactLaw` (penalty springs, Nitsche), for any mass variant:
+
+    U_{n+1} = U_n + dt V_n + dt^2/2 A_n,
+    M A_{n+1} = F - K' U_{n+1} + Q^T mu(U_{n+1}),   mu_i = c_i max(0, -y_i),  y = P U + y0,
+    V_{n+1} = V_n + dt ((1 - gamma) A_n + gamma A_{n+1})
+
+(gamma = 1/2: the central difference). The law is evaluated at U_{n+1}, explicitly. A
+diagonal M (lumped) is a division, any other M one solve with its factor (`Factor`,
+once outside the loop).
+
+Massless dofs (zero mass rows: the redistributed variants) have no acceleration: they
+are quasi-static, solved each step from their own rows with the law,
+
+    K'_mm u_m + K'_mh u_h - Q_m^T mu = F_m,   mu = c max(0, -(P U + y0)),
+
+a piecewise-linear problem in mu: with the free solution u_f (K'_mm factored once) and
+Z = K'_mm^-1 Q_m^T, W = P_m Z (n_c x n_c, computed once), y = y_f + W mu, solved
+exactly by `penalty_solve`'s active-set iteration, then u_m = u_f + Z mu (the same
+elimination as `quasistatic_sparse`'s exact contact, with the law in place of the
+complementarity). Their velocity is the backward difference.
+
+`stable_dt`: the explicit step's limit 2 / (sqrt(2 gamma) omega_max), with omega_max^2
+the largest generalized eigenvalue (in modulus) of (K' + the law's stiffness with every
+contact dof active, M), the massless dofs eliminated statically, by scipy's ARPACK
+(`eigs`: Nitsche's K' is unsymmetric for theta != 1) on the operator M^-1 K'.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+from scipy.sparse.linalg import LinearOperator, eigs
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.sampling import BLOWUP_FACTOR
+from contact_bench.kernels.sparse import (
+    ContactLaw,
+    Factor,
+    _buffers,
+    _new_stats,
+    _stats_update,
+    _trajectory,
+    csr_arrays,
+    csr_matvec,
+    initial_acceleration,
+    lu_solve,
+    penalty_solve,
+)
+
+
+@njit(cache=True)
+def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
+                         mfac, hfac, diag_h, Pp, Pi, Px, QTp, QTi, QTx, y0, c, ew, sc, fscale,
+                         W, Z, cd, gap0, weights, U, V, A, dt, gamma, nsteps, stride, offset,
+                         t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+    """Advance (U, V, A) in place (module docstring); returns (samples, steps, min gap,
+    blow-up step or -1). K rows: Kh = K'[hv] (all columns), Km = K'[mv] with the massless
+    columns dropped; QT = Q^T (n x n_c); hfac/diag_h: M_hh's factor or diagonal; mfac:
+    K'_mm's factor; W, Z the massless elimination's matrices."""
+    n = U.size
+    nh, nm, nc = hv.size, mv.size, cd.size
+    rm = np.empty(nm)
+    um = np.empty(nm)
+    wm = np.empty(nm)
+    rh = np.empty(nh)
+    ah = np.empty(nh)
+    wh = np.empty(nh)
+    w = np.empty(n)
+    y = np.empty(nc)
+    mu = np.zeros(nc)
+    lam = np.zeros(nc)
+    f = np.empty(n)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        for a in range(nh):
+            i = hv[a]
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+        if nm:  # the massless dofs from their rows, the law solved exactly
+            csr_matvec(Kmp, Kmi, Kmx, U, rm)
+            for b in range(nm):
+                rm[b] = F[mv[b]] - rm[b]
+            lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
+                     mfac[7], rm, um, wm)
+            for b in range(nm):
+                i = mv[b]
+                wm[b] = U[i]  # the old position, for the velocity
+                U[i] = um[b]
+            csr_matvec(Pp, Pi, Px, U, y)
+            pen = False
+            for j in range(nc):
+                y[j] += y0[j]
+                pen = pen or y[j] < 0.0
+            if pen:
+                penalty_solve(W, y, c, mu, active)
+                on = np.flatnonzero(mu)
+                for b in range(nm):
+                    acc = 0.0
+                    for j in on:
+                        acc += Z[b, j] * mu[j]
+                    U[mv[b]] += acc
+            for b in range(nm):
+                i = mv[b]
+                V[i] = (U[i] - wm[b]) / dt
+        csr_matvec(Pp, Pi, Px, U, y)  # the law at U_{n+1}
+        for j in range(nc):
+            y[j] += y0[j]
+            mu[j] = c[j] * max(0.0, -y[j])
+            lam[j] = fscale * mu[j]
+        csr_matvec(QTp, QTi, QTx, mu, f)  # Q^T mu
+        csr_matvec(Khp, Khi, Khx, U, rh)
+        for a in range(nh):
+            i = hv[a]
+            rh[a] = F[i] - rh[a] + f[i]
+        if diag_h.size:
+            for a in range(nh):
+                ah[a] = rh[a] / diag_h[a]
+        else:
+            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
+                     rh, ah, wh)
+        for a in range(nh):
+            i = hv[a]
+            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+            A[i] = ah[a]
+        _stats_update(stats, status, lam, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Mp, Mi, Mx, V, w)
+            e = 0.5 * (V @ w)
+            csr_matvec(Kp, Ki, Kx, U, w)
+            e += 0.5 * (U @ w) - F @ U + offset
+            st = 0.0
+            for j in range(nc):  # the law's energy and stress
+                yn = min(0.0, y[j])
+                e += 0.5 * ew * c[j] * yn * yn
+                st += sc[j] * yn
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[cd[j]])
+            cu_out[k] = g
+            s_out[k] = st / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
+    """Penalty springs kappa_i on the contact dofs as a `ContactLaw`."""
+    cd = np.asarray(p.contact.dofs, np.int64)
+    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, p.nfree))
+    kappa = np.asarray(kappa, float)
+    return ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+
+
+def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:
+    return sp.csr_matrix(p.K if law.K_extra is None else p.K + law.K_extra)
+
+
+def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, gamma: float,
+                        law: ContactLaw) -> Trajectory:
+    """Explicit Newmark (beta = 0, gamma) with the contact `law` at t_{n+1} (module
+    docstring). The sampled energy is newmark_sparse's: 1/2 V.M.V + 1/2 U.K'.U - F.U +
+    offset + ew sum_i c_i / 2 min(0, y_i)^2; the stress sum_i sc_i min(0, y_i) / area;
+    the contact force of dof i (chatter, contact times, peak) fscale c_i max(0, -y_i)."""
+    dt, gamma = float(dt), float(gamma)
+    n = p.nfree
+    K = _stiffness(p, law)
+    Pm, Qm = sp.csr_matrix(law.P), sp.csr_matrix(law.Q)
+    y0, c = np.asarray(law.y0, float), np.asarray(law.c, float)
+    massless = p.massless
+    hv = np.flatnonzero(~massless).astype(np.int64)
+    mv = np.flatnonzero(massless).astype(np.int64)
+    cd = np.asarray(p.contact.dofs, np.int64)
+    nc = cd.size
+    if mv.size:
+        Kmm = K[mv][:, mv]
+        mfac = Factor.of(Kmm)
+        Qmt = sp.csc_matrix(Qm[:, mv].T)
+        Z = np.empty((mv.size, nc))
+        for j in range(nc):
+            Z[:, j] = mfac.solve(Qmt[:, j].toarray().ravel())
+        W = np.ascontiguousarray(Pm[:, mv] @ Z)
+        keep = np.ones(n)
+        keep[mv] = 0.0
+        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+        Kmh.eliminate_zeros()
+    else:
+        mfac = Factor.of(sp.identity(1, format="csc"))
+        Z, W = np.zeros((0, nc)), np.zeros((nc, nc))
+        Kmh = sp.csr_matrix((0, n))
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
+    A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
+    out = _buffers(p, nsteps, stride)
+    yneg = np.minimum(0.0, Pm @ U + y0)
+    out["E"][0] = float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
+                        + 0.5 * float(law.ew) * np.sum(c * yneg * yneg))
+    out["s"][0] = float(np.sum(np.asarray(law.sc, float) * yneg) / np.sum(p.contact.weights))
+    stats = _new_stats()
+    k, done, min_gap, blow = _explicit_law_kernel(
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv, *csr_arrays(K[hv]),
+        *csr_arrays(Kmh), mfac.arrays, hfac.arrays, Mhh.diagonal() if diag else np.zeros(0),
+        *csr_arrays(Pm), *csr_arrays(Qm.T), y0, c, float(law.ew),
+        np.asarray(law.sc, float), float(law.fscale), W, np.ascontiguousarray(Z), cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V, A,
+        dt, gamma, int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
+        out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+def omega_max_squared(p: SparseProblem, law: ContactLaw | None = None) -> float:
+    """The largest generalized eigenvalue (modulus) of (K' + Q^T diag(c) P, M) with every
+    contact dof of the law active (of (K, M) without a law), the massless dofs eliminated
+    statically (the Schur complement of their K block): ARPACK on the operator
+    M_hh^-1 K_s (M_hh factored once, or diagonal)."""
+    K = sp.csr_matrix(p.K)
+    if law is not None:
+        K = _stiffness(p, law) + sp.csr_matrix(law.Q).T @ sp.diags(np.asarray(law.c, float)) \
+            @ sp.csr_matrix(law.P)
+    massless = p.massless
+    hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+    Khh = sp.csr_matrix(K[hv][:, hv])
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    if mv.size:
+        mfac = Factor.of(sp.csr_matrix(K[mv][:, mv]))
+        Khm, Kmh = sp.csr_matrix(K[hv][:, mv]), sp.csr_matrix(K[mv][:, hv])
+
+        def kmul(x: np.ndarray) -> np.ndarray:
+            return Khh @ x - Khm @ mfac.solve(Kmh @ x)
+    else:
+        def kmul(x: np.ndarray) -> np.ndarray:
+            return Khh @ x
+    d = Mhh.diagonal()
+    if Mhh.nnz == np.count_nonzero(d):
+        def op(x: np.ndarray) -> np.ndarray:
+            return kmul(np.ravel(x)) / d
+    else:
+        mh = Factor.of(Mhh)
+
+        def op(x: np.ndarray) -> np.ndarray:
+            return mh.solve(kmul(np.ravel(x)))
+    A = LinearOperator((hv.size, hv.size), matvec=op, dtype=float)
+    val = eigs(A, k=1, which="LM", return_eigenvectors=False, tol=1e-8, maxiter=100_000)
+    return float(np.max(np.abs(val)))
+
+
+def stable_dt(p: SparseProblem, gamma: float, law: ContactLaw | None = None) -> float:
+    """The explicit Newmark (beta = 0, gamma >= 1/2) step's limit 2 / (sqrt(2 gamma)
+    omega_max) on this problem (`omega_max_squared`, every contact dof active)."""
+    return float(2.0 / (np.sqrt(2.0 * gamma) * np.sqrt(omega_max_squared(p, law))))
