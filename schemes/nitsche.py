@@ -30,7 +30,7 @@ from contact_bench.kernels.boundary import element_limit, energy_budget, run_bou
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
 from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
-from contact_bench.kernels.sparse_explicit import explicit_law_sparse
+from contact_bench.kernels.sparse_explicit import explicit_law_sparse, stable_dt
 
 
 class Nitsche(Scheme):
@@ -125,6 +125,11 @@ class Nitsche(Scheme):
         return ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
                           y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
                           K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the law's eigenvalues on this mesh, inactive and all active
+        # (`contact_bench.kernels.sparse_explicit.stable_dt`)
+        return stable_dt(problem, self.beta, self.gamma, self.contact_law(problem))
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
         law = self.contact_law(problem)

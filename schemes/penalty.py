@@ -27,7 +27,7 @@ from contact_bench.kernels.boundary import element_limit, energy_budget, run_bou
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
 from contact_bench.kernels.sparse import newmark_sparse
-from contact_bench.kernels.sparse_explicit import explicit_law_sparse, penalty_law
+from contact_bench.kernels.sparse_explicit import explicit_law_sparse, penalty_law, stable_dt
 
 
 class Penalty(Scheme):
@@ -80,10 +80,19 @@ class Penalty(Scheme):
     # (`contact_bench.kernels.sparse_explicit`)
     forms = frozenset({"banded1d", "sparse"})
 
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def _sparse_kappa(self, problem) -> np.ndarray:
         if not (problem.E_contact > 0 and problem.h_contact > 0):
             raise ValueError("penalty needs the problem's E_contact and h_contact")
-        kappa = self.gamma_p * problem.E_contact / problem.h_contact * problem.contact.weights
+        return self.gamma_p * problem.E_contact / problem.h_contact * problem.contact.weights
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the springs' eigenvalues on this mesh (the 1D element formula does not bound
+        # those of 2D/3D elements): `contact_bench.kernels.sparse_explicit.stable_dt`
+        law = penalty_law(problem, self._sparse_kappa(problem))
+        return stable_dt(problem, self.beta, self.gamma, law)
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        kappa = self._sparse_kappa(problem)
         if self.beta == 0.0:
             return explicit_law_sparse(problem, dt, nsteps, stride, self.gamma,
                                        penalty_law(problem, kappa))

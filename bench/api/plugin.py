@@ -335,6 +335,12 @@ class Scheme(Plugin):
         """Largest stable dt on a mesh with smallest element h and wave speed c (None: none)."""
         return None
 
+    def sparse_stability_limit(self, problem: Any) -> float | None:
+        """Largest stable dt on a `contact_bench.api.sparse.SparseProblem` (None: none).
+        The default is `stability_limit(problem.hmin, problem.c_max)`; an explicit scheme
+        whose 1D formula does not bound the problem's eigenvalues computes its own."""
+        return self.stability_limit(problem.hmin, problem.c_max)
+
     def cannot_run(self, case: Case) -> str | None:
         """A reason why the scheme cannot run this scene, or None."""
         return None

@@ -317,7 +317,8 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
         raise BenchError(f"T = {_num(T)} is {transits:.3g} wave transits of {case.spec}; "
                          f"allowed: at most {MAX_TRANSITS:g} (T <= "
                          f"{_num(MAX_TRANSITS * length / semi.c_max)})")
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = (scheme.sparse_stability_limit(semi) if case.form == SPARSE
+             else scheme.stability_limit(semi.hmin, semi.c_max))
     lowered = ""
     if limit is not None and dt > limit * (1 + 1e-12):
         if dt_given and not allow_unstable:
