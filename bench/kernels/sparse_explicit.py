@@ -51,6 +51,7 @@ from contact_bench.kernels.sparse import (
     csr_arrays,
     csr_matvec,
     initial_acceleration,
+    lcp_solve,
     lu_solve,
     penalty_solve,
 )
@@ -282,3 +283,146 @@ def stable_dt(p: SparseProblem, beta: float, gamma: float,
     if law is not None:
         w2 = max(w2, omega_max_squared(p, law, True))
     return float(1.0 / (np.sqrt(gamma / 2.0 - beta) * np.sqrt(w2)))
+
+
+# ------------------------------------------- Taylor-Flanagan with a non-diagonal mass
+
+
+@njit(cache=True)
+def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A, dt, nsteps,
+               stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
+               stats):  # pragma: no cover - compiled
+    """Taylor-Flanagan on many contact dofs with a factored mass (module docstring of
+    `taylor_flanagan_sparse`); Z = M^-1 C^T, W = C Z."""
+    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    n = U.size
+    nc = cd.size
+    rhs = np.empty(n)
+    work = np.empty(n)
+    w = np.empty(n)
+    lam = np.zeros(nc)
+    mu = np.zeros(nc)
+    inJ = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):  # drift and half kick
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+            V[i] += 0.5 * dt * A[i]
+        lam[:] = 0.0
+        inJ[:] = False
+        grow = False
+        for j in range(nc):
+            if gap0[j] + U[cd[j]] < 0.0:
+                inJ[j] = True
+                grow = True
+        for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
+            if not grow:
+                break
+            idx = np.flatnonzero(inJ)
+            m = idx.size
+            Ws = np.empty((m, m))
+            q = np.empty(m)
+            vmax = 0.0
+            for a in range(m):  # velocities before this set's correction
+                acc = V[cd[idx[a]]]
+                for b in range(nc):
+                    acc -= Z[cd[idx[a]], b] * mu[b]
+                q[a] = acc
+                vmax = max(vmax, abs(acc))
+                for b in range(m):
+                    Ws[a, b] = W[idx[a], idx[b]]
+            ms = np.zeros(m)
+            act = np.zeros(m, np.bool_)
+            lcp_solve(Ws, q, ms, act, 1e-13 * max(vmax, 1e-300))
+            dmu = np.zeros(nc)  # the change of mu = dt lam
+            for a in range(m):
+                dmu[idx[a]] = ms[a] - mu[idx[a]]
+                mu[idx[a]] = ms[a]
+            on = np.flatnonzero(dmu)
+            for i in range(n):
+                acc = 0.0
+                for b in on:
+                    acc += Z[i, b] * dmu[b]
+                V[i] += acc
+                U[i] += dt * acc
+            grow = False
+            for j in range(nc):
+                if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
+                    inJ[j] = True
+                    grow = True
+        for j in range(nc):
+            lam[j] = mu[j] / dt
+            mu[j] = 0.0
+        csr_matvec(Kp, Ki, Kx, U, rhs)  # A = M^-1 (F - K U)
+        for i in range(n):
+            rhs[i] = F[i] - rhs[i]
+        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
+        for i in range(n):
+            V[i] += 0.5 * dt * A[i]
+        _stats_update(stats, status, lam, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Mp, Mi, Mx, V, w)
+            e = 0.5 * (V @ w)
+            csr_matvec(Kp, Ki, Kx, U, w)
+            e += 0.5 * (U @ w) - F @ U + offset
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[cd[j]])
+            cu_out[k] = g
+            s_out[k] = -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
+                           stride: int) -> Trajectory:
+    """The Taylor-Flanagan central difference with any positive definite mass.
+
+    The 1D algorithm (`schemes/taylor_flanagan.py`) on many contact dofs: after the drift
+    U' = U + dt V + dt^2/2 A and half kick V' = V + dt/2 A, the dofs J whose gap is
+    negative get the impulses dt lam_J >= 0 that make their velocities
+    V'_J + dt W_JJ lam_J >= 0, complementary to lam_J (W = C M^-1 C^T, the Delassus
+    matrix of the contact set under M^-1, computed once; the LCP by `lcp_solve`); then
+    U' += dt^2 M^-1 C^T lam, V' += dt M^-1 C^T lam. A stopped dof stays where it was, a
+    released one moves up, so J's gaps stay >= 0; with a non-diagonal M the correction
+    also moves the other contact dofs, and any of them it pushes below the obstacle joins
+    J (the set grows, at most n_c times). With one contact dof this is the 1D step; with
+    a diagonal M, each dof's own stop (`central_sparse`). Then A = M^-1 (F - K U') (M
+    factored once) and V = V' + dt/2 A. ValueError if a dof is massless."""
+    if np.any(p.massless):
+        raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
+    n = p.nfree
+    cd = np.asarray(p.contact.dofs, np.int64)
+    fac = Factor.of(p.M)
+    Z = np.empty((n, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        Z[:, j] = fac.solve(e)
+        e[d] = 0.0
+    W = np.ascontiguousarray(0.5 * (Z[cd] + Z[cd].T))
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = fac.solve(p.F - p.K @ U)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    k, done, min_gap, blow = _tf_kernel(
+        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,
+        np.ascontiguousarray(Z), U, V, A, float(dt), int(nsteps), int(stride),
+        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
+        stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
