@@ -9,6 +9,8 @@ import pytest
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.harness.runner import run_one
 from contact_bench.kernels.sparse import central_sparse
@@ -118,3 +120,25 @@ def test_declared_sparse_limit_is_the_stability_edge(case, nx, T, scheme):
                     step_repeats=1).row
     assert below["status"] == "ok" and below["energy_drift_max"] < 0.2
     assert above["status"] == "unstable" or above["energy_drift_max"] > 1.0
+
+
+NEW_1D_SCHEMES = ["penalty[beta=0]", "penalty[beta=0,mass=getfem]", "nitsche[beta=0,theta=1]",
+                  "nitsche[beta=0,theta=0]", "nitsche[beta=0,theta=-1]",
+                  "nitsche[beta=0,mass=getfem]", "taylor_flanagan"]
+
+
+@pytest.mark.parametrize("scheme", NEW_1D_SCHEMES)
+def test_embedded_bar_keeps_the_1d_declared_bounds(scheme):
+    """On the embedded dropped bar (2D) the new explicit paths stay within the bounds the
+    scheme declares for the 1D bar (`penetration_bound`, `energy_drift_bound`)."""
+    nx, T, dt = 16, 2.0, 2.1e-3
+    row = run_one("embedded_bar[of=dropped_bar,dim=2]", scheme, nx=nx, T=T, dt=dt,
+                  step_repeats=1).row
+    assert row["status"] == "ok", row["notes"]
+    sch, bar = make_scheme(scheme), make_case("dropped_bar")
+    semi = discretise(bar, mesh_nodes(float(bar.L), nx), sch.mass_kind())
+    slack = 1e-12 * float(np.max(np.abs(semi.U0)))
+    assert row["penetration_max"] <= sch.penetration_bound(semi, dt) + slack
+    drift = sch.energy_drift_bound(semi, dt)
+    if drift is not None:
+        assert row["energy_drift_max"] <= drift
