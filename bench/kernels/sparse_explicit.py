@@ -20,7 +20,9 @@ a piecewise-linear problem in mu: with the free solution u_f (K'_mm factored onc
 Z = K'_mm^-1 Q_m^T, W = P_m Z (n_c x n_c, computed once), y = y_f + W mu, solved
 exactly by `penalty_solve`'s active-set iteration, then u_m = u_f + Z mu (the same
 elimination as `quasistatic_sparse`'s exact contact, with the law in place of the
-complementarity). Their velocity is the backward difference.
+complementarity). Their velocity is the backward difference. The response matrices
+(Z here, M^-1 C^T in `taylor_flanagan_sparse`) are kept dense, up to `KEEP_Z_ENTRIES`
+values (beyond: ValueError; `newmark_sparse`'s second-solve fallback is not done here).
 
 `stable_dt`: the step's limit 1 / (sqrt(gamma/2 - beta) omega_max) (beta = 0, gamma =
 1/2: 2 / omega_max), with omega_max^2 the largest generalized eigenvalue (in modulus) of
@@ -42,6 +44,7 @@ from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.sampling import BLOWUP_FACTOR
 from contact_bench.kernels.sparse import (
+    KEEP_Z_ENTRIES,
     ContactLaw,
     Factor,
     _buffers,
@@ -168,6 +171,13 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
     return k, nsteps, min_gap, -1
 
 
+def _check_response(rows: int, nc: int) -> None:
+    """The kept response matrix (rows x n_c values) within `KEEP_Z_ENTRIES`."""
+    if rows * nc > KEEP_Z_ENTRIES:
+        raise ValueError(f"the response matrix would hold {rows} x {nc} values, more than "
+                         f"{KEEP_Z_ENTRIES:.0e} (fewer contact dofs or a smaller mesh)")
+
+
 def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
     """Penalty springs kappa_i on the contact dofs as a `ContactLaw`."""
     cd = np.asarray(p.contact.dofs, np.int64)
@@ -197,6 +207,7 @@ def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, g
     cd = np.asarray(p.contact.dofs, np.int64)
     nc = cd.size
     if mv.size:
+        _check_response(mv.size, nc)
         Kmm = K[mv][:, mv]
         mfac = Factor.of(Kmm)
         Qmt = sp.csc_matrix(Qm[:, mv].T)
@@ -420,6 +431,7 @@ def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
         raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
     n = p.nfree
     cd = np.asarray(p.contact.dofs, np.int64)
+    _check_response(n, cd.size)
     fac = Factor.of(p.M)
     Z = np.empty((n, cd.size))
     e = np.zeros(n)
