@@ -129,7 +129,11 @@ class Nitsche(Scheme):
     def sparse_stability_limit(self, problem) -> float | None:
         # the law's eigenvalues on this mesh, inactive and all active
         # (`contact_bench.kernels.sparse_explicit.stable_dt`)
-        return stable_dt(problem, self.beta, self.gamma, self.contact_law(problem))
+        try:
+            law = self.contact_law(problem)
+        except ValueError:  # integrate_sparse says what is missing
+            return None
+        return stable_dt(problem, self.beta, self.gamma, law)
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
         law = self.contact_law(problem)

@@ -88,7 +88,10 @@ class Penalty(Scheme):
     def sparse_stability_limit(self, problem) -> float | None:
         # the springs' eigenvalues on this mesh (the 1D element formula does not bound
         # those of 2D/3D elements): `contact_bench.kernels.sparse_explicit.stable_dt`
-        law = penalty_law(problem, self._sparse_kappa(problem))
+        try:
+            law = penalty_law(problem, self._sparse_kappa(problem))
+        except ValueError:  # no springs to size: integrate_sparse says what is missing
+            return None
         return stable_dt(problem, self.beta, self.gamma, law)
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
