@@ -24,13 +24,18 @@ complementarity). Their velocity is the backward difference. The response matric
 (Z here, M^-1 C^T in `taylor_flanagan_sparse`) are kept dense, up to `KEEP_Z_ENTRIES`
 values (beyond: ValueError; `newmark_sparse`'s second-solve fallback is not done here).
 
+`taylor_flanagan_sparse`: the Taylor-Flanagan central difference with a factored
+(consistent) mass, the penetrating contact dofs stopped together through the Delassus
+matrix C M^-1 C^T (its docstring).
+
 `stable_dt`: the step's limit 1 / (sqrt(gamma/2 - beta) omega_max) (beta = 0, gamma =
 1/2: 2 / omega_max), with omega_max^2 the largest generalized eigenvalue (in modulus) of
 (K' + the law's stiffness, M), both with no contact dof active and with every one, the
-massless dofs eliminated statically, by scipy's ARPACK (`eigs`: Nitsche's K' is
-unsymmetric for theta != 1) on the operator M^-1 K'. For the penalty every active set's
-stiffness lies between the two (the springs add a positive semi-definite term); for
-Nitsche the two states are an estimate, checked by runs at 0.95 and 1.05 times it.
+massless dofs eliminated statically, by scipy's ARPACK (`eigs`: Nitsche's active
+stiffness K' + Q^T diag(c) P is unsymmetric for theta != 1) on the operator M^-1 K'.
+For the penalty every active set's stiffness lies between the two (the springs add a
+positive semi-definite term); for Nitsche the two states are an estimate, checked by
+runs at 0.95 and 1.05 times it.
 """
 
 from __future__ import annotations
