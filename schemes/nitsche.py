@@ -30,6 +30,7 @@ from contact_bench.kernels.boundary import element_limit, energy_budget, run_bou
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
 from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
+from contact_bench.kernels.sparse_explicit import explicit_law_sparse, stable_dt
 
 
 class Nitsche(Scheme):
@@ -100,7 +101,8 @@ class Nitsche(Scheme):
         return run_boundary(semi, dt, nsteps, stride, self.beta, self.gamma,
                             inactive * (E / h), 1.0 / gam, p, q, th, 1.0)
 
-    # the general sparse problem (implicit), with the problem's normal stress B at the
+    # the general sparse problem (implicit; explicit: the law at U_{n+1},
+    # `contact_bench.kernels.sparse_explicit`), with the problem's normal stress B at the
     # contact dofs and nodal quadrature on the zone (weights w_i) for the contact term:
     # P = gam C + B, Q = gam C + theta B; K' = K - (theta / gam) B^T M_f B with the
     # zone's consistent mass M_f (coercive above a mesh-dependent gamma0, which the
@@ -109,12 +111,8 @@ class Nitsche(Scheme):
     # (`contact_bench.kernels.sparse.ContactLaw`)
     forms = frozenset({"banded1d", "sparse"})
 
-    def cannot_run(self, case) -> str | None:
-        if case.form == "sparse" and self.beta == 0.0:
-            return "the explicit (beta = 0) step has no sparse path yet"
-        return None
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def contact_law(self, problem) -> ContactLaw:
+        """The Nitsche term on a `SparseProblem` as a piecewise-linear `ContactLaw`."""
         B = problem.normal_stress
         if B is None or not (problem.E_contact > 0 and problem.h_contact > 0):
             raise ValueError("nitsche needs the problem's normal_stress, E_contact, h_contact")
@@ -126,7 +124,21 @@ class Nitsche(Scheme):
         B = sp.csr_matrix(B)
         w = np.asarray(c.weights, float)
         Mf = sp.diags(w) if c.face_mass is None else sp.csr_matrix(c.face_mass)
-        law = ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
-                         y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
-                         K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
+        return ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
+                          y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
+                          K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the law's eigenvalues on this mesh, inactive and all active
+        # (`contact_bench.kernels.sparse_explicit.stable_dt`)
+        try:
+            law = self.contact_law(problem)
+        except ValueError:  # integrate_sparse says what is missing
+            return None
+        return stable_dt(problem, self.beta, self.gamma, law)
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        law = self.contact_law(problem)
+        if self.beta == 0.0:
+            return explicit_law_sparse(problem, dt, nsteps, stride, self.gamma, law)
         return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, law=law)

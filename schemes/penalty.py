@@ -27,6 +27,7 @@ from contact_bench.kernels.boundary import element_limit, energy_budget, run_bou
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
 from contact_bench.kernels.sparse import newmark_sparse
+from contact_bench.kernels.sparse_explicit import explicit_law_sparse, penalty_law, stable_dt
 
 
 class Penalty(Scheme):
@@ -72,18 +73,30 @@ class Penalty(Scheme):
         return run_boundary(semi, dt, nsteps, stride, self.beta, self.gamma,
                             np.zeros((2, 2)), kappa, (1.0, 0.0), (1.0, 0.0), 1.0, kappa)
 
-    # the general sparse problem (implicit): a spring kappa w_i on each contact dof
-    # (w_i its share of the zone's area), kappa = gamma_p E / h at the zone; the springs'
-    # piecewise-linear step solved exactly (`contact_bench.kernels.sparse.penalty_solve`)
+    # the general sparse problem: a spring kappa w_i on each contact dof (w_i its share
+    # of the zone's area), kappa = gamma_p E / h at the zone. Implicit: the springs'
+    # piecewise-linear step solved exactly (`contact_bench.kernels.sparse.penalty_solve`);
+    # explicit: the springs at U_{n+1}, massless dofs quasi-static
+    # (`contact_bench.kernels.sparse_explicit`)
     forms = frozenset({"banded1d", "sparse"})
 
-    def cannot_run(self, case) -> str | None:
-        if case.form == "sparse" and self.beta == 0.0:
-            return "the explicit (beta = 0) step has no sparse path yet"
-        return None
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def _sparse_kappa(self, problem) -> np.ndarray:
         if not (problem.E_contact > 0 and problem.h_contact > 0):
             raise ValueError("penalty needs the problem's E_contact and h_contact")
-        kappa = self.gamma_p * problem.E_contact / problem.h_contact * problem.contact.weights
+        return self.gamma_p * problem.E_contact / problem.h_contact * problem.contact.weights
+
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the springs' eigenvalues on this mesh (the 1D element formula does not bound
+        # those of 2D/3D elements): `contact_bench.kernels.sparse_explicit.stable_dt`
+        try:
+            law = penalty_law(problem, self._sparse_kappa(problem))
+        except ValueError:  # no springs to size: integrate_sparse says what is missing
+            return None
+        return stable_dt(problem, self.beta, self.gamma, law)
+
+    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+        kappa = self._sparse_kappa(problem)
+        if self.beta == 0.0:
+            return explicit_law_sparse(problem, dt, nsteps, stride, self.gamma,
+                                       penalty_law(problem, kappa))
         return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, kappa)

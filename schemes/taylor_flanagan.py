@@ -46,6 +46,7 @@ from contact_bench.kernels.common import (
 from contact_bench.kernels.lumped import tf_lumped_kernel
 from contact_bench.kernels.newmark import kernel_form, newmark_limit
 from contact_bench.kernels.sparse import central_sparse
+from contact_bench.kernels.sparse_explicit import stable_dt, taylor_flanagan_sparse
 
 #: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
 #: dof-steps) a consistent mass steps with the natural-order `taylor_flanagan_kernel`,
@@ -86,17 +87,20 @@ class TaylorFlanagan(MassiveContactNodeScheme):
                 or kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike")
         return run_taylor_flanagan(semi, dt, nsteps, stride, fast)
 
-    # the general sparse problem with the lumped mass: each contact dof is stopped on its
-    # own (`contact_bench.kernels.sparse.central_sparse`)
+    # the general sparse problem: with the lumped mass each contact dof is stopped on its
+    # own (`contact_bench.kernels.sparse.central_sparse`); with the consistent one the
+    # penetrating dofs are stopped together through the Delassus matrix C M^-1 C^T
+    # (`contact_bench.kernels.sparse_explicit.taylor_flanagan_sparse`)
     forms = frozenset({"banded1d", "sparse"})
 
-    def cannot_run(self, case) -> str | None:
-        if case.form == "sparse" and self.mass != "lumped":
-            return "on a sparse problem it needs mass=lumped (a diagonal mass, no solve)"
-        return None
+    def sparse_stability_limit(self, problem) -> float | None:
+        # the mesh's largest eigenvalue (the 1D formula does not bound 2D/3D elements')
+        return stable_dt(problem, 0.0, 0.5)
 
     def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return central_sparse(problem, dt, nsteps, stride)
+        if self.mass == "lumped":
+            return central_sparse(problem, dt, nsteps, stride)
+        return taylor_flanagan_sparse(problem, dt, nsteps, stride)
 
 
 @njit(cache=True)

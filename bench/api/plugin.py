@@ -336,9 +336,9 @@ class Scheme(Plugin):
         return None
 
     def sparse_stability_limit(self, problem: Any) -> float | None:
-        """Largest stable dt on a `contact_bench.api.sparse.SparseProblem` (None: none);
-        by default `stability_limit` at the problem's smallest element and largest wave
-        speed, the 1D formula."""
+        """Largest stable dt on a `contact_bench.api.sparse.SparseProblem` (None: none).
+        The default is `stability_limit(problem.hmin, problem.c_max)`; an explicit scheme
+        whose 1D formula does not bound the problem's eigenvalues computes its own."""
         return self.stability_limit(problem.hmin, problem.c_max)
 
     def cannot_run(self, case: Case) -> str | None:

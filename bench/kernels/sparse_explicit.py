@@ -1,0 +1,458 @@
+"""Explicit stepping of a piecewise-linear contact law on the general sparse problem.
+
+The explicit (beta = 0) counterpart of `contact_bench.kernels.sparse.newmark_sparse`
+with a `ContactLaw` (penalty springs, Nitsche), for any mass variant:
+
+    U_{n+1} = U_n + dt V_n + dt^2/2 A_n,
+    M A_{n+1} = F - K' U_{n+1} + Q^T mu(U_{n+1}),   mu_i = c_i max(0, -y_i),  y = P U + y0,
+    V_{n+1} = V_n + dt ((1 - gamma) A_n + gamma A_{n+1})
+
+(gamma = 1/2: the central difference). The law is evaluated at U_{n+1}, explicitly. A
+diagonal M (lumped) is a division, any other M one solve with its factor (`Factor`,
+once outside the loop).
+
+Massless dofs (zero mass rows: the redistributed variants) have no acceleration: they
+are quasi-static, solved each step from their own rows with the law,
+
+    K'_mm u_m + K'_mh u_h - Q_m^T mu = F_m,   mu = c max(0, -(P U + y0)),
+
+a piecewise-linear problem in mu: with the free solution u_f (K'_mm factored once) and
+Z = K'_mm^-1 Q_m^T, W = P_m Z (n_c x n_c, computed once), y = y_f + W mu, solved
+exactly by `penalty_solve`'s active-set iteration, then u_m = u_f + Z mu (the same
+elimination as `quasistatic_sparse`'s exact contact, with the law in place of the
+complementarity). Their velocity is the backward difference. The response matrices
+(Z here, M^-1 C^T in `taylor_flanagan_sparse`) are kept dense, up to `KEEP_Z_ENTRIES`
+values (beyond: ValueError; `newmark_sparse`'s second-solve fallback is not done here).
+
+`taylor_flanagan_sparse`: the Taylor-Flanagan central difference with a factored
+(consistent) mass, the penetrating contact dofs stopped together through the Delassus
+matrix C M^-1 C^T (its docstring).
+
+`stable_dt`: the step's limit 1 / (sqrt(gamma/2 - beta) omega_max) (beta = 0, gamma =
+1/2: 2 / omega_max), with omega_max^2 the largest generalized eigenvalue (in modulus) of
+(K' + the law's stiffness, M), both with no contact dof active and with every one, the
+massless dofs eliminated statically, by scipy's ARPACK (`eigs`: Nitsche's active
+stiffness K' + Q^T diag(c) P is unsymmetric for theta != 1) on the operator M^-1 K'.
+For the penalty every active set's stiffness lies between the two (the springs add a
+positive semi-definite term); for Nitsche the two states are an estimate, checked by
+runs at 0.95 and 1.05 times it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.sampling import BLOWUP_FACTOR
+from contact_bench.kernels.sparse import (
+    KEEP_Z_ENTRIES,
+    ContactLaw,
+    Factor,
+    _buffers,
+    _new_stats,
+    _stats_update,
+    _trajectory,
+    csr_arrays,
+    csr_matvec,
+    initial_acceleration,
+    lcp_solve,
+    lu_solve,
+    penalty_solve,
+)
+
+#: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
+SMALL_DENSE = 64
+
+
+@njit(cache=True)
+def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
+                         mfac, hfac, diag_h, Pp, Pi, Px, QTp, QTi, QTx, y0, c, ew, sc, fscale,
+                         W, Z, cd, gap0, weights, U, V, A, dt, gamma, nsteps, stride, offset,
+                         t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+    """Advance (U, V, A) in place (module docstring); returns (samples, steps, min gap,
+    blow-up step or -1). K rows: Kh = K'[hv] (all columns), Km = K'[mv] with the massless
+    columns dropped; QT = Q^T (n x n_c); hfac/diag_h: M_hh's factor or diagonal; mfac:
+    K'_mm's factor; W, Z the massless elimination's matrices."""
+    n = U.size
+    nh, nm, nc = hv.size, mv.size, cd.size
+    rm = np.empty(nm)
+    um = np.empty(nm)
+    wm = np.empty(nm)
+    rh = np.empty(nh)
+    ah = np.empty(nh)
+    wh = np.empty(nh)
+    w = np.empty(n)
+    y = np.empty(nc)
+    mu = np.zeros(nc)
+    lam = np.zeros(nc)
+    f = np.empty(n)
+    active = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        for a in range(nh):
+            i = hv[a]
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+        if nm:  # the massless dofs from their rows, the law solved exactly
+            csr_matvec(Kmp, Kmi, Kmx, U, rm)
+            for b in range(nm):
+                rm[b] = F[mv[b]] - rm[b]
+            lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
+                     mfac[7], rm, um, wm)
+            for b in range(nm):
+                i = mv[b]
+                wm[b] = U[i]  # the old position, for the velocity
+                U[i] = um[b]
+            csr_matvec(Pp, Pi, Px, U, y)
+            pen = False
+            for j in range(nc):
+                y[j] += y0[j]
+                pen = pen or y[j] < 0.0
+            if pen:
+                penalty_solve(W, y, c, mu, active)
+                on = np.flatnonzero(mu)
+                for b in range(nm):
+                    acc = 0.0
+                    for j in on:
+                        acc += Z[b, j] * mu[j]
+                    U[mv[b]] += acc
+            for b in range(nm):
+                i = mv[b]
+                V[i] = (U[i] - wm[b]) / dt
+        csr_matvec(Pp, Pi, Px, U, y)  # the law at U_{n+1}
+        for j in range(nc):
+            y[j] += y0[j]
+            mu[j] = c[j] * max(0.0, -y[j])
+            lam[j] = fscale * mu[j]
+        csr_matvec(QTp, QTi, QTx, mu, f)  # Q^T mu
+        csr_matvec(Khp, Khi, Khx, U, rh)
+        for a in range(nh):
+            i = hv[a]
+            rh[a] = F[i] - rh[a] + f[i]
+        if diag_h.size:
+            for a in range(nh):
+                ah[a] = rh[a] / diag_h[a]
+        else:
+            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
+                     rh, ah, wh)
+        for a in range(nh):
+            i = hv[a]
+            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+            A[i] = ah[a]
+        _stats_update(stats, status, lam, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Mp, Mi, Mx, V, w)
+            e = 0.5 * (V @ w)
+            csr_matvec(Kp, Ki, Kx, U, w)
+            e += 0.5 * (U @ w) - F @ U + offset
+            st = 0.0
+            for j in range(nc):  # the law's energy and stress
+                yn = min(0.0, y[j])
+                e += 0.5 * ew * c[j] * yn * yn
+                st += sc[j] * yn
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[cd[j]])
+            cu_out[k] = g
+            s_out[k] = st / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def _check_response(rows: int, nc: int) -> None:
+    """The kept response matrix (rows x n_c values) within `KEEP_Z_ENTRIES`."""
+    if rows * nc > KEEP_Z_ENTRIES:
+        raise ValueError(f"the response matrix would hold {rows} x {nc} values, more than "
+                         f"{KEEP_Z_ENTRIES:.0e} (fewer contact dofs or a smaller mesh)")
+
+
+def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
+    """Penalty springs kappa_i on the contact dofs as a `ContactLaw`."""
+    cd = np.asarray(p.contact.dofs, np.int64)
+    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, p.nfree))
+    kappa = np.asarray(kappa, float)
+    return ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+
+
+def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:
+    return sp.csr_matrix(p.K if law.K_extra is None else p.K + law.K_extra)
+
+
+def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, gamma: float,
+                        law: ContactLaw) -> Trajectory:
+    """Explicit Newmark (beta = 0, gamma) with the contact `law` at t_{n+1} (module
+    docstring). The sampled energy is newmark_sparse's: 1/2 V.M.V + 1/2 U.K'.U - F.U +
+    offset + ew sum_i c_i / 2 min(0, y_i)^2; the stress sum_i sc_i min(0, y_i) / area;
+    the contact force of dof i (chatter, contact times, peak) fscale c_i max(0, -y_i)."""
+    dt, gamma = float(dt), float(gamma)
+    n = p.nfree
+    K = _stiffness(p, law)
+    Pm, Qm = sp.csr_matrix(law.P), sp.csr_matrix(law.Q)
+    y0, c = np.asarray(law.y0, float), np.asarray(law.c, float)
+    massless = p.massless
+    hv = np.flatnonzero(~massless).astype(np.int64)
+    mv = np.flatnonzero(massless).astype(np.int64)
+    cd = np.asarray(p.contact.dofs, np.int64)
+    nc = cd.size
+    if mv.size:
+        _check_response(mv.size, nc)
+        Kmm = K[mv][:, mv]
+        mfac = Factor.of(Kmm)
+        Qmt = sp.csc_matrix(Qm[:, mv].T)
+        Z = np.empty((mv.size, nc))
+        for j in range(nc):
+            Z[:, j] = mfac.solve(Qmt[:, j].toarray().ravel())
+        W = np.ascontiguousarray(Pm[:, mv] @ Z)
+        keep = np.ones(n)
+        keep[mv] = 0.0
+        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+        Kmh.eliminate_zeros()
+    else:
+        mfac = Factor.of(sp.identity(1, format="csc"))
+        Z, W = np.zeros((0, nc)), np.zeros((nc, nc))
+        Kmh = sp.csr_matrix((0, n))
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
+    A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
+    out = _buffers(p, nsteps, stride)
+    yneg = np.minimum(0.0, Pm @ U + y0)
+    out["E"][0] = float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
+                        + 0.5 * float(law.ew) * np.sum(c * yneg * yneg))
+    out["s"][0] = float(np.sum(np.asarray(law.sc, float) * yneg) / np.sum(p.contact.weights))
+    stats = _new_stats()
+    k, done, min_gap, blow = _explicit_law_kernel(
+        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv, *csr_arrays(K[hv]),
+        *csr_arrays(Kmh), mfac.arrays, hfac.arrays, Mhh.diagonal() if diag else np.zeros(0),
+        *csr_arrays(Pm), *csr_arrays(Qm.T), y0, c, float(law.ew),
+        np.asarray(law.sc, float), float(law.fscale), W, np.ascontiguousarray(Z), cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V, A,
+        dt, gamma, int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
+        out["V"], out["cu"], out["s"], out["E"], stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+
+
+def omega_max_squared(p: SparseProblem, law: ContactLaw | None = None,
+                      active: bool = True) -> float:
+    """The largest generalized eigenvalue (modulus) of (K' + Q^T diag(c) P, M) with every
+    contact dof of the law active (`active`; else of (K', M)), of (K, M) without a law;
+    the massless dofs eliminated statically (the Schur complement of their K block):
+    ARPACK on the operator M_hh^-1 K_s (M_hh factored once, or diagonal)."""
+    K = sp.csr_matrix(p.K)
+    if law is not None:
+        K = _stiffness(p, law)
+        if active:
+            K = sp.csr_matrix(K + sp.csr_matrix(law.Q).T @ sp.diags(np.asarray(law.c, float))
+                              @ sp.csr_matrix(law.P))
+    massless = p.massless
+    hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+    Khh = sp.csr_matrix(K[hv][:, hv])
+    Mhh = sp.csr_matrix(p.M[hv][:, hv])
+    if mv.size:
+        mfac = Factor.of(sp.csr_matrix(K[mv][:, mv]))
+        Khm, Kmh = sp.csr_matrix(K[hv][:, mv]), sp.csr_matrix(K[mv][:, hv])
+
+        def kmul(x: np.ndarray) -> np.ndarray:
+            return Khh @ x - Khm @ mfac.solve(Kmh @ x)
+    else:
+        def kmul(x: np.ndarray) -> np.ndarray:
+            return Khh @ x
+    d = Mhh.diagonal()
+    if Mhh.nnz == np.count_nonzero(d):
+        def op(x: np.ndarray) -> np.ndarray:
+            return kmul(np.ravel(x)) / d
+    else:
+        mh = Factor.of(Mhh)
+
+        def op(x: np.ndarray) -> np.ndarray:
+            return mh.solve(kmul(np.ravel(x)))
+    if hv.size <= SMALL_DENSE:  # ARPACK needs n > 3; a few dozen columns are cheap
+        cols = np.column_stack([op(e) for e in np.eye(hv.size)]) if hv.size else np.zeros((1, 1))
+        return float(np.max(np.abs(np.linalg.eigvals(cols))))
+    A = LinearOperator((hv.size, hv.size), matvec=op, dtype=float)
+    # a random start: a symmetric one (ones) never sees the antisymmetric modes of a
+    # symmetric scene, and the largest may be one of them
+    try:
+        val = eigs(A, k=1, which="LM", return_eigenvectors=False, tol=1e-8, maxiter=100_000,
+                   v0=np.random.default_rng(0).standard_normal(hv.size))
+    except ArpackNoConvergence as exc:  # the Ritz value reached so far, if any
+        if not len(exc.eigenvalues):
+            raise
+        val = exc.eigenvalues
+    return float(np.max(np.abs(val)))
+
+
+def stable_dt(p: SparseProblem, beta: float, gamma: float,
+              law: ContactLaw | None = None) -> float | None:
+    """Newmark's (2 beta < gamma) step limit 1 / (sqrt(gamma/2 - beta) omega_max) on this
+    problem, omega_max^2 the larger of `omega_max_squared` with the law inactive and with
+    every contact dof active (None: unconditionally stable, 2 beta >= gamma)."""
+    if 2.0 * beta >= gamma:
+        return None
+    w2 = omega_max_squared(p, law, False)
+    if law is not None:
+        w2 = max(w2, omega_max_squared(p, law, True))
+    return float(1.0 / (np.sqrt(gamma / 2.0 - beta) * np.sqrt(w2)))
+
+
+# ------------------------------------------- Taylor-Flanagan with a non-diagonal mass
+
+
+@njit(cache=True)
+def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A, dt, nsteps,
+               stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
+               stats):  # pragma: no cover - compiled
+    """Taylor-Flanagan on many contact dofs with a factored mass (module docstring of
+    `taylor_flanagan_sparse`); Z = M^-1 C^T, W = C Z."""
+    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    n = U.size
+    nc = cd.size
+    rhs = np.empty(n)
+    work = np.empty(n)
+    w = np.empty(n)
+    lam = np.zeros(nc)
+    mu = np.zeros(nc)
+    inJ = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = np.inf
+    for j in range(nc):
+        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):  # drift and half kick
+            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+            V[i] += 0.5 * dt * A[i]
+        lam[:] = 0.0
+        inJ[:] = False
+        grow = False
+        for j in range(nc):
+            if gap0[j] + U[cd[j]] < 0.0:
+                inJ[j] = True
+                grow = True
+        for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
+            if not grow:
+                break
+            idx = np.flatnonzero(inJ)
+            m = idx.size
+            Ws = np.empty((m, m))
+            q = np.empty(m)
+            vmax = 0.0
+            for a in range(m):  # velocities before this set's correction
+                acc = V[cd[idx[a]]]
+                for b in range(nc):
+                    acc -= Z[cd[idx[a]], b] * mu[b]
+                q[a] = acc
+                vmax = max(vmax, abs(acc))
+                for b in range(m):
+                    Ws[a, b] = W[idx[a], idx[b]]
+            ms = np.zeros(m)
+            act = np.zeros(m, np.bool_)
+            lcp_solve(Ws, q, ms, act, 1e-13 * max(vmax, 1e-300))
+            dmu = np.zeros(nc)  # the change of mu = dt lam
+            for a in range(m):
+                dmu[idx[a]] = ms[a] - mu[idx[a]]
+                mu[idx[a]] = ms[a]
+            on = np.flatnonzero(dmu)
+            for i in range(n):
+                acc = 0.0
+                for b in on:
+                    acc += Z[i, b] * dmu[b]
+                V[i] += acc
+                U[i] += dt * acc
+            grow = False
+            for j in range(nc):
+                if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
+                    inJ[j] = True
+                    grow = True
+        for j in range(nc):
+            lam[j] = mu[j] / dt
+            mu[j] = 0.0
+        csr_matvec(Kp, Ki, Kx, U, rhs)  # A = M^-1 (F - K U)
+        for i in range(n):
+            rhs[i] = F[i] - rhs[i]
+        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
+        for i in range(n):
+            V[i] += 0.5 * dt * A[i]
+        _stats_update(stats, status, lam, step, dt)
+        for j in range(nc):
+            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        if step % stride == 0 or step == nsteps:
+            csr_matvec(Mp, Mi, Mx, V, w)
+            e = 0.5 * (V @ w)
+            csr_matvec(Kp, Ki, Kx, U, w)
+            e += 0.5 * (U @ w) - F @ U + offset
+            t_out[k] = step * dt
+            U_out[k, :] = U
+            V_out[k, :] = V
+            g = np.inf
+            for j in range(nc):
+                g = min(g, gap0[j] + U[cd[j]])
+            cu_out[k] = g
+            s_out[k] = -lam.sum() / area
+            E_out[k] = e
+            k += 1
+            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
+                           stride: int) -> Trajectory:
+    """The Taylor-Flanagan central difference with any positive definite mass.
+
+    The 1D algorithm (`schemes/taylor_flanagan.py`) on many contact dofs: after the drift
+    U' = U + dt V + dt^2/2 A and half kick V' = V + dt/2 A, the dofs J whose gap is
+    negative get the impulses dt lam_J >= 0 that make their velocities
+    V'_J + dt W_JJ lam_J >= 0, complementary to lam_J (W = C M^-1 C^T, the Delassus
+    matrix of the contact set under M^-1, computed once; the LCP by `lcp_solve`); then
+    U' += dt^2 M^-1 C^T lam, V' += dt M^-1 C^T lam. A stopped dof stays where it was, a
+    released one moves up, so J's gaps stay >= 0; with a non-diagonal M the correction
+    also moves the other contact dofs, and any of them it pushes below the obstacle joins
+    J (the set grows, at most n_c times). With one contact dof this is the 1D step; with
+    a diagonal M, each dof's own stop (`central_sparse`). Then A = M^-1 (F - K U') (M
+    factored once) and V = V' + dt/2 A. ValueError if a dof is massless."""
+    if np.any(p.massless):
+        raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
+    n = p.nfree
+    cd = np.asarray(p.contact.dofs, np.int64)
+    _check_response(n, cd.size)
+    fac = Factor.of(p.M)
+    Z = np.empty((n, cd.size))
+    e = np.zeros(n)
+    for j, d in enumerate(cd):
+        e[d] = 1.0
+        Z[:, j] = fac.solve(e)
+        e[d] = 0.0
+    W = np.ascontiguousarray(0.5 * (Z[cd] + Z[cd].T))
+    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+    A = fac.solve(p.F - p.K @ U)
+    out = _buffers(p, nsteps, stride)
+    stats = _new_stats()
+    k, done, min_gap, blow = _tf_kernel(
+        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
+        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,
+        np.ascontiguousarray(Z), U, V, A, float(dt), int(nsteps), int(stride),
+        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
+        stats)
+    return _trajectory(out, k, done, min_gap, blow, dt, stats)
