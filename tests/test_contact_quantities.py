@@ -149,13 +149,19 @@ def test_columns_converge_with_nx_and_dt(name, T, nx, dt):
 
 def test_embedded_bar_inherits_and_other_scenes_lack():
     """embedded_bar: the 1D scene's reference, its kernel's per-step statistics give the
-    1D run's sampled values. No columns where the reference gives no first contact:
-    grazing (no contact force), heterogeneous_bar (numerical), disc_drop (none), and
-    no end or duration before the reference's contact ends."""
+    1D run's sampled values, at any stride (the 1D samples blur with it). No columns
+    where the reference gives no first contact: grazing (no contact force),
+    heterogeneous_bar (numerical), and no end or duration before the reference's
+    contact ends."""
     one = run_one("clamped_bar", "redistributed", nx=20, dt=0.02, T=3.0).row
     emb = run_one("embedded_bar", "redistributed", nx=20, dt=0.02, T=3.0).row
     for col in CONTACT_COLUMNS:
         assert emb[col] == pytest.approx(one[col], rel=1e-9, abs=1e-12), col
+    strided = run_one("embedded_bar", "redistributed", nx=20, dt=0.02, T=3.0, stride=7).row
+    for col in CONTACT_COLUMNS:  # per-step statistics: the stride changes nothing
+        assert strided[col] == pytest.approx(emb[col], rel=1e-12, abs=1e-15), col
+    sampled = run_one("clamped_bar", "redistributed", nx=20, dt=0.02, T=3.0, stride=7).row
+    assert sampled["err_contact_start"] != pytest.approx(one["err_contact_start"])
     short = run_one("clamped_bar", "redistributed", nx=20, dt=0.02, T=1.5).row
     assert short["err_contact_start"] is not None and short["err_contact_end"] is None
     assert short["err_contact_duration"] is None
