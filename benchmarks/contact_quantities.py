@@ -28,18 +28,22 @@ RUN_T = {"clamped_bar": 3.0, "embedded_bar": 3.0, "long_time": 3.0, "dropped_bar
          "pulse": 1.0, "rough_data": 2.0}
 
 
-def closed_forms(name: str) -> tuple[float, float, float] | None:
-    """(start, duration, peak force) in closed form, for the scenes that have one."""
+def closed_forms(name: str) -> tuple[float, ...] | None:
+    """(start, duration, peak force, impulse) in closed form, for the scenes that have
+    one (tests/test_contact_quantities.py derives them)."""
     case = make_case(name)
     if name in ("clamped_bar", "long_time"):
-        return 1.0, 1.0, 0.5
+        return 1.0, 1.0, 0.5, 0.5
     if name == "dropped_bar":
         t1 = math.sqrt(2 * case.height / case.g)
         c = case.wave_speed
-        return t1, 2 * case.L / c, case.rho * c * case.g * t1 + 2 * case.rho * case.g * case.L
+        first = case.rho * c * case.g * t1
+        peak = first + 2 * case.rho * case.g * case.L
+        return t1, 2 * case.L / c, peak, 0.5 * (first + peak) * 2 * case.L / c
     if name in ("steel_bar", "fast_impact"):
         gap, v = float(case.u0([0.0])[0]), -float(case.v0([0.0])[0])
-        return gap / v, 2 * case.L / case.wave_speed, case.rho * case.wave_speed * v
+        return (gap / v, 2 * case.L / case.wave_speed, case.rho * case.wave_speed * v,
+                2 * case.rho * case.L * v)
     return None
 
 
@@ -52,9 +56,10 @@ def main() -> None:
         fc = first_contact(case.exact(case.T).stress, case.T)
         closed = closed_forms(name)
         row = {"scene": name, "start": fc.start, "end": fc.end, "duration": fc.duration,
-               "peak force": fc.peak_force}
+               "peak force": fc.peak_force, "impulse": fc.impulse}
         if closed is not None:
-            row["closed form (start, duration, peak)"] = ", ".join(f"{v:.15g}" for v in closed)
+            row["closed form (start, duration, peak, impulse)"] = ", ".join(
+                f"{v:.15g}" for v in closed)
         rows.append(row)
     print("## Reference first contacts (T: the scene's)\n")
     print(pd.DataFrame(rows).to_markdown(index=False, floatfmt=".15g"))

@@ -18,7 +18,7 @@ from contact_bench.harness.quantities import contact_quantity_errors, run_first_
 from contact_bench.harness.runner import run_one
 
 CONTACT_COLUMNS = ("err_contact_start", "err_contact_end", "err_contact_duration",
-                   "err_peak_force")
+                   "err_peak_force", "err_contact_impulse")
 
 
 def _reference(name: str) -> FirstContact:
@@ -30,24 +30,28 @@ def _reference(name: str) -> FirstContact:
 
 def test_clamped_and_dropped_bar_against_closed_forms():
     """clamped_bar: contact [1, 2], force 1/2. dropped_bar: free fall to t1 = sqrt(2 h / g),
-    contact for 2 L / c, the force rho c (g t1 + g t') growing to rho c g t1 + 2 rho g L."""
+    contact for 2 L / c, the force rho c (g t1 + g t') growing linearly to
+    rho c g t1 + 2 rho g L; the impulses: force x duration, the mean force x duration."""
     fc = _reference("clamped_bar")
-    assert (fc.start, fc.end, fc.duration, fc.peak_force) == pytest.approx(
-        (1.0, 2.0, 1.0, 0.5), rel=1e-14)
+    assert (fc.start, fc.end, fc.duration, fc.peak_force, fc.impulse) == pytest.approx(
+        (1.0, 2.0, 1.0, 0.5, 0.5), rel=1e-14)
     case = make_case("dropped_bar")
     fc = _reference("dropped_bar")
     c = case.wave_speed
     t1 = math.sqrt(2 * case.height / case.g)
     assert fc.start == pytest.approx(t1, rel=1e-14)
     assert fc.duration == pytest.approx(2 * case.L / c, rel=1e-13)
-    assert fc.peak_force == pytest.approx(
-        case.rho * c * case.g * t1 + 2 * case.rho * case.g * case.L, rel=1e-12)
+    first = case.rho * c * case.g * t1
+    peak = first + 2 * case.rho * case.g * case.L
+    assert fc.peak_force == pytest.approx(peak, rel=1e-12)
+    assert fc.impulse == pytest.approx(0.5 * (first + peak) * 2 * case.L / c, rel=1e-13)
 
 
 @pytest.mark.parametrize("name", ["steel_bar", "fast_impact[mach=0.5]", "fast_impact"])
 def test_uniform_impacts_against_closed_forms(name):
     """A free bar at speed v: impact at gap / v, two transits 2 L / c in contact, force
-    rho c v (steel_bar in SI units, fast_impact at two Mach numbers)."""
+    rho c v, impulse 2 rho L v (the momentum reversed; steel_bar in SI units,
+    fast_impact at two Mach numbers)."""
     case = make_case(name)
     x = np.array([0.0])
     gap, v = float(case.u0(x)[0]), -float(case.v0(x)[0])
@@ -56,6 +60,7 @@ def test_uniform_impacts_against_closed_forms(name):
     assert fc.start == pytest.approx(gap / v, rel=1e-13)
     assert fc.duration == pytest.approx(2 * case.L / c, rel=1e-13)
     assert fc.peak_force == pytest.approx(case.rho * c * v, rel=1e-13)
+    assert fc.impulse == pytest.approx(2 * case.rho * case.L * v, rel=1e-13)
 
 
 def test_pulse_against_its_travelling_waves():
@@ -63,7 +68,8 @@ def test_pulse_against_its_travelling_waves():
     f(s) = -A b((s - x0) / w), and Q' = -gap / 2 from the data. Before the contact the
     free end's u_x(0, t) = 0 gives u(0, t) = gap (1 - t) + 2 f(t) (f(0) = 0): the impact
     is its root. In contact u(0, t) = 0 gives Q'(-t) = P'(t), so the force is
-    -2 P'(t) = gap - 2 f'(t), which leaves at its zero; the peak is its maximum between."""
+    -2 P'(t) = gap - 2 f'(t), which leaves at its zero; the peak is its maximum between,
+    the impulse its integral gap (end - start) - 2 (f(end) - f(start))."""
     from contact_bench.cases import pulse
 
     A, gap, x0, w = pulse.AMPLITUDE, pulse.GAP, pulse.CENTER, pulse.WIDTH
@@ -91,6 +97,8 @@ def test_pulse_against_its_travelling_waves():
     # the reference's slopes come from its cubic Hermite table (2e-8 on u_x by
     # docs/exact-solutions.md), so its peak force is good to that
     assert fc.peak_force == pytest.approx(-best.fun, rel=1e-8)
+    impulse = gap * (end - start) + 2 * A * (bump(end)[0] - bump(start)[0])
+    assert fc.impulse == pytest.approx(impulse, rel=1e-9)
 
 
 def test_rough_data_contact_ends_with_its_force():
@@ -119,15 +127,16 @@ def test_run_first_contact_from_samples_and_from_step_statistics():
     t = np.arange(8.0)
     stress = -np.array([0, 0, 1, 3, 2, 0, 5, 0.0])
     fc = run_first_contact(SimpleNamespace(t=t, stress=stress, extra={}), 1.0)
-    assert (fc.start, fc.end, fc.peak_force) == (1.5, 4.5, 3.0)
+    assert (fc.start, fc.end, fc.peak_force, fc.impulse) == (1.5, 4.5, 3.0, 6.0)
     steps = SimpleNamespace(t=t, stress=stress, extra={
-        "first_contact_start": 2.25, "first_contact_end": 4.75, "first_contact_peak": 6.0})
+        "first_contact_start": 2.25, "first_contact_end": 4.75, "first_contact_peak": 6.0,
+        "first_contact_impulse": 8.0})
     fc = run_first_contact(steps, 0.5, area=2.0)
-    assert (fc.start, fc.end, fc.peak_force) == (2.0, 4.5, 3.0)
-    ref = FirstContact(1.0, 5.0, 4.0)
+    assert (fc.start, fc.end, fc.peak_force, fc.impulse) == (2.0, 4.5, 3.0, 4.0)
+    ref = FirstContact(1.0, 5.0, 4.0, 5.0)
     assert contact_quantity_errors(ref, fc) == pytest.approx({
         "err_contact_start": 1.0, "err_contact_end": 0.1, "err_contact_duration": 0.375,
-        "err_peak_force": 0.25})
+        "err_peak_force": 0.25, "err_contact_impulse": 0.2})
     assert contact_quantity_errors(ref, None) == {"err_peak_force": 1.0}
     assert contact_quantity_errors(None, fc) == {}
 
@@ -135,15 +144,15 @@ def test_run_first_contact_from_samples_and_from_step_statistics():
 @pytest.mark.parametrize("name, T, nx, dt", [("clamped_bar", 3.0, 40, 0.01),
                                              ("dropped_bar", 2.5, 50, 0.004)])
 def test_columns_converge_with_nx_and_dt(name, T, nx, dt):
-    """The redistributed scheme's first-contact times converge as nx doubles twice and
-    dt halves twice (the peak force carries the discrete stress' overshoot at the
+    """The redistributed scheme's first-contact times and impulse converge as nx doubles
+    twice and dt halves twice (the peak force carries the discrete stress' overshoot at the
     fronts: present, bounded, not converging on these piecewise-constant stresses)."""
     coarse = run_one(name, "redistributed", nx=nx, dt=dt, T=T).row
     fine = run_one(name, "redistributed", nx=4 * nx, dt=dt / 4, T=T).row
     for col in CONTACT_COLUMNS:
         assert coarse[col] is not None and np.isfinite(coarse[col]), col
-    for col in CONTACT_COLUMNS[:3]:
-        assert fine[col] < 0.6 * coarse[col] and coarse[col] < 0.05, col
+    for col in (*CONTACT_COLUMNS[:3], "err_contact_impulse"):
+        assert fine[col] < 0.6 * coarse[col] and coarse[col] < 0.06, col
     assert 0.0 < fine["err_peak_force"] < 1.0
 
 

@@ -135,8 +135,10 @@ class Exact(Protocol):
 
 
 #: the quantities of a reference's first contact (`Case.reference_quantities`): its start
-#: and end times, its duration and its peak contact force (per unit section)
-CONTACT_QUANTITIES = ("contact_start", "contact_end", "contact_duration", "peak_force")
+#: and end times, its duration, its peak contact force and its impulse (the force's
+#: integral over it; force and impulse per unit section)
+CONTACT_QUANTITIES = ("contact_start", "contact_end", "contact_duration", "peak_force",
+                      "contact_impulse")
 
 
 class Case(Plugin):

@@ -49,7 +49,8 @@ if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs ste
     import pandas as pd
 
 QUANTITY_COLUMNS = ("err_free_fall", "err_contact_start", "err_contact_end",
-                    "err_contact_duration", "err_peak_force", "err_u_numerical",
+                    "err_contact_duration", "err_peak_force", "err_contact_impulse",
+                    "err_u_numerical",
                     "err_contact_force_numerical")
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,

@@ -216,7 +216,8 @@ def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
 
 #: the slots of the per-step contact statistics array (`_new_stats`)
 STATS_FIELDS = ("chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
-                "contact_steps", "first_contact_peak", "contact_impulse", "_last_force")
+                "contact_steps", "first_contact_peak", "contact_impulse", "_last_force",
+                "first_contact_impulse")
 
 
 @njit(cache=True)
@@ -259,6 +260,8 @@ def _impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
         stats[6] = 0.0
     stats[6] += dt * (gamma * total + (1.0 - gamma) * stats[7])
     stats[7] = total
+    if not np.isnan(stats[2]) and np.isnan(stats[8]):  # the first contact has ended
+        stats[8] = stats[6]
 
 
 def _new_stats(force0: float = 0.0) -> np.ndarray:
@@ -269,15 +272,17 @@ def _new_stats(force0: float = 0.0) -> np.ndarray:
     force over the first contact, 6 the contact impulse accumulated with the velocity
     update's weights (`_impulse_update`; NaN until a kernel calls it: a kernel that
     does not keeps no impulse), 7 the previous step's total force (its start value
-    `force0`: the force at t = 0 the initial acceleration holds, 0 for exact contact).
+    `force0`: the force at t = 0 the initial acceleration holds, 0 for exact contact),
+    8 the impulse up to the end of the first contact (slot 6 at the step that ends it,
+    which carries the (1 - gamma) share of its last force; NaN until then).
     A kernel calls `_stats_update` each step, and `_impulse_update` if its velocity
     update is a weighted sum of the end forces of the step."""
-    return np.array([0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0)])
+    return np.array([0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan])
 
 
 def contact_extra(stats: np.ndarray) -> dict[str, float]:
     """The per-step contact statistics of a run (`Trajectory.extra`); "contact_impulse"
-    only from a kernel that accumulates it."""
+    and "first_contact_impulse" only from a kernel that accumulates them."""
     out = {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
            "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
            "contact_steps": float(stats[4])}
@@ -285,6 +290,8 @@ def contact_extra(stats: np.ndarray) -> dict[str, float]:
         out["first_contact_peak"] = float(stats[5])
     if stats.size > 6 and not np.isnan(stats[6]):
         out["contact_impulse"] = float(stats[6])
+    if stats.size > 8 and not np.isnan(stats[8]):
+        out["first_contact_impulse"] = float(stats[8])
     return out
 
 
