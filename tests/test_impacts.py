@@ -3,6 +3,7 @@ synthetic trajectory and on the hertz_sphere scene."""
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -70,6 +71,52 @@ def test_impulse_residual_of_a_balanced_and_a_broken_history():
                              energy=np.ones(8))
     assert impulse_residual(problem, kicked, dt) == pytest.approx(0.1 / impulse[-1])
     assert impulse_residual(problem, traj, 2 * dt) is None  # not every step
+
+
+def test_impulse_residual_of_strided_samples():
+    """Samples every 3 steps: the residual at the last sample from the kernel's impulse
+    (`extra["contact_impulse"]`); without it (a kernel that keeps none) no residual."""
+    dt = 0.5
+    problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0, F=np.array([-1.0]),
+                              contact=SimpleNamespace(weights=np.array([1.0])),
+                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+    t = 3 * dt * np.arange(4)
+    J = 4.5
+    p = -1.0 * t + np.array([0.0, 1.0, 3.0, J])
+    traj = SimpleNamespace(t=t, V=(p / 2.0)[:, None], stress=np.zeros(4),
+                           energy=np.ones(4), extra={"contact_impulse": J})
+    assert impulse_residual(problem, traj, dt) < 1e-15
+    broken = SimpleNamespace(**{**vars(traj), "extra": {"contact_impulse": J - 1.5}})
+    assert impulse_residual(problem, broken, dt) == pytest.approx(1.5 / 3.0)
+    assert impulse_residual(problem, SimpleNamespace(**{**vars(traj), "extra": {}}),
+                            dt) is None
+
+
+@pytest.mark.parametrize("scheme", ["redistributed", "taylor_flanagan[mass=lumped]"])
+def test_strided_disc_drop_impulse_residual(scheme):
+    """A disc_drop run sampled every 7 steps balances its impulse to round-off at the last
+    sample, the same residual as its unstrided run's last sample with the kernel's
+    impulse (Newmark: gamma-weighted forces; the kick-drift central difference: the
+    step's force whole, which the trapezoid of the every-step version is not);
+    removing part of the contact impulse from the history breaks the balance."""
+    case = "disc_drop" if scheme == "redistributed" else "disc_drop[degree=1]"
+    every = run_one(case, scheme, nx=2, T=15.0, stride=1)
+    strided = run_one(case, scheme, nx=2, T=15.0, stride=7)
+    assert strided.trajectory.t.size < every.trajectory.t.size / 5
+    tr, p = every.trajectory, every.semi
+    vertical = p.extra["vertical"]
+    mom = tr.V @ (p.M @ vertical)
+    J = tr.extra["contact_impulse"]
+    assert J == pytest.approx(strided.trajectory.extra["contact_impulse"], rel=1e-13)
+    final = abs(mom[-1] - mom[0] - float(p.F @ vertical) * tr.t[-1] - J) / J
+    res = strided.row["impulse_residual"]
+    assert res == pytest.approx(final, rel=0.05, abs=1e-14)
+    assert res < 1e-8
+    if scheme == "redistributed":  # trapezoid = the Newmark weights at gamma = 1/2
+        assert every.row["impulse_residual"] < 1e-8
+    cut = dict(strided.trajectory.extra, contact_impulse=0.8 * J)
+    broken = dataclasses.replace(strided.trajectory, extra=cut)
+    assert impulse_residual(strided.semi, broken, strided.row["dt"]) > 0.2
 
 
 def test_run_outputs_hold_the_impact_table(tmp_path):

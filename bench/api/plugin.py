@@ -134,6 +134,13 @@ class Exact(Protocol):
     def stress(self, t: np.ndarray) -> np.ndarray: ...
 
 
+#: the quantities of a reference's first contact (`Case.reference_quantities`): its start
+#: and end times, its duration, its peak contact force and its impulse (the force's
+#: integral over it; force and impulse per unit section)
+CONTACT_QUANTITIES = ("contact_start", "contact_end", "contact_duration", "peak_force",
+                      "contact_impulse")
+
+
 class Case(Plugin):
     """A scene: a bar, its data, a default resolution and its exact solution if any.
 
@@ -155,7 +162,8 @@ class Case(Plugin):
     stride: int = 1
     #: "exact" (closed form or characteristics), "numerical" (a fine run) or None
     reference: ClassVar[str | None] = None
-    #: quantities the reference provides: subset of {"u", "v", "stress", "energy"}
+    #: fields the reference provides: subset of {"u", "v", "stress", "energy"} (its
+    #: scalar quantities: `reference_quantities`)
     provides: ClassVar[frozenset[str]] = frozenset()
     #: part of the default `contact-bench run` (the two scenes of Dabaghi, Petrov,
     #: Pousin, Renard 2014)
@@ -198,6 +206,18 @@ class Case(Plugin):
     #: the reference quantities this scene provides beyond the fields of `provides`, each
     #: giving the row a relative error column `err_<quantity>` (`quantity_errors`)
     quantities: ClassVar[frozenset[str]] = frozenset()
+
+    @property
+    def reference_quantities(self) -> frozenset[str]:
+        """Every quantity q whose relative error err_q the row gets: the scene's own
+        (`quantities`, computed by `quantity_errors`) and, when its reference is exact
+        and provides the contact stress, the first contact's (`CONTACT_QUANTITIES`,
+        computed once for all such scenes by the harness from `exact(T).stress`:
+        `contact_bench.harness.quantities`). A reference without a positive contact
+        force in [0, T] (a grazing touch) or whose contact lasts to T gives fewer."""
+        if self.reference == "exact" and "stress" in self.provides:
+            return self.quantities | frozenset(CONTACT_QUANTITIES)
+        return self.quantities
 
     def quantity_errors(self, problem: Any, traj: Trajectory, row: dict[str, Any]
                         ) -> dict[str, float]:

@@ -43,12 +43,15 @@ from contact_bench.harness.metrics import (
     error_metrics,
     penetration,
 )
+from contact_bench.harness.quantities import first_contact_errors
 
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
 
-QUANTITY_COLUMNS = ("err_free_fall", "err_contact_duration", "err_peak_force",
-                    "err_u_numerical", "err_contact_force_numerical")
+QUANTITY_COLUMNS = ("err_free_fall", "err_contact_start", "err_contact_end",
+                    "err_contact_duration", "err_peak_force", "err_contact_impulse",
+                    "err_u_numerical",
+                    "err_contact_force_numerical")
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
@@ -56,7 +59,7 @@ COLUMNS = (
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
-    # a scene's reference quantities (`Case.quantities`), relative errors
+    # a scene's reference quantities (`Case.reference_quantities`), relative errors
     *QUANTITY_COLUMNS,
     # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
@@ -479,6 +482,8 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
             row.update(error_metrics(grid, samples, exact, case.provides, plan.shared,
                                      notes))
             norm_s = time.perf_counter() - start
+            # the first contact's quantities (an exact reference of the contact stress)
+            row.update(first_contact_errors(case, exact, plan.T_run, traj, dt, semi))
             missing = sorted({NEEDS[c] for c in ERROR_COLUMNS} - set(case.provides))
             if missing:
                 notes.append(f"reference has no {', '.join(missing)}")

@@ -214,9 +214,16 @@ def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
 # -------------------------------------------------------------------- contact stats
 
 
+#: the slots of the per-step contact statistics array (`_new_stats`)
+STATS_FIELDS = ("chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
+                "contact_steps", "first_contact_peak", "contact_impulse", "_last_force",
+                "first_contact_impulse")
+
+
 @njit(cache=True)
 def _stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
-    """stats = [switches, first start, first end, peak force, steps in contact];
+    """Update the per-step contact statistics (`_new_stats`) with the step's contact
+    forces lam (one per contact dof, >= 0; the force of step `step`, at t = step dt);
     status (in/out) the previous contact status of each contact dof, updated."""
     total = 0.0
     anyc = False
@@ -231,21 +238,61 @@ def _stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
         stats[4] += 1.0
         if np.isnan(stats[1]):
             stats[1] = step * dt
+        if np.isnan(stats[2]) and total > stats[5]:
+            stats[5] = total
     elif not np.isnan(stats[1]) and np.isnan(stats[2]):
         stats[2] = step * dt
     if total > stats[3]:
         stats[3] = total
 
 
-def _new_stats() -> np.ndarray:
-    return np.array([0.0, np.nan, np.nan, 0.0, 0.0])
+@njit(cache=True)
+def _impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
+    """Add the step's contact impulse to stats[6]: dt (gamma F_{n+1} + (1 - gamma) F_n),
+    F the total force sum(lam) (F_{n+1} this step's, F_n the previous step's, kept in
+    stats[7]); gamma the weight of the step's velocity update on its end force (Newmark
+    and explicit Newmark: their gamma; the kick-drift central difference, whose kick
+    carries the step's force whole: 1). Call it after the step's forces are final."""
+    total = 0.0
+    for i in range(lam.size):
+        total += lam[i]
+    if np.isnan(stats[6]):
+        stats[6] = 0.0
+    stats[6] += dt * (gamma * total + (1.0 - gamma) * stats[7])
+    stats[7] = total
+    if not np.isnan(stats[2]) and np.isnan(stats[8]):  # the first contact has ended
+        stats[8] = stats[6]
+
+
+def _new_stats(force0: float = 0.0) -> np.ndarray:
+    """The per-step contact statistics of a kernel, slots (`STATS_FIELDS`):
+    0 status switches of the contact dofs (chatter), 1 first contact start (the time of
+    the first step with a positive force), 2 first contact end (the first step after it
+    without), 3 peak total contact force over the run, 4 steps in contact, 5 peak total
+    force over the first contact, 6 the contact impulse accumulated with the velocity
+    update's weights (`_impulse_update`; NaN until a kernel calls it: a kernel that
+    does not keeps no impulse), 7 the previous step's total force (its start value
+    `force0`: the force at t = 0 the initial acceleration holds, 0 for exact contact),
+    8 the impulse up to the end of the first contact (slot 6 at the step that ends it,
+    which carries the (1 - gamma) share of its last force; NaN until then).
+    A kernel calls `_stats_update` each step, and `_impulse_update` if its velocity
+    update is a weighted sum of the end forces of the step."""
+    return np.array([0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan])
 
 
 def contact_extra(stats: np.ndarray) -> dict[str, float]:
-    """The per-step contact statistics of a run (`Trajectory.extra`)."""
-    return {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
-            "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
-            "contact_steps": float(stats[4])}
+    """The per-step contact statistics of a run (`Trajectory.extra`); "contact_impulse"
+    and "first_contact_impulse" only from a kernel that accumulates them."""
+    out = {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
+           "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
+           "contact_steps": float(stats[4])}
+    if stats.size > 5:
+        out["first_contact_peak"] = float(stats[5])
+    if stats.size > 6 and not np.isnan(stats[6]):
+        out["contact_impulse"] = float(stats[6])
+    if stats.size > 8 and not np.isnan(stats[8]):
+        out["first_contact_impulse"] = float(stats[8])
+    return out
 
 
 # -------------------------------------------------------------------------- Newmark
@@ -349,6 +396,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 Q[i] = k2 * d + Q[i]
             U[i] = X[i]
         _stats_update(stats, status, lam, step, dt)
+        _impulse_update(stats, lam, dt, gamma)
         for i in range(nc):
             min_gap = min(min_gap, gap0[i] + U[cd[i]])
         if step % stride == 0 or step == nsteps:
@@ -491,7 +539,10 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
         y = np.minimum(0.0, Pm @ p.U0 + y0)
         out["E"][0] = float(p.energy(p.U0, p.V0) + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
                             + 0.5 * ew * np.sum(lk * y * y))
-    stats = _new_stats()
+    # the law's total force at t = 0 (in the initial acceleration): the impulse's start
+    force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
+              if law is not None else 0.0)
+    stats = _new_stats(force0)
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     if law is not None:  # the full force at t = 0: K' and the law's, if active
         r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
@@ -569,6 +620,7 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
                     Vh[d] += c[d] * lj
         U, Un = Un, U
         _stats_update(stats, status, lam, step, dt)
+        _impulse_update(stats, lam, dt, 1.0)
         for i in range(nc):
             min_gap = min(min_gap, gap0[i] + U[cd[i]])
         if step % stride == 0 or step == nsteps:
@@ -691,6 +743,7 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
             A[i] = ah[a]
         _stats_update(stats, status, mu, step, dt)
+        _impulse_update(stats, mu, dt, gamma)
         for j in range(nc):
             min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
         if step % stride == 0 or step == nsteps:
