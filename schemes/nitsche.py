@@ -50,9 +50,9 @@ class Nitsche(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
-    def traits(self) -> Traits:
+    def traits(self, many_contact_dofs: bool = False) -> Traits:
         massless = self.mass in MASSLESS_KINDS
-        if massless:  # u0 = max(0, u1): the redistributed scheme (module docstring)
+        if massless and not many_contact_dofs:  # u0 = max(0, u1): redistributed (docstring)
             energy = Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED
             contact = Contact.EXACT
         else:
@@ -61,6 +61,11 @@ class Nitsche(Scheme):
             contact = Contact.NITSCHE
         return Traits(implicit=self.beta > 0, massless_contact_node=massless, contact=contact,
                       energy=energy, order=2 if self.gamma == 0.5 else 1)
+
+    def sparse_traits(self) -> Traits:
+        # massless contact dofs coupled through the zone's normal stress do not reduce
+        # to u = max(0, ...) dof by dof: Nitsche's own contact and energy (docs/sparse.md)
+        return self.traits(many_contact_dofs=True)
 
     def _blocks(self) -> tuple[np.ndarray, np.ndarray]:
         """First element's stiffness changes (units E/h): inactive, active."""

@@ -347,6 +347,12 @@ class Scheme(Plugin):
     def traits(self) -> Traits:
         raise NotImplementedError
 
+    def sparse_traits(self) -> Traits:
+        """The traits on the general sparse problem (many contact dofs), where an
+        argument that holds for the bar's single contact node may not; by default
+        `traits()`."""
+        return self.traits()
+
     def mass_kind(self) -> str:
         """Which `contact_bench.api.fem` mass variant the scheme uses."""
         return "consistent"

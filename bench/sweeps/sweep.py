@@ -245,7 +245,7 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
     try:
         use_plugin_dirs(task.get("plugins", ()))
         case, scheme = make_case(task["case"]), make_scheme(task["scheme"])
-        traits = scheme.traits()
+        traits = scheme.sparse_traits() if case.form == "sparse" else scheme.traits()
         row.update(case_name=case.name, scheme_name=scheme.name, implicit=bool(traits.implicit),
                    energy_trait=str(traits.energy), order_declared=traits.order,
                    contact=str(traits.contact), massless_contact_node=traits.massless_contact_node)
