@@ -27,7 +27,7 @@ from skfem.helpers import sym_grad, trace
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import Case, StudyGrid
 from contact_bench.api.sparse import ContactSet, SparseProblem
 
 
@@ -62,6 +62,8 @@ class SphereDrop(Case):
         return 4.0 / 3.0 * math.pi * self.R**3 * self.rho * self.g * float(self.lift)
 
     quantities = frozenset({"free_fall"})
+    study = StudyGrid(specs=("sphere_drop[lift=0.5]",), nx=(2, 4), T=5.0,
+                      small="sphere_drop[lift=0.1]", small_nx=(2, 4, 8), small_T=2.0)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
         """err_free_fall: the largest vertical displacement error of any dof against the
@@ -83,6 +85,11 @@ class SphereDrop(Case):
                              "of two (1, 2, 4, 8, ...)")
         m = fe.MeshTet.init_ball(nrefs)
         return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
+
+    def cannot_run(self, scheme) -> str | None:
+        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
+            return "P2 elements: a lumped mass has negative row sums (refused)"
+        return None
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
