@@ -6,7 +6,9 @@ Everything here reads a saved table (`contact_bench.sweeps.sweep.load_table`); n
   `step_s` (the stepping alone, no recording beyond the scheme's own: what the scheme
   costs); one curve per scheme (and CFL) over its refinements; the Pareto front (no
   other run is both faster and more accurate) is marked. The table keeps `time_s`,
-  the same run with the recording the error norms need, next to it.
+  the same run with the recording the error norms need, next to it. A scene without
+  the chosen norm (a 2D/3D scene) is drawn on each error column it fills
+  (`error_columns`: its reference quantities, `Case.quantities`).
 - Convergence orders: least-squares slope of log error against log h over runs at a
   fixed CFL (dt proportional to h), and against log dt at the finest nx that has at
   least three dt; pairwise local orders between neighbouring refinements next to the

@@ -25,6 +25,10 @@ it, `step_s` is the harness's own, measured in the worker: `contact_bench.harnes
 `run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
 (assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
+Scenes of every problem form run (`Case.form`: the 1D bar, or a sparse 2D/3D problem
+through `integrate_sparse`, `contact_bench.harness.runner.problem_for`); a mesh a sparse
+scene refuses for a scheme's mass is an 'error' row, not a stop.
+
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
 energy drift bound), a stability class and the environment (`contact_bench.harness.environment`).
