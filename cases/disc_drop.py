@@ -27,7 +27,7 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import Case, StudyGrid
 from contact_bench.api.registry import make_scheme
 from contact_bench.api.sparse import SparseProblem
 
@@ -65,6 +65,9 @@ class DiscDrop(Case):
         return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
 
     quantities = frozenset({"free_fall", "u_numerical", "contact_force_numerical"})
+    study = StudyGrid(specs=("disc_drop[degree=1]", "disc_drop[degree=1,lift=20]"),
+                      nx=(3, 4, 5), T=30.0, small="disc_drop[degree=1,lift=0.5]",
+                      small_nx=(2, 3), small_T=5.0)
     #: the numerical reference: this scheme on the mesh with twice the rings, dt / 2
     reference_scheme = "redistributed"
 

@@ -25,7 +25,7 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import MASS_KINDS, mesh_nodes
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import Case, StudyGrid
 from contact_bench.api.registry import make_case
 from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
 from contact_bench.core.errors import BenchError
@@ -46,6 +46,8 @@ class EmbeddedBar(Case):
                        choices=("free", "sliding")),
         "nu": Param(0.3, "Poisson's ratio with sliding sides", low=-0.99, high=0.49),
     }
+    study = StudyGrid(specs=("embedded_bar",), nx=(10, 20, 40), T=None,
+                      small="embedded_bar[of=fast_impact]", small_nx=(10,), small_T=2.0)
 
     def validate(self) -> None:
         if self.of == self.name or self.of.startswith(self.name + "["):

@@ -27,7 +27,7 @@ from skfem.helpers import ddot, sym_grad, trace
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import Case, StudyGrid
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact.hertz import HertzImpact
 
@@ -62,6 +62,8 @@ class HertzSphere(Case):
         return 2 * self.R
 
     quantities = frozenset({"contact_duration", "peak_force"})
+    study = StudyGrid(specs=("hertz_sphere",), nx=(2, 3, 4), T=None, small="hertz_sphere",
+                      small_nx=(2,), small_T=15.4)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
         """Relative gaps to Hertz's contact time (first contact start to end, plus the

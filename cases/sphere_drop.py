@@ -25,7 +25,7 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import Case, StudyGrid
 from contact_bench.api.sparse import SparseProblem
 
 
@@ -60,6 +60,8 @@ class SphereDrop(Case):
         return 4.0 / 3.0 * math.pi * self.R**3 * self.rho * self.g * float(self.lift)
 
     quantities = frozenset({"free_fall"})
+    study = StudyGrid(specs=("sphere_drop[lift=0.5]",), nx=(2, 4), T=5.0,
+                      small="sphere_drop[lift=0.1]", small_nx=(2, 4, 8), small_T=2.0)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
         """err_free_fall: the largest vertical displacement error of any dof against the

@@ -61,7 +61,7 @@ def test_explicit_sparse_paths_on_the_disc(scheme):
     row = run_one(DISC, scheme, nx=3, T=20.0, step_repeats=1).row
     assert row["status"] == "ok", row["notes"]
     sch, p = _problem(DISC, scheme, 3)
-    traits = sch.traits()
+    traits = sch.sparse_traits()
     assert np.isfinite(row["energy_drift_max"]) and row["peak_contact_force"] > 0
     if traits.contact.value == "exact":
         assert row["penetration_max"] <= 1e-12 * 5.0

@@ -72,7 +72,7 @@ def test_exact_contact_complementarity_and_declared_energy(spec):
                                rtol=0, atol=1e-9 * scale)
     # the declared energy behaviour
     E = tr.energy
-    traits = scheme.traits()
+    traits = scheme.sparse_traits()
     if traits.energy == "dissipated":  # hht: never grows, and loses some
         assert E.max() <= E[0] + 1e-12 * abs(E[0])
         assert E[-1] < E[0] * (1 - 1e-4)

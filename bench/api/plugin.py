@@ -141,6 +141,27 @@ CONTACT_QUANTITIES = ("contact_start", "contact_end", "contact_duration", "peak_
                       "contact_impulse")
 
 
+@dataclass(frozen=True)
+class StudyGrid:
+    """How the study (`contact_bench.sweeps.study`) and the registry-driven tests run a
+    sparse scene: small grids that still hold an impact.
+
+    `specs`: the scene's variants in the study (e.g. a faster impact); `nx`: their
+    refinements, coarse to fine (work-precision; the first for stability); `T`: the
+    study's final time (None: the scene's). `small`, `small_nx`, `small_T`: one variant,
+    its grids smallest first (a scheme whose mass variant the scene refuses on one takes
+    the next) and a short final time after the first impact: the quick study and the
+    tests.
+    """
+
+    specs: tuple[str, ...]
+    nx: tuple[int, ...]
+    T: float | None
+    small: str
+    small_nx: tuple[int, ...]
+    small_T: float
+
+
 class Case(Plugin):
     """A scene: a bar, its data, a default resolution and its exact solution if any.
 
@@ -218,6 +239,10 @@ class Case(Plugin):
         if self.reference == "exact" and "stress" in self.provides:
             return self.quantities | frozenset(CONTACT_QUANTITIES)
         return self.quantities
+
+    #: the study's and the tests' grids of a sparse scene (`StudyGrid`); every sparse
+    #: scene declares one
+    study: ClassVar[StudyGrid | None] = None
 
     def quantity_errors(self, problem: Any, traj: Trajectory, row: dict[str, Any]
                         ) -> dict[str, float]:

@@ -387,6 +387,19 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     return discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())
 
 
+def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0) -> Any:
+    """The problem a run integrates: the case's form (the 1D bar's `Semidiscrete` or a
+    `SparseProblem`) at nx with the scheme's mass variant; a mesh the case refuses (e.g.
+    a mass that is not positive definite) is a BenchError."""
+    return _discretise(case, scheme, int(nx), float(grading))
+
+
+def integrator(case: Case, scheme: Scheme) -> Callable[..., Trajectory]:
+    """The scheme's integrate for the case's problem form (`integrate` or
+    `integrate_sparse`)."""
+    return scheme.integrate_sparse if case.form == SPARSE else scheme.integrate
+
+
 def on_axis(axis: AxisView, traj: Trajectory) -> Trajectory:
     """The trajectory's samples on an axis view's dofs (for a 1D reference's norms)."""
     return dataclasses.replace(traj, U=np.ascontiguousarray(traj.U[:, axis.dofs]),

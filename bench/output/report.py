@@ -49,6 +49,11 @@ HEADERS = {
     "err_v_linf_l2": "error v, Linf(L2) (rel.)", "err_u_l2_l2": "error u, L2(L2) (rel.)",
     "err_u_l2_h1": "error u, L2(H1) (rel.)", "err_v_l2_l2": "error v, L2(L2) (rel.)",
     "err_stress_l2": "error stress, L2 (rel.)",
+    "err_free_fall": "error free fall (rel. to the lift)",
+    "err_contact_duration": "error contact duration (rel.)",
+    "err_peak_force": "error peak contact force (rel.)",
+    "err_u_numerical": "error u vs numerical reference, Linf (rel.)",
+    "err_contact_force_numerical": "error contact force vs numerical reference, l2 (rel.)",
     "time_s": "stepping time [s] (min)", "time_median_s": "stepping time [s] (median)",
     "time_iqr_s": "stepping time IQR [s]", "time_repeats": "timed repeats",
     "time_noisy": "noisy timing", "wall_s": "wall time [s]", "pareto": "Pareto front",
@@ -293,9 +298,16 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     runs_table = df.drop(columns=["energy_trace"], errors="ignore")
     written += write_tables(runs_table, out, "runs", prov)
     refine, dts = analysis.select(df, "refine"), analysis.select(df, "dt")
-    wp_all = analysis.work_precision(refine, error)
-    conv_all = pd.concat([analysis.convergence_table(refine, error, against=("h",)),
-                          analysis.convergence_table(dts, error, against=("dt",))])
+    errors = {case: analysis.error_columns(df[df["case"] == case], error)
+              for case in dict.fromkeys(df["case"])}
+    wp_all = pd.concat([analysis.work_precision(refine[refine["case"] == case], errs[0])
+                        for case, errs in errors.items() if errs] or [pd.DataFrame()])
+    conv_all = pd.concat([
+        part for case, errs in errors.items() if errs for part in (
+            analysis.convergence_table(refine[refine["case"] == case], errs[0],
+                                       against=("h",)),
+            analysis.convergence_table(dts[dts["case"] == case], errs[0], against=("dt",)))
+    ] or [pd.DataFrame()])
     conv_all = analysis.with_time_orders(conv_all, time_orders)
     if time_orders is not None and not time_orders.empty:
         tabs = write_tables(time_orders, out, "time_order", prov)
@@ -316,26 +328,30 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
             s = slug(case)
             parts: list[str] = []
             toc.append(f'<li><a href="#{s}">{html.escape(case)}</a><ul>')
-            wp = wp_all[wp_all["case"] == case]
-            if not wp.empty:
-                body = figure(work_precision_figure(wp, case, error), f"work_precision_{s}",
-                              f"work-precision {case}")
-                tabs = write_tables(wp.drop(columns=["case"]), out, f"work_precision_{s}",
-                                    prov)
+            for k, err in enumerate(errors[case]):
+                wp = (wp_all[wp_all["case"] == case] if k == 0 else
+                      analysis.work_precision(refine[refine["case"] == case], err))
+                if wp.empty:
+                    continue
+                stem = f"work_precision_{s}" + ("" if k == 0 else f"_{slug(err)}")
+                body = figure(work_precision_figure(wp, case, err), stem,
+                              f"work-precision {case} {err}")
+                tabs = write_tables(wp.drop(columns=["case"]), out, stem, prov)
                 written.extend(tabs)
-                section(case, "work-precision",
-                        f"Work-precision ({header(error)} against stepping time)",
+                section(case, "work-precision" + ("" if k == 0 else f"-{slug(err)}"),
+                        f"Work-precision ({header(err)} against stepping time)",
                         body + f"<p>tables: {links(tabs)}</p>"
                         + _html_table(wp.drop(columns=["case"])))
             conv = conv_all[conv_all["case"] == case] if not conv_all.empty else conv_all
             if not conv.empty:
+                err = errors[case][0]
                 body = figure(convergence_figure(refine[refine["case"] == case],
-                                                 dts[dts["case"] == case], case, error),
+                                                 dts[dts["case"] == case], case, err),
                               f"convergence_{s}", f"convergence {case}")
                 tabs = write_tables(conv.drop(columns=["case"]), out, f"convergence_{s}", prov)
                 written.extend(tabs)
                 section(case, "convergence",
-                        f"Convergence ({header(error)}; fitted and local orders; round-off "
+                        f"Convergence ({header(err)}; fitted and local orders; round-off "
                         "floor points left out; declared order and smooth order: away from "
                         "impacts)",
                         body + f"<p>tables: {links(tabs)}</p>"

@@ -6,7 +6,9 @@ Everything here reads a saved table (`contact_bench.sweeps.sweep.load_table`); n
   `step_s` (the stepping alone, no recording beyond the scheme's own: what the scheme
   costs); one curve per scheme (and CFL) over its refinements; the Pareto front (no
   other run is both faster and more accurate) is marked. The table keeps `time_s`,
-  the same run with the recording the error norms need, next to it.
+  the same run with the recording the error norms need, next to it. A scene without
+  the chosen norm (a 2D/3D scene) is drawn on each error column it fills
+  (`error_columns`: its reference quantities, `Case.quantities`).
 - Convergence orders: least-squares slope of log error against log h over runs at a
   fixed CFL (dt proportional to h), and against log dt at the finest nx that has at
   least three dt; pairwise local orders between neighbouring refinements next to the
@@ -27,6 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from contact_bench.harness.metrics import ERROR_COLUMNS
+
 #: relative errors below this are at the round-off floor (about 1e6 machine epsilons)
 ROUNDOFF_FLOOR = 1e-10
 MIN_POINTS = 3
@@ -46,6 +50,21 @@ def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
     tags = df["group"].astype("string").fillna("").str.split(";")
     mask = tags.map(lambda t: group in t).astype(bool)
     return df[mask] if mask.any() else df
+
+
+def error_columns(df: pd.DataFrame, error: str = "err_u_linf_l2") -> list[str]:
+    """The error columns a scene's rows fill (ok rows, finite values): `error` first
+    when filled, then every other `err_` column a scene's reference quantities give
+    (`Case.quantities`: err_free_fall, err_peak_force, ...). Empty: none."""
+    ok = df[df["status"] == "ok"] if "status" in df else df
+
+    def filled(col: str) -> bool:
+        return col in ok and bool(np.isfinite(pd.to_numeric(ok[col], errors="coerce")
+                                              .astype(float)).any())
+
+    others = [c for c in df.columns if str(c).startswith("err_") and c != error
+              and c not in ERROR_COLUMNS]
+    return [c for c in (error, *others) if filled(c)]
 
 
 # ------------------------------------------------------------------- order fits

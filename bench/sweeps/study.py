@@ -19,6 +19,23 @@ parameters, plus any spec given with --scheme):
   motion without contact (`contact_bench.sweeps.time_order`, outside the sweep and its
   cache) and shown next to its declared order (`Traits.order`).
 
+The sparse part (2D/3D scenes: every case whose `form` is "sparse", on the grids it
+declares in `Case.study`; every scheme whose `forms` hold "sparse", or, when a spec
+cannot run the scene and the scheme takes a lumped `mass`, its lumped variant):
+
+- refine: each declared variant (`StudyGrid.specs`) at each declared nx, at the CFL of
+  the scene's dt on the coarsest mesh (0.9 x the declared limit when that is smaller),
+  timed: work-precision on each error column the scene fills (`Case.quantities`, or
+  the 1D norms of an embedded bar), energy drift at the finest nx;
+- stability over dt, on the coarsest mesh: the refine run, and multiples of the
+  declared limit for explicit schemes (SPARSE["limit_factors"]), of the scene's dt
+  otherwise (SPARSE["dt_factors"]);
+- stability over each parameter declaring a `Param.sweep` (penalty gamma_p, Nitsche
+  gamma0, ...), at the refine CFL on the coarsest mesh.
+
+The quick study runs the scenes' small variants instead (`StudyGrid.small`, its first
+grid, `small_T`), with fewer factors and the ends of each parameter sweep.
+
 At most `max_samples` samples are kept per run (the stride grows with the number of
 steps): the metrics' cost grows with the samples, and the sampling interval stays
 about T / max_samples across refinements. `FULL` is sized for the 15-minute budget
@@ -32,11 +49,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import expand_spec
 from contact_bench.api.plugin import Case, Scheme
-from contact_bench.api.problem import discretise
 from contact_bench.api.registry import cases, make_case, make_scheme, schemes
+from contact_bench.harness.runner import form_mismatch, problem_for
 from contact_bench.sweeps.sweep import Task
 
 FULL = {"nx_refine": [20, 40, 80, 160, 320, 640], "nx_fine": 640, "dt_points": 5,
@@ -47,11 +63,25 @@ QUICK = {"nx_refine": [10, 20, 40], "nx_fine": 40, "dt_points": 3,
          "long_t": 2.0, "param_sweep": "ends"}
 
 
+SPARSE = {"dt_factors": (4.0, 16.0, 64.0), "limit_factors": (0.5, 0.95, 1.05, 2.0),
+          "max_samples": 500, "param_sweep": "all"}
+SPARSE_QUICK = {"dt_factors": (16.0,), "limit_factors": (0.95, 1.05), "max_samples": 200,
+                "param_sweep": "ends"}
+
+
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
     """The scheme's declared stability limit as a CFL number on this scene's mesh."""
-    semi = discretise(case, mesh_nodes(float(case.L), nx), scheme.mass_kind())
+    semi = problem_for(case, scheme, nx)
     limit = scheme.stability_limit(semi.hmin, semi.c_max)
     return None if limit is None else limit * semi.c_max / semi.hmin
+
+
+def scene_cfl(case: Case, scheme: Scheme, nx: int) -> tuple[float, float | None]:
+    """The scene's own dt as a CFL number on this mesh, and the declared limit as one."""
+    semi = problem_for(case, scheme, nx)
+    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    cfl = float(case.dt) * semi.c_max / semi.hmin
+    return cfl, None if limit is None else limit * semi.c_max / semi.hmin
 
 
 def stability_cfls(limit: float | None, points: int) -> list[float]:
@@ -72,8 +102,14 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     """The tasks of the study (see the module docstring)."""
     g = QUICK if quick else FULL
     specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
-    scenes = list(case_specs or [n for n, c in cases().plugins.items() if c.in_default_run])
-    stiff = [n for n, c in cases().plugins.items() if c.stiff and n not in scenes]
+    given = [s for spec in case_specs or () for s in expand_spec(spec)]
+    sparse = [s for s in given if make_case(s).form != "banded1d"]
+    scenes = [s for s in given if s not in sparse]
+    if not case_specs:
+        scenes = [n for n, c in cases().plugins.items() if c.in_default_run]
+        sparse = [n for n, c in cases().plugins.items() if c.form != "banded1d"]
+    stiff = ([n for n, c in cases().plugins.items() if c.stiff and n not in scenes]
+             if scenes else [])
     tasks: list[Task] = []
     ms = g["max_samples"]
     for case_spec in scenes:
@@ -99,7 +135,81 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     for case_spec in stiff:
         for spec in specs:
             tasks += _stability(case_spec, spec, g)
+    for case_spec in sparse:
+        tasks += plan_sparse(case_spec, specs, quick)
     return tasks
+
+
+def _variants(case: Case, spec: str) -> str | None:
+    """The spec that runs the scene: itself, or its lumped-mass variant when it cannot
+    and the scheme takes a lumped `mass` (None: neither runs it)."""
+    scheme = make_scheme(spec)
+    if "sparse" not in type(scheme).forms:
+        return None
+    if not (scheme.cannot_run(case) or case.cannot_run(scheme)):
+        return spec
+    mass = type(scheme).params.get("mass")
+    if mass is None or not mass.choices or "lumped" not in mass.choices or "mass=" in spec:
+        return spec  # a 'not applicable' row with its reason
+    lumped = make_scheme(_with_param(spec, "mass", "lumped"))
+    return lumped.spec if not (lumped.cannot_run(case) or case.cannot_run(lumped)) else spec
+
+
+def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> list[Task]:
+    """The sparse part of the study for one scene (see the module docstring): its
+    declared variants (`Case.study`) x every spec whose scheme integrates sparse problems."""
+    base = make_case(case_spec)
+    grid = base.study
+    if grid is None:
+        return []
+    g = SPARSE_QUICK if quick else SPARSE
+    ms = g["max_samples"]
+    if quick:
+        variants, nxs, T = [grid.small], list(grid.small_nx[:1]), grid.small_T
+    else:
+        variants = list(grid.specs) if case_spec == type(base).name else [case_spec]
+        nxs, T = list(grid.nx), grid.T
+    tasks: list[Task] = []
+    for variant in variants:
+        case = make_case(variant)
+        for spec in dict.fromkeys(v for s in specs if (v := _variants(case, s)) is not None):
+            scheme = make_scheme(spec)
+            if form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme):
+                tasks.append(Task(case.spec, spec, nxs[0], T=T, group="refine", timed=False))
+                continue
+            try:
+                cfl0, lim = scene_cfl(case, scheme, nxs[0])
+            except Exception:  # noqa: BLE001 - a refused mesh: error rows say why
+                cfl0, lim = None, None
+            cfl_r = None if cfl0 is None else float(f"{cfl0:.4g}")
+            if cfl_r is not None and lim is not None:
+                cfl_r = min(cfl_r, float(f"{0.9 * lim:.4g}"))
+            for nx in nxs:
+                group = "refine" + (";stability" if nx == nxs[0] else "") + (
+                    ";energy" if nx == nxs[-1] else "")
+                tasks.append(Task(case.spec, spec, nx, cfl=cfl_r, T=T, max_samples=ms,
+                                  group=group))
+            if cfl_r is None:
+                continue
+            cfls = ([f * lim for f in g["limit_factors"]] if lim is not None
+                    else [f * cfl0 for f in g["dt_factors"]])
+            tasks += [Task(case.spec, spec, nxs[0], cfl=float(f"{c:.4g}"), T=T, max_samples=ms,
+                           group="stability", timed=False) for c in cfls]
+            for pname, param in type(scheme).params.items():
+                if not param.sweep or f"{pname}=" in spec:
+                    continue
+                values = param.sweep if g["param_sweep"] == "all" else dict.fromkeys(
+                    (param.sweep[0], param.sweep[-1]))
+                for value in values:
+                    try:
+                        vs = make_scheme(_with_param(spec, pname, value))
+                    except Exception:  # noqa: BLE001 - a value outside the declared range
+                        continue
+                    tasks.append(Task(case.spec, vs.spec, nxs[0], cfl=cfl_r, T=T,
+                                      max_samples=ms, group="stability;param", timed=False))
+    # runs of one mesh and dt one after the other: a scene's numerical reference (kept by
+    # the worker for its next runs) is computed about once per worker, not once per scheme
+    return sorted(tasks, key=lambda t: (t.case, t.nx or 0, t.cfl or 0.0))
 
 
 def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
@@ -132,8 +242,8 @@ def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
     return out
 
 
-def _with_param(spec: str, name: str, value: float) -> str:
-    text = f"{value:g}"
+def _with_param(spec: str, name: str, value: float | str) -> str:
+    text = value if isinstance(value, str) else f"{value:g}"
     if spec.endswith("]"):
         return f"{spec[:-1]},{name}={text}]"
     return f"{spec}[{name}={text}]"

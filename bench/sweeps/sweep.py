@@ -25,6 +25,10 @@ it, `step_s` is the harness's own, measured in the worker: `contact_bench.harnes
 `run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
 (assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
+Scenes of every problem form run (`Case.form`: the 1D bar, or a sparse 2D/3D problem
+through `integrate_sparse`, `contact_bench.harness.runner.problem_for`); a mesh a sparse
+scene refuses for a scheme's mass is an 'error' row, not a stop.
+
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
 energy drift bound), a stability class and the environment (`contact_bench.harness.environment`).
@@ -50,9 +54,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import expand_spec
-from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme, plugin_dirs, use_plugin_dirs
 from contact_bench.core.errors import BenchError, shown
 from contact_bench.harness.environment import cpu_model, environment
@@ -64,6 +66,9 @@ from contact_bench.harness.runner import (
     check_mesh_grading,
     check_run,
     check_task_inputs,
+    form_mismatch,
+    integrator,
+    problem_for,
     run_one,
 )
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
@@ -214,7 +219,7 @@ def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, A
     (stride above the steps, samples over memory, ...) is a BenchError before the sweep
     starts, as in `run`. `semis` keeps the meshes' problems for the next checks."""
     case, scheme = made
-    if scheme.cannot_run(case) or case.cannot_run(scheme):
+    if form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme):
         return
     try:
         nx, grading = int(task["nx"]), float(task["grading"])
@@ -223,8 +228,12 @@ def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, A
         if skey not in semis:
             check_mesh_grading(nx, grading)
             semis.clear()  # one mesh at a time: memory does not grow with the grid
-            semis[skey] = discretise(case, mesh_nodes(float(case.L), nx, grading),
-                                     scheme.mass_kind())
+            try:
+                semis[skey] = problem_for(case, scheme, nx, grading)
+            except BenchError:
+                if case.form == "banded1d":
+                    raise
+                return  # a mesh a sparse scene refuses for this mass: an error row
         semi = semis[skey]
         limit = scheme.stability_limit(semi.hmin, semi.c_max)
         dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * semi.hmin / semi.c_max
@@ -251,12 +260,13 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
                    contact=str(traits.contact), massless_contact_node=traits.massless_contact_node)
         nx, grading = int(task["nx"]), float(task["grading"])
         T = float(case.T if task["T"] is None else task["T"])
-        reason = scheme.cannot_run(case) or case.cannot_run(scheme)
+        reason = (form_mismatch(case, scheme) or scheme.cannot_run(case)
+                  or case.cannot_run(scheme))
         if reason:
             run = run_one(case, scheme, nx, None, T, 1, grading, True)
             row.update(run.row)
         else:
-            semi0 = discretise(case, mesh_nodes(float(case.L), nx, grading), scheme.mass_kind())
+            semi0 = problem_for(case, scheme, nx, grading)
             h, c = semi0.hmin, semi0.c_max
             limit = scheme.stability_limit(h, c)
             row.update(h=h, dt_limit=limit, cfl_limit=None if limit is None else c * limit / h)
@@ -269,7 +279,7 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
             row["cfl"] = c * float(row["dt"]) / h
             traj = run.trajectory
             if traj is not None and run.semi is not None:
-                row["energy_drift_bound"] = scheme.energy_drift_bound(run.semi, float(row["dt"]))
+                row["energy_drift_bound"] = drift_bound(scheme, run.semi, float(row["dt"]))
                 _energy_extras(row, traj.t, np.asarray(traj.energy, float))
         row["stability"] = classify(row["status"], row["energy_trait"],
                                     row["energy_growth_max"], row["energy_drift_bound"])
@@ -281,6 +291,15 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
     return row
+
+
+def drift_bound(scheme: Any, problem: Any, dt: float) -> float | None:
+    """The scheme's declared energy drift bound on this problem; None when it gives
+    none, or gives one only for the 1D bar (a bound that reads the bar's matrices)."""
+    try:
+        return scheme.energy_drift_bound(problem, dt)
+    except (AttributeError, TypeError):
+        return None
 
 
 def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
@@ -331,12 +350,15 @@ def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
     repeats = 1).
     """
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
-    semi = discretise(case, mesh_nodes(float(case.L), int(row["nx"]), float(row["grading"])),
-                      scheme.mass_kind())
+    semi = problem_for(case, scheme, int(row["nx"]), float(row["grading"]))
+    integrate = integrator(case, scheme)
     dt, steps = float(row["dt"]), int(row["steps"])
     stride = steps if stepping else int(row["stride"])
-    scheme.warm_up(semi)  # JIT compilation
-    scheme.integrate(semi, dt, steps, stride)  # discarded warm-up call
+    if case.form == "banded1d":
+        scheme.warm_up(semi)  # JIT compilation
+    else:
+        integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
+    integrate(semi, dt, steps, stride)  # discarded warm-up call
     times: list[float] = []
     gc.collect()
     enabled = gc.isenabled()
@@ -345,7 +367,7 @@ def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
         while len(times) < max(1, repeats) and not (len(times) >= 2
                                                     and sum(times) > TIME_BUDGET_S):
             t0 = time.perf_counter()
-            scheme.integrate(semi, dt, steps, stride)
+            integrate(semi, dt, steps, stride)
             times.append(time.perf_counter() - t0)
     finally:
         if enabled:

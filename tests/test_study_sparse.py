@@ -1,0 +1,84 @@
+"""The study's sparse part (issue 25): the quick study of every sparse scene picks up
+every scheme that integrates sparse problems and every declared parameter sweep from
+the registry, and its report draws work-precision on each error column a scene fills."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from contact_bench.api.registry import cases, make_case, make_scheme, schemes
+from contact_bench.core.errors import BenchError
+from contact_bench.output.report import slug, write_report
+from contact_bench.sweeps.analysis import error_columns
+from contact_bench.sweeps.study import plan_sparse, plan_study
+from contact_bench.sweeps.sweep import run_sweep
+
+SPARSE = tuple(n for n, c in sorted(cases().plugins.items()) if c.form == "sparse")
+SPARSE_SCHEMES = tuple(n for n, c in sorted(schemes().plugins.items()) if "sparse" in c.forms)
+
+
+@pytest.fixture(scope="module")
+def quick() -> pd.DataFrame:
+    tasks = plan_study(quick=True, case_specs=list(SPARSE))
+    assert {make_case(t.case).form for t in tasks} == {"sparse"}  # no 1D scene added
+    return run_sweep(tasks, jobs=1, repeats=1, quiet=True).table
+
+
+def test_plan_follows_the_declarations() -> None:
+    full = [t for n in SPARSE for t in plan_sparse(n, [c().spec for c in
+                                                       schemes().plugins.values()])]
+    for name in SPARSE:
+        grid = cases().plugins[name].study
+        mine = [t for t in full if make_case(t.case).name == name]
+        assert {t.case for t in mine} == {make_case(s).spec for s in grid.specs}
+        assert {t.nx for t in mine if "refine" in t.group} == set(grid.nx)
+    # explicit schemes: stability on both sides of the declared limit; every declared
+    # parameter sweep at each of its values
+    for t in full:
+        assert make_scheme(t.scheme).name in SPARSE_SCHEMES
+    for name in SPARSE_SCHEMES:
+        for pname, param in schemes().plugins[name].params.items():
+            for value in param.sweep or ():
+                try:
+                    spec = make_scheme(f"{name}[{pname}={value:g}]").spec
+                except BenchError:  # a value outside the declared range: skipped
+                    continue
+                assert any(t.scheme == spec and "stability" in t.group for t in full), spec
+
+
+def test_quick_study_covers_every_sparse_scene_and_scheme(quick: pd.DataFrame) -> None:
+    df = quick
+    assert set(df["case"]) == {make_case(cases().plugins[n].study.small).spec for n in SPARSE}
+    assert set(df["scheme_name"].dropna()) == set(SPARSE_SCHEMES)
+    groups = {g for gs in df["group"] for g in gs.split(";")}
+    assert {"refine", "energy", "stability", "param"} <= groups
+    ran = df[df["status"].isin(["ok", "unstable"])]
+    assert set(ran["scheme_name"]) == set(SPARSE_SCHEMES)  # each runs somewhere
+    bad = df[df["status"] == "error"]
+    assert bad["notes"].str.len().gt(0).all()
+    # explicit schemes were run just below and just above their declared limit
+    expl = ran[ran["cfl_limit"].notna() & ran["group"].str.contains("stability")]
+    for (_case, _scheme), g in expl.groupby(["case", "scheme"]):
+        ratio = (g["cfl"] / g["cfl_limit"]).to_numpy(float)
+        assert np.any(np.isclose(ratio, 0.95, rtol=1e-2)), ratio
+        assert np.any(np.isclose(ratio, 1.05, rtol=1e-2)), ratio
+
+
+def test_report_draws_every_error_column_of_a_scene(quick: pd.DataFrame, tmp_path) -> None:
+    # the scenes with more than one reference quantity (the report's figures cost)
+    several = [c for c in dict.fromkeys(quick["case"]) if len(make_case(c).quantities) > 1]
+    assert several
+    table = quick[quick["case"].isin(several)]
+    written = {p.name for p in write_report(table, tmp_path)}
+    for case in several:
+        rows = table[table["case"] == case]
+        cols = error_columns(rows)
+        declared = make_case(case).quantities
+        assert {f"err_{q}" for q in declared} >= set(cols) - {"err_u_linf_l2"}
+        for k, col in enumerate(cols):
+            stem = f"work_precision_{slug(case)}" + ("" if k == 0 else f"_{col}")
+            assert f"{stem}.png" in written, (case, col, sorted(written))
+        if make_case(case).quantities:
+            assert cols, f"{case}: no error column filled"
