@@ -320,8 +320,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
         raise BenchError(f"T = {_num(T)} is {transits:.3g} wave transits of {case.spec}; "
                          f"allowed: at most {MAX_TRANSITS:g} (T <= "
                          f"{_num(MAX_TRANSITS * length / semi.c_max)})")
-    limit = (scheme.sparse_stability_limit(semi) if case.form == SPARSE
-             else scheme.stability_limit(semi.hmin, semi.c_max))
+    limit = declared_limit(case, scheme, semi)
     lowered = ""
     if limit is not None and dt > limit * (1 + 1e-12):
         if dt_given and not allow_unstable:
@@ -392,6 +391,16 @@ def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0) -> An
     `SparseProblem`) at nx with the scheme's mass variant; a mesh the case refuses (e.g.
     a mass that is not positive definite) is a BenchError."""
     return _discretise(case, scheme, int(nx), float(grading))
+
+
+def declared_limit(case: Case, scheme: Scheme, problem: Any) -> float | None:
+    """The scheme's declared stability limit (largest stable dt) on the scene's
+    space-discrete problem: `sparse_stability_limit` on a sparse scene (the mesh's own
+    eigenvalues where the scheme computes them), else `stability_limit` at the bar's
+    smallest element and wave speed."""
+    if case.form == SPARSE:
+        return scheme.sparse_stability_limit(problem)
+    return scheme.stability_limit(problem.hmin, problem.c_max)
 
 
 def integrator(case: Case, scheme: Scheme) -> Callable[..., Trajectory]:

@@ -52,7 +52,7 @@ import numpy as np
 from contact_bench.api.params import expand_spec
 from contact_bench.api.plugin import Case, Scheme
 from contact_bench.api.registry import cases, make_case, make_scheme, schemes
-from contact_bench.harness.runner import form_mismatch, problem_for
+from contact_bench.harness.runner import declared_limit, form_mismatch, problem_for
 from contact_bench.sweeps.sweep import Task
 
 FULL = {"nx_refine": [20, 40, 80, 160, 320, 640], "nx_fine": 640, "dt_points": 5,
@@ -72,14 +72,14 @@ SPARSE_QUICK = {"dt_factors": (16.0,), "limit_factors": (0.95, 1.05), "max_sampl
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
     """The scheme's declared stability limit as a CFL number on this scene's mesh."""
     semi = problem_for(case, scheme, nx)
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = declared_limit(case, scheme, semi)
     return None if limit is None else limit * semi.c_max / semi.hmin
 
 
 def scene_cfl(case: Case, scheme: Scheme, nx: int) -> tuple[float, float | None]:
     """The scene's own dt as a CFL number on this mesh, and the declared limit as one."""
     semi = problem_for(case, scheme, nx)
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = declared_limit(case, scheme, semi)
     cfl = float(case.dt) * semi.c_max / semi.hmin
     return cfl, None if limit is None else limit * semi.c_max / semi.hmin
 

@@ -66,6 +66,7 @@ from contact_bench.harness.runner import (
     check_mesh_grading,
     check_run,
     check_task_inputs,
+    declared_limit,
     form_mismatch,
     integrator,
     problem_for,
@@ -235,7 +236,7 @@ def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, A
                     raise
                 return  # a mesh a sparse scene refuses for this mass: an error row
         semi = semis[skey]
-        limit = scheme.stability_limit(semi.hmin, semi.c_max)
+        limit = declared_limit(case, scheme, semi)
         dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * semi.hmin / semi.c_max
         stride = _stride_for(task, dt, case, limit, T)
         check_run(case, scheme, nx, dt, T, stride, grading, True)
@@ -268,7 +269,7 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
         else:
             semi0 = problem_for(case, scheme, nx, grading)
             h, c = semi0.hmin, semi0.c_max
-            limit = scheme.stability_limit(h, c)
+            limit = declared_limit(case, scheme, semi0)
             row.update(h=h, dt_limit=limit, cfl_limit=None if limit is None else c * limit / h)
             dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * h / c
             stride = _stride_for(task, dt, case, limit, T)
