@@ -16,7 +16,8 @@ once, `lu_solve`, the Delassus matrix W = C S^-1 C^T, `lcp_solve`).
   g = -e g(U^{n-1}) exactly. The sample at t_n is (U^n, (U^{n+1} - U^{n-1}) / 2 dt)
   with the force r^n (so the kernel runs one step past the last sample), as in 1D; with
   that centred velocity the vertical momentum obeys the trapezoid rule on the sampled
-  force exactly (the impulse balance holds to round-off).
+  force exactly; the impulse the kernel accumulates is that trapezoid plus dt r^0 / 2,
+  the change from the data V0 of sample 0 to the centred velocity at level 0.
 * `moreau_jean_sparse` (`schemes/moreau_jean.py`): the theta-method on velocities,
   S = M + theta^2 dt^2 K,
 
@@ -150,10 +151,11 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
         was = pen
         lvl = step - 1  # level n = step - 1 is complete: its force is r^n
         _stats_update(stats, status, lam, lvl, dt)
-        # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n
+        # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
+        # level 0 by dt r^0 / 2 from the data V0 (sample 0) to the centred velocity
         if lvl == 0:
-            stats[6] = 0.0
             stats[7] = lam.sum()
+            stats[6] = 0.5 * dt * stats[7]
         else:
             _impulse_update(stats, lam, dt, 0.5)
         if lvl == 0:
