@@ -26,7 +26,14 @@ schemes' v0 = -(K01 / K00) v1, or 0 in contact).
   omega_max^2 = the largest eigenvalue of (K_hh - K_hI K_II^-1 K_Ih, M_hh), I the
   massless dofs off the contact set (scipy's `eigsh`, factored solves, no dense matrix).
 * `adaptive_sparse`: scipy's DOP853 with error control on (u_h, v_h); the right-hand
-  side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh.
+  side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh. The
+  contact impulse J (J' = the total contact force) is one more component of the state,
+  out of the error control: integrated with the velocities' stages and weights, it is
+  the impulse the integrator applies (the momentum balance holds to round-off at the
+  samples, which the solver's dense output interpolates linearly in its stages).
+
+Both accumulate the contact impulse and record it at each sample (the statistics of
+`contact_bench.kernels.sparse`): Verlet's with weights 1/2, 1/2.
 """
 
 from __future__ import annotations
@@ -367,8 +374,9 @@ def speed_scale(p: SparseProblem) -> float:
 def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
                     rtol: float) -> Trajectory:
     """The massless-contact ODE by DOP853 with relative tolerance `rtol` and absolute
-    tolerance rtol (max|U0| + `speed_scale`); dt is the sampling interval only.
-    ValueError unless every contact dof is massless."""
+    tolerance rtol (max|U0| + `speed_scale`) on (u_h, v_h), with the contact impulse
+    integrated along (module docstring); dt is the sampling interval only. The contact
+    statistics are the samples'. ValueError unless every contact dof is massless."""
     from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
 
     split = MasslessSplit.of(p)
