@@ -133,10 +133,18 @@ def test_what_cannot_run_says_why():
     for case in ("disc_drop", "hertz_sphere", "sphere_drop[degree=2]"):
         row = run_one(case, "restitution", nx=3, T=1.0).row  # lumped by default
         assert row["status"] == "not applicable" and "P2" in row["notes"], case
-    # explicit on the axisymmetric P2 mesh: unstable below the declared (1D) limit, a
-    # blow-up row rather than NaNs handed to the contact solver
-    row = run_one("hertz_sphere", "restitution[mass=consistent]", T=1.0).row
+    # explicit on the axisymmetric P2 mesh: unstable at 0.9 x the 1D formula's limit, a
+    # blow-up row rather than NaNs handed to the contact solver; the declared (mesh's)
+    # limit lowers the default dt below it
+    from contact_bench.api.registry import make_scheme
+
+    spec = "restitution[mass=consistent]"
+    p = make_case("hertz_sphere").sparse_problem(8, 1.0, "consistent")
+    dt1 = 0.9 * make_scheme(spec).stability_limit(p.hmin, p.c_max)
+    row = run_one("hertz_sphere", spec, T=1.0, dt=dt1, allow_unstable=True).row
     assert row["status"] == "unstable" and row["blowup_time"] < 1.0, row["notes"]
+    row = run_one("hertz_sphere", spec, T=1.0).row
+    assert row["status"] == "ok" and row["dt"] < dt1 and "lowered" in row["notes"]
     with pytest.raises(ValueError, match="massless"):
         paoli_schatzman_sparse(_disc(2, "redistributed"), DT, 2, 1, 0.0, 0.0)
     with pytest.raises(ValueError, match="massless"):
