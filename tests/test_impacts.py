@@ -121,7 +121,8 @@ def test_disc_drop_impulse_residual_at_every_stride(case, scheme):
     """Each sparse kernel records the impulse its momentum update applies at every sample:
     the residual is the largest over the samples, to round-off, the same at stride 1 and
     7 (the samples differ, the impulse does not); the last sample's balance from the
-    samples alone agrees; removing part of the impulse breaks the balance."""
+    samples alone agrees; the first contact's impulse (when it ended within the run) is
+    the recorded impulse at its end; removing part of the impulse breaks the balance."""
     every = run_one(case, scheme, nx=2, T=15.0, stride=1)
     strided = run_one(case, scheme, nx=2, T=15.0, stride=7)
     assert every.row["status"] == strided.row["status"] == "ok"
@@ -138,6 +139,11 @@ def test_disc_drop_impulse_residual_at_every_stride(case, scheme):
     final = abs(mom[-1] - mom[0] - float(p.F @ vertical) * tr.t[-1] - J) / J
     assert every.row["impulse_residual"] < 1e-8 and strided.row["impulse_residual"] < 1e-8
     assert final <= every.row["impulse_residual"]
+    if "first_contact_impulse" in tr.extra:  # the first contact ended: J at its end
+        end = int(np.argmin(np.abs(tr.t - tr.extra["first_contact_end"])))
+        assert tr.extra["first_contact_impulse"] == pytest.approx(tr.extra["impulse"][end],
+                                                                  rel=1e-12)
+        assert 0.0 < tr.extra["first_contact_impulse"] < J
     cut = dict(strided.trajectory.extra)
     cut["impulse"] = np.minimum(cut["impulse"], 0.8 * J)
     broken = dataclasses.replace(strided.trajectory, extra=cut)
