@@ -74,8 +74,9 @@ def test_impulse_residual_of_a_balanced_and_a_broken_history():
 
 
 def test_impulse_residual_of_strided_samples():
-    """Samples every 3 steps: the residual at the last sample from the kernel's impulse
-    (`extra["contact_impulse"]`); without it (a kernel that keeps none) no residual."""
+    """Samples every 3 steps: the largest residual over the samples from the kernel's
+    impulse at each (`extra["impulse"]`), or at the last sample from its total alone
+    (`extra["contact_impulse"]`); without either (a kernel that keeps none) none."""
     dt = 0.5
     problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0, F=np.array([-1.0]),
                               contact=SimpleNamespace(weights=np.array([1.0])),
@@ -90,33 +91,63 @@ def test_impulse_residual_of_strided_samples():
     assert impulse_residual(problem, broken, dt) == pytest.approx(1.5 / 3.0)
     assert impulse_residual(problem, SimpleNamespace(**{**vars(traj), "extra": {}}),
                             dt) is None
+    cumulative = np.array([0.0, 1.0, 3.0, J])
+    each = SimpleNamespace(**{**vars(traj), "extra": {"contact_impulse": J,
+                                                      "impulse": cumulative}})
+    assert impulse_residual(problem, each, dt) < 1e-15
+    kicked = cumulative + np.array([0.0, 0.0, 0.6, 0.0])  # off at one inner sample only
+    each.extra["impulse"] = kicked
+    assert impulse_residual(problem, each, dt) == pytest.approx(0.6 / J)
 
 
-@pytest.mark.parametrize("scheme", ["redistributed", "taylor_flanagan[mass=lumped]"])
-def test_strided_disc_drop_impulse_residual(scheme):
-    """A disc_drop run sampled every 7 steps balances its impulse to round-off at the last
-    sample, the same residual as its unstrided run's last sample with the kernel's
-    impulse (Newmark: gamma-weighted forces; the kick-drift central difference: the
-    step's force whole, which the trapezoid of the every-step version is not);
-    removing part of the contact impulse from the history breaks the balance."""
-    case = "disc_drop" if scheme == "redistributed" else "disc_drop[degree=1]"
+#: one spec per sparse kernel (and form of the impulse: gamma-weighted forces, the whole
+#: step's force, the impulse itself, the two-step scheme's centred weights, the ODE's)
+KERNELS = [
+    ("disc_drop", "redistributed"),  # newmark_sparse, gamma = 1/2
+    ("disc_drop", "hht"),  # newmark_sparse, HHT's gamma
+    ("disc_drop", "redistributed[beta=0]"),  # quasistatic_sparse
+    ("disc_drop", "penalty[beta=0]"),  # explicit_law_sparse
+    ("disc_drop", "taylor_flanagan"),  # taylor_flanagan_sparse (consistent mass)
+    ("disc_drop[degree=1]", "taylor_flanagan[mass=lumped]"),  # central_sparse
+    ("disc_drop", "moreau_jean"),  # moreau_jean_sparse: P
+    ("disc_drop[degree=1]", "restitution[e=0.5]"),  # paoli_schatzman_sparse
+    ("disc_drop", "ode_verlet"),  # verlet_sparse
+    ("disc_drop", "ode_adaptive"),  # adaptive_sparse: J integrated with the state
+]
+
+
+@pytest.mark.parametrize("case, scheme", KERNELS)
+def test_disc_drop_impulse_residual_at_every_stride(case, scheme):
+    """Each sparse kernel records the impulse its momentum update applies at every sample:
+    the residual is the largest over the samples, to round-off, the same at stride 1 and
+    7 (the samples differ, the impulse does not); the last sample's balance from the
+    samples alone agrees; the first contact's impulse (when it ended within the run) is
+    the recorded impulse at its end; removing part of the impulse breaks the balance."""
     every = run_one(case, scheme, nx=2, T=15.0, stride=1)
     strided = run_one(case, scheme, nx=2, T=15.0, stride=7)
+    assert every.row["status"] == strided.row["status"] == "ok"
     assert strided.trajectory.t.size < every.trajectory.t.size / 5
     tr, p = every.trajectory, every.semi
+    J = tr.extra["contact_impulse"]
+    assert J > 0.0 and tr.extra["impulse"].shape == tr.t.shape
+    assert tr.extra["impulse"][-1] == J
+    assert J == pytest.approx(strided.trajectory.extra["contact_impulse"], rel=1e-12)
+    assert np.array_equal(strided.trajectory.extra["impulse"], tr.extra["impulse"][
+        np.r_[np.arange(0, tr.t.size - 1, 7), tr.t.size - 1]])
     vertical = p.extra["vertical"]
     mom = tr.V @ (p.M @ vertical)
-    J = tr.extra["contact_impulse"]
-    assert J == pytest.approx(strided.trajectory.extra["contact_impulse"], rel=1e-13)
     final = abs(mom[-1] - mom[0] - float(p.F @ vertical) * tr.t[-1] - J) / J
-    res = strided.row["impulse_residual"]
-    assert res == pytest.approx(final, rel=0.05, abs=1e-14)
-    assert res < 1e-8
-    if scheme == "redistributed":  # trapezoid = the Newmark weights at gamma = 1/2
-        assert every.row["impulse_residual"] < 1e-8
-    cut = dict(strided.trajectory.extra, contact_impulse=0.8 * J)
+    assert every.row["impulse_residual"] < 1e-8 and strided.row["impulse_residual"] < 1e-8
+    assert final <= every.row["impulse_residual"]
+    if "first_contact_impulse" in tr.extra:  # the first contact ended: J at its end
+        end = int(np.argmin(np.abs(tr.t - tr.extra["first_contact_end"])))
+        assert tr.extra["first_contact_impulse"] == pytest.approx(tr.extra["impulse"][end],
+                                                                  rel=1e-12)
+        assert 0.0 < tr.extra["first_contact_impulse"] < J
+    cut = dict(strided.trajectory.extra)
+    cut["impulse"] = np.minimum(cut["impulse"], 0.8 * J)
     broken = dataclasses.replace(strided.trajectory, extra=cut)
-    assert impulse_residual(strided.semi, broken, strided.row["dt"]) > 0.2
+    assert impulse_residual(strided.semi, broken, strided.row["dt"]) > 0.1
 
 
 def test_run_outputs_hold_the_impact_table(tmp_path):

@@ -133,11 +133,44 @@ def test_what_cannot_run_says_why():
     for case in ("disc_drop", "hertz_sphere", "sphere_drop[degree=2]"):
         row = run_one(case, "restitution", nx=3, T=1.0).row  # lumped by default
         assert row["status"] == "not applicable" and "P2" in row["notes"], case
-    # explicit on the axisymmetric P2 mesh: unstable below the declared (1D) limit, a
-    # blow-up row rather than NaNs handed to the contact solver
-    row = run_one("hertz_sphere", "restitution[mass=consistent]", T=1.0).row
+    # explicit on the axisymmetric P2 mesh: unstable at 0.9 x the 1D formula's limit, a
+    # blow-up row rather than NaNs handed to the contact solver; the declared (mesh's)
+    # limit lowers the default dt below it
+    from contact_bench.api.registry import make_scheme
+
+    spec = "restitution[mass=consistent]"
+    p = make_case("hertz_sphere").sparse_problem(8, 1.0, "consistent")
+    dt1 = 0.9 * make_scheme(spec).stability_limit(p.hmin, p.c_max)
+    row = run_one("hertz_sphere", spec, T=1.0, dt=dt1, allow_unstable=True).row
     assert row["status"] == "unstable" and row["blowup_time"] < 1.0, row["notes"]
+    row = run_one("hertz_sphere", spec, T=1.0).row
+    assert row["status"] == "ok" and row["dt"] < dt1 and "lowered" in row["notes"]
     with pytest.raises(ValueError, match="massless"):
         paoli_schatzman_sparse(_disc(2, "redistributed"), DT, 2, 1, 0.0, 0.0)
     with pytest.raises(ValueError, match="massless"):
         moreau_jean_sparse(_disc(2, "redistributed"), DT, 2, 1, 0.0, 0.5)
+
+
+@pytest.mark.parametrize(("case", "spec", "nx", "T"), [
+    ("hertz_sphere", "restitution[mass=consistent]", 4, 20.0),  # the LCP path, P2
+    ("disc_drop[degree=1]", "restitution", 3, 80.0),  # the per-dof projection, lumped P1
+])
+def test_restitution_sparse_stability_limit_is_the_meshs(case, spec, nx, T):
+    """The explicit two-step scheme's declared limit on the sparse problem, from the
+    mesh's largest eigenvalue: stable at 0.95 x, blown up at 1.05 x (the 1D formula at the
+    problem's hmin is above the blow-up); beta = 0.1 scales it by 1 / sqrt(1 - 4 beta),
+    beta = 1/4 has none, as in 1D."""
+    from contact_bench.api.registry import make_scheme
+
+    scheme = make_scheme(spec)
+    p = make_case(case).sparse_problem(nx, 1.0, scheme.mass_kind())
+    limit = scheme.sparse_stability_limit(p)
+    assert scheme.stability_limit(p.hmin, p.c_max) > 1.3 * limit
+    stable = run_one(case, spec, nx=nx, T=T, dt=0.95 * limit).row
+    assert stable["status"] == "ok" and stable["energy_drift_max"] < 0.1
+    blown = run_one(case, spec, nx=nx, T=T, dt=1.05 * limit, allow_unstable=True).row
+    assert blown["status"] == "unstable"
+    beta = make_scheme(spec.replace("]", ",beta=0.1]") if "[" in spec else spec + "[beta=0.1]")
+    assert beta.sparse_stability_limit(p) == pytest.approx(limit / np.sqrt(0.6), rel=1e-6)
+    assert make_scheme(spec.replace("]", ",beta=0.25]") if "[" in spec
+                       else spec + "[beta=0.25]").sparse_stability_limit(p) is None

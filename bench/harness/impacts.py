@@ -50,41 +50,49 @@ def impact_table(problem: Any, traj: Any) -> pd.DataFrame | None:
 def impulse_residual(problem: Any, traj: Any, dt: float) -> float | None:
     """The impulse balance: rigid vertical translations lie in ker K, so the change of
     vertical momentum p = vertical.M.V equals the load's vertical resultant times t plus
-    the contact impulse. Relative to the total contact impulse J_N; None without a
+    the contact impulse J. Relative to the total contact impulse J_N; None without a
     vertical translation or contact.
 
-    A run sampled at every step: the largest residual over the samples, the impulse
-    integrated from the sampled forces by the trapezoid rule (the velocity update of
-    Newmark with gamma = 1/2 and of the central difference). Otherwise (samples every
-    `stride` steps): the residual at the last sample, |p_N - p_0 - load t_N - J_N| / J_N,
-    with J_N the impulse the kernel accumulated step by step with its velocity update's
-    weights (`Trajectory.extra["contact_impulse"]`, `contact_bench.kernels.sparse`);
-    None from a kernel that keeps none."""
+    J is the kernel's own when the trajectory carries it: the impulse the scheme applies
+    in its velocity (momentum) update, accumulated step by step with that update's
+    weights (`contact_bench.kernels.sparse`). Recorded at every sample
+    (`Trajectory.extra["impulse"]`): the largest residual over the samples; only the
+    run's total (`extra["contact_impulse"]`): the residual at the last sample. A
+    trajectory without it: at every step's samples, J integrated from the sampled forces
+    by the trapezoid rule (exact only for a velocity update that is the trapezoid, e.g.
+    Newmark with gamma = 1/2), otherwise None. The same measure at any stride when the
+    kernel records J at every sample."""
     vertical = problem.extra.get("vertical") if hasattr(problem, "extra") else None
     t = np.asarray(traj.t)
     if vertical is None or t.size < 2:
         return None
     p = traj.V @ (problem.M @ vertical)
     load = float(problem.F @ vertical)
-    if not np.allclose(np.diff(t), dt, rtol=1e-9, atol=0):  # strided
-        extra = getattr(traj, "extra", None) or {}
-        J = extra.get("contact_impulse")
-        if J is None or not J > 0.0:
+    extra = getattr(traj, "extra", None) or {}
+    impulse = extra.get("impulse")
+    if impulse is not None and np.shape(impulse) == t.shape:
+        impulse = np.asarray(impulse, float)
+    elif extra.get("contact_impulse") is not None:  # the total only: the last sample
+        J = float(extra["contact_impulse"])
+        if not J > 0.0:
             return None
-        return float(abs(p[-1] - p[0] - load * t[-1] - J) / J)
-    force = -np.asarray(traj.stress) * float(np.sum(problem.contact.weights))
-    impulse = dt * (np.cumsum(force) - 0.5 * force - 0.5 * force[0])
+        return float(abs(p[-1] - p[0] - load * (t[-1] - t[0]) - J) / J)
+    elif np.allclose(np.diff(t), dt, rtol=1e-9, atol=0):  # every step: the trapezoid
+        force = -np.asarray(traj.stress) * float(np.sum(problem.contact.weights))
+        impulse = dt * (np.cumsum(force) - 0.5 * force - 0.5 * force[0])
+    else:
+        return None
     if not impulse[-1] > 0.0:
         return None
-    residual = p - p[0] - load * t - impulse
+    residual = p - p[0] - load * (t - t[0]) - (impulse - impulse[0])
     return float(np.max(np.abs(residual)) / impulse[-1])
 
 
 def impact_metrics(problem: Any, traj: Any, dt: float | None = None) -> dict[str, float]:
     """The row's impact columns: number of impacts, the first impact's rebound ratio, the
     energy after it minus 1 (relative to E0), and the impulse residual
-    (`impulse_residual`: over every step's samples, or at the last sample from the
-    kernel's accumulated impulse)."""
+    (`impulse_residual`: from the kernel's accumulated impulse when the trajectory
+    carries it, else from the sampled forces at every step)."""
     table = impact_table(problem, traj)
     if table is None:
         return {}

@@ -31,6 +31,7 @@ the first contact's start and end and the peak total contact force (`contact_sta
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -264,7 +265,15 @@ def _impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
         stats[8] = stats[6]
 
 
-def _new_stats(force0: float = 0.0) -> np.ndarray:
+@njit(cache=True)
+def _impulse_sample(stats, k):  # pragma: no cover - compiled
+    """Record the accumulated impulse (slot 6) as sample k's (slot 9 + k, `_new_stats`
+    with `samples`; nothing without that slot). Call it when sample k is written."""
+    if 9 + k < stats.size and not np.isnan(stats[6]):
+        stats[9 + k] = stats[6]
+
+
+def _new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
     """The per-step contact statistics of a kernel, slots (`STATS_FIELDS`):
     0 status switches of the contact dofs (chatter), 1 first contact start (the time of
     the first step with a positive force), 2 first contact end (the first step after it
@@ -274,22 +283,31 @@ def _new_stats(force0: float = 0.0) -> np.ndarray:
     does not keeps no impulse), 7 the previous step's total force (its start value
     `force0`: the force at t = 0 the initial acceleration holds, 0 for exact contact),
     8 the impulse up to the end of the first contact (slot 6 at the step that ends it,
-    which carries the (1 - gamma) share of its last force; NaN until then).
+    which carries the (1 - gamma) share of its last force; NaN until then); then
+    `samples` slots, the impulse accumulated up to each sample (`_impulse_sample`; 0 at
+    sample 0), so that the momentum balance can be checked at every sample.
     A kernel calls `_stats_update` each step, and `_impulse_update` if its velocity
     update is a weighted sum of the end forces of the step."""
-    return np.array([0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan])
+    out = np.zeros(9 + int(samples))
+    out[:9] = [0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan]
+    return out
 
 
-def contact_extra(stats: np.ndarray) -> dict[str, float]:
+def contact_extra(stats: np.ndarray, samples: int | None = None) -> dict[str, Any]:
     """The per-step contact statistics of a run (`Trajectory.extra`); "contact_impulse"
-    and "first_contact_impulse" only from a kernel that accumulates them."""
-    out = {"chatter": float(stats[0]), "first_contact_start": float(stats[1]),
-           "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
-           "contact_steps": float(stats[4])}
+    and "first_contact_impulse" only from a kernel that accumulates them, and "impulse"
+    (the accumulated impulse at each of the first `samples` samples) only if its stats
+    recorded them."""
+    out: dict[str, Any] = {
+        "chatter": float(stats[0]), "first_contact_start": float(stats[1]),
+        "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
+        "contact_steps": float(stats[4])}
     if stats.size > 5:
         out["first_contact_peak"] = float(stats[5])
     if stats.size > 6 and not np.isnan(stats[6]):
         out["contact_impulse"] = float(stats[6])
+        if samples is not None and stats.size >= 9 + samples:
+            out["impulse"] = np.array(stats[9:9 + samples])
     if stats.size > 8 and not np.isnan(stats[8]):
         out["first_contact_impulse"] = float(stats[8])
     return out
@@ -417,6 +435,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
             cu_out[k] = g
             s_out[k] = st / area if penalty else -lam.sum() / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -480,7 +499,7 @@ def _trajectory(out: dict, k: int, done: int, min_gap: float, blow: int, dt: flo
                       stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_gap),
                       steps_done=int(done),
                       blowup_time=None if blow < 0 else float(blow * dt),
-                      extra=contact_extra(stats))
+                      extra=contact_extra(stats, k))
 
 
 def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -542,7 +561,7 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
     # the law's total force at t = 0 (in the initial acceleration): the impulse's start
     force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
               if law is not None else 0.0)
-    stats = _new_stats(force0)
+    stats = _new_stats(force0, out["t"].size)
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     if law is not None:  # the full force at t = 0: K' and the law's, if active
         r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
@@ -641,6 +660,7 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
             cu_out[k] = g
             s_out[k] = -lam.sum() / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -657,7 +677,7 @@ def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Tra
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     A = initial_acceleration(p)
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     Vh = V + 0.5 * dt * A
     k, done, min_gap, blow = _central_kernel(
         m, *csr_arrays(p.K), np.asarray(p.F, float), np.asarray(p.contact.dofs, np.int64),
@@ -757,6 +777,7 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             cu_out[k] = g
             s_out[k] = -mu.sum() / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -799,7 +820,7 @@ def quasistatic_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     A = initial_acceleration(p)
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                              initial=0.0)), 1e-300)
     k, done, min_gap, blow = _quasistatic_kernel(

@@ -53,6 +53,8 @@ from contact_bench.kernels.sparse import (
     ContactLaw,
     Factor,
     _buffers,
+    _impulse_sample,
+    _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
@@ -149,6 +151,7 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
             V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
             A[i] = ah[a]
         _stats_update(stats, status, lam, step, dt)
+        _impulse_update(stats, lam, dt, gamma)
         for j in range(nc):
             min_gap = min(min_gap, gap0[j] + U[cd[j]])
         if step % stride == 0 or step == nsteps:
@@ -170,6 +173,7 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
             cu_out[k] = g
             s_out[k] = st / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -239,7 +243,8 @@ def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, g
     out["E"][0] = float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
                         + 0.5 * float(law.ew) * np.sum(c * yneg * yneg))
     out["s"][0] = float(np.sum(np.asarray(law.sc, float) * yneg) / np.sum(p.contact.weights))
-    stats = _new_stats()
+    # the law's total force at t = 0 (in the initial acceleration): the impulse's start
+    stats = _new_stats(float(law.fscale) * float(np.sum(mu0)), out["t"].size)
     k, done, min_gap, blow = _explicit_law_kernel(
         *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv, *csr_arrays(K[hv]),
         *csr_arrays(Kmh), mfac.arrays, hfac.arrays, Mhh.diagonal() if diag else np.zeros(0),
@@ -395,6 +400,7 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
         for i in range(n):
             V[i] += 0.5 * dt * A[i]
         _stats_update(stats, status, lam, step, dt)
+        _impulse_update(stats, lam, dt, 1.0)  # the impulses dt lam, applied whole
         for j in range(nc):
             min_gap = min(min_gap, gap0[j] + U[cd[j]])
         if step % stride == 0 or step == nsteps:
@@ -411,6 +417,7 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
             cu_out[k] = g
             s_out[k] = -lam.sum() / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -448,7 +455,7 @@ def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     A = fac.solve(p.F - p.K @ U)
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     k, done, min_gap, blow = _tf_kernel(
         *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,

@@ -26,7 +26,14 @@ schemes' v0 = -(K01 / K00) v1, or 0 in contact).
   omega_max^2 = the largest eigenvalue of (K_hh - K_hI K_II^-1 K_Ih, M_hh), I the
   massless dofs off the contact set (scipy's `eigsh`, factored solves, no dense matrix).
 * `adaptive_sparse`: scipy's DOP853 with error control on (u_h, v_h); the right-hand
-  side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh.
+  side (`ode_rhs`) is one massless solve with its LCP and one solve with M_hh. The
+  contact impulse J (J' = the total contact force) is one more component of the state,
+  out of the error control: integrated with the velocities' stages and weights, it is
+  the impulse the integrator applies (the momentum balance holds to round-off at the
+  samples, which the solver's dense output interpolates linearly in its stages).
+
+Both accumulate the contact impulse and record it at each sample (the statistics of
+`contact_bench.kernels.sparse`): Verlet's with weights 1/2, 1/2.
 """
 
 from __future__ import annotations
@@ -44,6 +51,8 @@ from contact_bench.kernels.sparse import (
     Factor,
     _buffers,
     _energy,
+    _impulse_sample,
+    _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
@@ -218,6 +227,7 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
                          False, rm, um, wm, gf)
     heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
     massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
+    stats[7] = mu.sum()  # the force at t = 0 in A: the impulse's start
     E0 = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
     min_gap = np.inf
     for j in range(nc):
@@ -241,6 +251,7 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
         for a in range(nh):
             V[hv[a]] += h * A[a]
         _stats_update(stats, status, mu, step, dt)
+        _impulse_update(stats, mu, dt, 0.5)
         for j in range(nc):
             min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
         if step % stride == 0 or step == nsteps:
@@ -255,6 +266,7 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
             cu_out[k] = g
             s_out[k] = -mu.sum() / area
             E_out[k] = e
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -267,7 +279,7 @@ def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Traj
     split = MasslessSplit.of(p)
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     k, done, min_gap, blow = _verlet_kernel(
         *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), *split.args(),
         np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V,
@@ -362,8 +374,9 @@ def speed_scale(p: SparseProblem) -> float:
 def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
                     rtol: float) -> Trajectory:
     """The massless-contact ODE by DOP853 with relative tolerance `rtol` and absolute
-    tolerance rtol (max|U0| + `speed_scale`); dt is the sampling interval only.
-    ValueError unless every contact dof is massless."""
+    tolerance rtol (max|U0| + `speed_scale`) on (u_h, v_h), with the contact impulse
+    integrated along (module docstring); dt is the sampling interval only. The contact
+    statistics are the samples'. ValueError unless every contact dof is massless."""
     from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
 
     split = MasslessSplit.of(p)
@@ -376,29 +389,41 @@ def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
     assert steps.size == n_samples(nsteps, stride)
     t_eval = steps * float(dt)
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    y0 = np.concatenate([U[hv], V[hv]])
-    atol = rtol * (float(np.max(np.abs(U))) + speed_scale(p) + 1e-300)
+    nh = hv.size
+    # the state (u_h, v_h, J): J' = the total contact force, integrated with the same
+    # stages and weights as v_h (J out of the error control: an infinite tolerance)
+    y0 = np.concatenate([U[hv], V[hv], [0.0]])
+    atol = np.full(2 * nh + 1, rtol * (float(np.max(np.abs(U))) + speed_scale(p) + 1e-300))
+    atol[-1] = np.inf
     nc = p.contact.size
+    force = np.zeros(nc)  # the last evaluation's contact forces
     args = (U, F, hv, split.mv, split.cl, *split.Kh, *split.Kmh, split.mfac, split.hfac,
-            split.diag_h, split.W, split.Z, split.tol, gap0, np.zeros(nc),
-            np.zeros(nc, np.bool_))
-    sol = solve_ivp(lambda t, y: ode_rhs(y, *args), (0.0, float(t_eval[-1])), y0,
-                    method="DOP853", t_eval=t_eval, rtol=rtol, atol=atol)
+            split.diag_h, split.W, split.Z, split.tol, gap0, force, np.zeros(nc, np.bool_))
+
+    def rhs(t: float, y: np.ndarray) -> np.ndarray:
+        return np.append(ode_rhs(y[:-1], *args), force.sum())
+
+    sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), y0, method="DOP853", t_eval=t_eval,
+                    rtol=rtol, atol=atol)
     k = sol.t.size
+    impulse = np.array(sol.y[-1])
     Us = np.zeros((k, p.nfree))
     Vs = np.zeros((k, p.nfree))
     lam = np.zeros((k, nc))
-    ode_samples(np.ascontiguousarray(sol.y), F, hv, split.mv, split.cl, *split.Kh,
+    ode_samples(np.ascontiguousarray(sol.y[:-1]), F, hv, split.mv, split.cl, *split.Kh,
                 *split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z, split.tol,
                 gap0, Us, Vs, lam)
     energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
               + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
     gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)
     area = float(np.sum(p.contact.weights))
-    stats = _new_stats()
+    stats = _new_stats(samples=k)
+    stats[9:] = impulse
     status = np.zeros(nc, bool)
     for s in range(1, k):  # the contact statistics at the samples (not the inner steps)
         _stats_update(stats, status, lam[s], int(steps[s]), float(dt))
+        if not np.isnan(stats[2]) and np.isnan(stats[8]):  # the first contact has ended
+            stats[8] = impulse[s]
     blow = None
     bad = ~np.isfinite(energy) | (np.abs(energy) > BLOWUP_FACTOR * max(abs(energy[0]), 1e-300))
     if bad.any():
@@ -406,7 +431,9 @@ def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
         blow, k = float(sol.t[first]), first + 1
     elif sol.status != 0:
         blow = float(sol.t[-1]) if k else 0.0
-    extra = contact_extra(stats)
+    if k:
+        stats[6] = impulse[k - 1]
+    extra = contact_extra(stats, k)
     extra.update(nfev=int(sol.nfev), message=str(sol.message), rtol=rtol)
     cu = gaps.min(axis=1)
     return Trajectory(t=sol.t[:k], U=Us[:k], V=Vs[:k], contact_u=cu[:k],

@@ -16,7 +16,8 @@ once, `lu_solve`, the Delassus matrix W = C S^-1 C^T, `lcp_solve`).
   g = -e g(U^{n-1}) exactly. The sample at t_n is (U^n, (U^{n+1} - U^{n-1}) / 2 dt)
   with the force r^n (so the kernel runs one step past the last sample), as in 1D; with
   that centred velocity the vertical momentum obeys the trapezoid rule on the sampled
-  force exactly (the impulse balance holds to round-off).
+  force exactly; the impulse the kernel accumulates is that trapezoid plus dt r^0 / 2,
+  the change from the data V0 of sample 0 to the centred velocity at level 0.
 * `moreau_jean_sparse` (`schemes/moreau_jean.py`): the theta-method on velocities,
   S = M + theta^2 dt^2 K,
 
@@ -45,6 +46,8 @@ from contact_bench.kernels.sparse import (
     Factor,
     _buffers,
     _energy,
+    _impulse_sample,
+    _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
@@ -148,6 +151,13 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
         was = pen
         lvl = step - 1  # level n = step - 1 is complete: its force is r^n
         _stats_update(stats, status, lam, lvl, dt)
+        # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
+        # level 0 by dt r^0 / 2 from the data V0 (sample 0) to the centred velocity
+        if lvl == 0:
+            stats[7] = lam.sum()
+            stats[6] = 0.5 * dt * stats[7]
+        else:
+            _impulse_update(stats, lam, dt, 0.5)
         if lvl == 0:
             s_out[0] = -lam.sum() / area
         elif lvl % stride == 0 or lvl == nsteps:
@@ -163,6 +173,7 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
             cu_out[k] = g
             s_out[k] = -lam.sum() / area
             E_out[k] = en
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(en) or abs(en) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, lvl, min_gap, lvl
@@ -211,7 +222,7 @@ def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int
     U = p.U0.astype(float).copy()
     Um = U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p)
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                              initial=0.0)), 1e-300)
     k, done, min_gap, blow = _ps_kernel(
@@ -292,6 +303,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
             U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
             V[i] = X[i]
         _stats_update(stats, status, lam, step, dt)
+        _impulse_update(stats, lam, dt, 1.0)  # the impulse P = dt lam itself
         for j in range(nc):
             min_gap = min(min_gap, gap0[j] + U[cd[j]])
         if step % stride == 0 or step == nsteps:
@@ -305,6 +317,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
             cu_out[k] = g
             s_out[k] = -lam.sum() / area
             E_out[k] = en
+            _impulse_sample(stats, k)
             k += 1
             if not np.isfinite(en) or abs(en) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
                 return k, step, min_gap, step
@@ -323,7 +336,7 @@ def moreau_jean_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, e:
     keep_z, Z, W = _contact_operators(fac, cd, n)
     U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
     out = _buffers(p, nsteps, stride)
-    stats = _new_stats()
+    stats = _new_stats(samples=out["t"].size)
     # a velocity-level tolerance: round-off of the larger of the data's speeds
     vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
     k, done, min_gap, blow = _mj_kernel(
