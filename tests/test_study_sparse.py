@@ -61,6 +61,8 @@ def test_quick_study_covers_every_sparse_scene_and_scheme(quick: pd.DataFrame) -
     # explicit schemes were run just below and just above their declared limit
     expl = ran[ran["cfl_limit"].notna() & ran["group"].str.contains("stability")]
     for (_case, _scheme), g in expl.groupby(["case", "scheme"]):
+        if g["group"].str.contains("param").all():  # a parameter value: the scene's dt only
+            continue
         ratio = (g["cfl"] / g["cfl_limit"]).to_numpy(float)
         assert np.any(np.isclose(ratio, 0.95, rtol=1e-2)), ratio
         assert np.any(np.isclose(ratio, 1.05, rtol=1e-2)), ratio
