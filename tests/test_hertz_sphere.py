@@ -113,10 +113,7 @@ def test_pole_zoom_keeps_the_sphere_and_refines_the_pole():
     assert pole_edge(b) / pole_edge(a) == pytest.approx(0.4 / 1.6, rel=0.05)
 
 
-def test_quasi_static_impact_reproduces_hertz():
-    """benchmarks/hertz_gap.py's quasi-static integrator, fed Hertz's F = k d^(3/2),
-    gives Hertz's contact time and peak force (an independent check of
-    contact_bench.exact.hertz: numerical quadrature against the beta-function form)."""
+def _hertz_gap_module():
     import importlib.util
     from pathlib import Path
 
@@ -124,6 +121,34 @@ def test_quasi_static_impact_reproduces_hertz():
     spec = importlib.util.spec_from_file_location("hertz_gap", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
+    return mod
+
+
+def test_quasi_static_sphere_tends_to_hertz_as_the_contact_shrinks():
+    """The static contact of the sphere (benchmarks/hertz_gap.py): stiffer than Hertz's
+    half-space by a relative amount of order a / R, so its quasi-static impact's peak
+    force is above Hertz's, more so at v = 0.01 (a = 0.2 R) than at 0.001 (0.08 R)."""
+    mod = _hertz_gap_module()
+    gaps = []
+    for v in (0.01, 0.001):
+        case = make_case(f"hertz_sphere[v={v}]")
+        h = case.hertz()
+        p = case.sparse_problem(8, 1.0, "consistent")
+        F = h.peak_force * np.linspace(0.05, 1.3, 14)
+        d = mod.static_approach(p, F)
+        assert np.all(np.diff(d) > 0)
+        tc, fm = mod.quasi_static_impact(F, d, p.extra["mass"], v)
+        gaps.append((tc / h.contact_time - 1, fm / h.peak_force - 1))
+    (tc1, f1), (tc2, f2) = gaps
+    assert 0.0 < f2 < 0.08 and -0.08 < tc2 < 0.0  # +4.9 %, -4.4 % (hertz_gap.py)
+    assert f1 > f2 + 0.03 and tc1 < tc2 - 0.02  # +11.5 %, -7.6 %
+
+
+def test_quasi_static_impact_reproduces_hertz():
+    """benchmarks/hertz_gap.py's quasi-static integrator, fed Hertz's F = k d^(3/2),
+    gives Hertz's contact time and peak force (an independent check of
+    contact_bench.exact.hertz: numerical quadrature against the beta-function form)."""
+    mod = _hertz_gap_module()
     h = make_case("hertz_sphere").hertz()
     F = h.peak_force * np.linspace(0.05, 1.3, 26)
     tc, fm = mod.quasi_static_impact(F, (F / h.k) ** (2 / 3), h.mass, float(h.v))
