@@ -11,7 +11,13 @@ energy against time, contact intervals, peak force, contact on/off switches, tim
 step and its ratio to GetFEM's. Conventions in docs/getfem-side-by-side.md.
 
     python benchmarks/getfem_side_by_side.py [--nx 5] [--T 40] [--out FILE]
+    python benchmarks/getfem_side_by_side.py --getfem-mesh GETFEM_SRC/tests/meshes/FILE.mesh
     python benchmarks/getfem_side_by_side.py --demo 1d
+
+`--getfem-mesh`: the other direction. GetFEM loads one of its own mesh files (the .m's
+disc_P2_h*.mesh, or sphere_with_quadratic_tetra_*.mesh for its 3D option) and exports it;
+contact-bench reads the export (MeshTri2 / MeshTet2, the same nodes) and runs `disc_drop`
+or `sphere_drop[degree=2]` on it.
 
 `--demo 1d`: GetFEM's `demo_dynamic_contact_1D.py` (version 0, pure Signorini contact,
 Newmark beta 1/4, standard and redistributed mass) run in GetFEM beside contact-bench's
