@@ -11,7 +11,13 @@ energy against time, contact intervals, peak force, contact on/off switches, tim
 step and its ratio to GetFEM's. Conventions in docs/getfem-side-by-side.md.
 
     python benchmarks/getfem_side_by_side.py [--nx 5] [--T 40] [--out FILE]
+    python benchmarks/getfem_side_by_side.py --getfem-mesh GETFEM_SRC/tests/meshes/FILE.mesh
     python benchmarks/getfem_side_by_side.py --demo 1d
+
+`--getfem-mesh`: the other direction. GetFEM loads one of its own mesh files (the .m's
+disc_P2_h*.mesh, or sphere_with_quadratic_tetra_*.mesh for its 3D option) and exports it;
+contact-bench reads the export (MeshTri2 / MeshTet2, the same nodes) and runs `disc_drop`
+or `sphere_drop[degree=2]` on it.
 
 `--demo 1d`: GetFEM's `demo_dynamic_contact_1D.py` (version 0, pure Signorini contact,
 Newmark beta 1/4, standard and redistributed mass) run in GetFEM beside contact-bench's
@@ -48,9 +54,12 @@ def getfem_run(mesh_npz: str, contact: str, T: float, dt: float, degree: int = 2
     from scipy.sparse.linalg import splu
 
     gf.util_trace_level(0)
-    m = gf.Mesh("empty", 2)
-    m.add_convex(gf.GeoTrans("GT_PK(2,2)"), np.load(mesh_npz)["nodes"])
-    d, GAMMAC = 2, 1
+    if mesh_npz.endswith(".npz"):  # contact-bench's ring mesh, exported
+        m = gf.Mesh("empty", 2)
+        m.add_convex(gf.GeoTrans("GT_PK(2,2)"), np.load(mesh_npz)["nodes"])
+    else:  # a GetFEM mesh file, loaded as the demo does
+        m = gf.Mesh("load", mesh_npz)
+    d, GAMMAC = m.dim(), 1
     border = m.outer_faces()
     normals = m.normal_of_faces(border)
     m.set_region(GAMMAC, border[:, np.nonzero(normals[d - 1] < -0.01)[0]])
@@ -61,7 +70,8 @@ def getfem_run(mesh_npz: str, contact: str, T: float, dt: float, degree: int = 2
     mflambda = gf.MeshFem(m, 1)
     mflambda.set_classical_fem(1)
     mim = gf.MeshIm(m, 4)
-    mim_c = gf.MeshIm(m, gf.Integ("IM_STRUCTURED_COMPOSITE(IM_TRIANGLE(4),4)"))
+    mim_c = gf.MeshIm(m, gf.Integ("IM_STRUCTURED_COMPOSITE(IM_TRIANGLE(4),4)" if d == 2 else
+                                  "IM_STRUCTURED_COMPOSITE(IM_TETRAHEDRON(5),4)"))
     M = gf.asm_mass_matrix(mim, mfu)
     nbdofd, nbdofu = mfd.nbdof(), mfu.nbdof()
     F = np.zeros((d, nbdofd))
@@ -77,7 +87,7 @@ def getfem_run(mesh_npz: str, contact: str, T: float, dt: float, degree: int = 2
     ind_rhs = md.add_explicit_rhs("u", np.zeros(nbdofu))
     md.add_initialized_fem_data("volumicload", mfd, F)
     md.add_source_term_brick(mim, "u", "volumicload")
-    md.add_initialized_fem_data("obstacle", mfd, mfd.eval("y"))
+    md.add_initialized_fem_data("obstacle", mfd, mfd.eval("y" if d == 2 else "z"))
     if contact == "nitsche":
         md.add_initialized_data("gamma0", [gamma0])
         md.add_initialized_data("theta_N", [theta_N])
@@ -134,6 +144,24 @@ def getfem_run(mesh_npz: str, contact: str, T: float, dt: float, degree: int = 2
     return {"E": E.tolist(), "Rc": Rc.tolist(), "ybar": ybar.tolist(), "mass": mass,
             "ndofs": int(nbdofu), "seconds_per_step": scheme_s / NT,
             "seconds_per_step_total": (time.perf_counter() - t0) / NT}
+
+
+def getfem_export(mesh_file: str, out: str) -> None:
+    """A GetFEM mesh file as GetFEM reads it: its points, every convex's point ids in
+    GetFEM's order, and the number of faces of the contact zone (outward n_d < -0.01)."""
+    import getfem as gf
+
+    m = gf.Mesh("load", mesh_file)
+    cv = m.cvid()
+    pid, idx = m.pid_from_cvid(cv)
+    nn = np.diff(idx)
+    if np.any(nn != nn[0]):
+        raise SystemExit(f"{mesh_file}: convexes of several kinds")
+    border = m.outer_faces()
+    normals = m.normal_of_faces(border)
+    np.savez(out, points=m.pts(), cells=np.asarray(pid).reshape(-1, nn[0]),
+             geotrans=str(m.geotrans(cv[:1])[0]),
+             contact_faces=int(np.sum(normals[m.dim() - 1] < -0.01)))
 
 
 def getfem_1d_run(mass_type: int, NX: int = 20, T: float = 12.0, dt: float = 0.002,
@@ -225,12 +253,62 @@ def export_mesh(case, nx: int, path: str) -> None:
                                    V[:, 2]], axis=1))
 
 
-def bench_run(case, scheme_spec: str, nx: int, dt: float, T: float) -> dict:
+#: GetFEM's quadratic simplices: the local ids of the vertices, and of each edge's
+#: midpoint with its two vertices (GT_PK(d,2) orders its nodes by barycentric coordinates)
+_GT_PK2 = {2: ((0, 2, 5), ((1, 0, 2), (3, 0, 5), (4, 2, 5))),
+           3: ((0, 2, 5, 9), ((1, 0, 2), (3, 0, 5), (4, 2, 5), (6, 0, 9), (7, 2, 9),
+                              (8, 5, 9)))}
+
+
+def read_getfem_mesh(path: str):
+    """GetFEM's exported quadratic triangles or tetrahedra (`getfem_export`) as a
+    scikit-fem MeshTri2 or MeshTet2: the vertices and every edge's midpoint node."""
+    import skfem as fe
+
+    z = np.load(path)
+    P, C = np.asarray(z["points"], float), np.asarray(z["cells"], np.int64)
+    d = P.shape[0]
+    if d not in _GT_PK2 or C.shape[1] != (6 if d == 2 else 10):
+        raise ValueError(f"{path}: {z['geotrans']} is not a quadratic simplex (GT_PK(d,2))")
+    corners, mids = _GT_PK2[d]
+    verts, t = np.unique(C[:, corners], return_inverse=True)
+    t = t.reshape(-1, d + 1).T
+    linear = (fe.MeshTri1 if d == 2 else fe.MeshTet1)(P[:, verts], t)
+    m = (fe.MeshTri2 if d == 2 else fe.MeshTet2).from_mesh(linear)
+    number = {int(v): k for k, v in enumerate(verts)}
+    midpoint = {}
+    for cell in C:
+        for k, a, b in mids:
+            midpoint[frozenset((number[int(cell[a])], number[int(cell[b])]))] = cell[k]
+    edges = m.facets if d == 2 else m.edges  # scikit-fem's edge dofs follow the vertices
+    loc = m.doflocs.copy()
+    loc[:, m.nvertices:] = P[:, [midpoint[frozenset(e)] for e in edges.T.tolist()]]
+    from dataclasses import replace
+
+    return replace(m, doflocs=loc)
+
+
+def on_mesh(case, mesh):
+    """The scene on another mesh: a copy whose `mesh(nx)` is `mesh` (the scene assembles
+    everything else from it)."""
+    import copy
+
+    other = copy.copy(case)
+    other.mesh = lambda nx: mesh
+    return other
+
+
+def bench_run(case, scheme_spec: str, nx: int, dt: float, T: float,
+              h_contact: float | None = None) -> dict:
     """One contact-bench scheme on the scene, every step recorded (stride 1)."""
+    from dataclasses import replace
+
     from contact_bench.api.registry import make_scheme
 
     scheme = make_scheme(scheme_spec)
     p = case.sparse_problem(nx, 1.0, scheme.mass_kind())
+    if h_contact is not None:
+        p = replace(p, h_contact=h_contact)
     nsteps = int(round(T / dt))
     scheme.integrate_sparse(p, dt, 1, 1)  # compilation outside the timing
     start = time.perf_counter()
@@ -238,7 +316,7 @@ def bench_run(case, scheme_spec: str, nx: int, dt: float, T: float) -> dict:
     wall = time.perf_counter() - start
     Mc = case.sparse_problem(nx, 1.0, "consistent").M
     mass = p.extra["mass"]
-    ybar = (traj.U @ (Mc @ np.tile([0.0, 1.0], p.nfree // 2))) / mass
+    ybar = (traj.U @ (Mc @ p.extra["vertical"])) / mass
     return {"E": traj.energy.tolist(), "Rc": (-traj.stress * p.contact.weights.sum()).tolist(),
             "ybar": ybar.tolist(), "mass": mass, "ndofs": p.nfree,
             "seconds_per_step": wall / nsteps}
@@ -252,7 +330,8 @@ def intervals(R: np.ndarray, dt: float, thr: float) -> list[tuple[float, float]]
             zip(edges[::2], edges[1::2], strict=True)]
 
 
-def table(results: dict[str, dict], dt: float, T: float, E0_exact: float) -> str:
+def table(results: dict[str, dict], dt: float, T: float, E0_exact: float,
+          body: str = "disc") -> str:
     """The markdown tables of the runs."""
     ref = results.get("GetFEM Nitsche", {}).get("seconds_per_step")
     times = [t for t in (0, 5, 10, 15, 20, 25, 30, 35, 40) if t <= T]
@@ -281,7 +360,7 @@ def table(results: dict[str, dict], dt: float, T: float, E0_exact: float) -> str
             f"{2 * len(iv) - (1 if iv and iv[-1][1] >= T - dt / 2 else 0)} | "
             f"{ff:.2g} | {r['seconds_per_step'] * 1e3:.3g} ms | {ratio} |")
     lines.append("")
-    lines.append(f"E0 = m g lift = {E0_exact:.6g} for the continuous disc. Switches: contact "
+    lines.append(f"E0 = m g lift = {E0_exact:.6g} for the continuous {body}. Switches: contact "
                  "on/off changes of the body (vertical resultant above 1e-8 m g).")
     return "\n".join(lines)
 
@@ -316,6 +395,49 @@ def table_1d(python: str) -> str:
     return "\n".join(lines)
 
 
+def getfem_mesh_table(mesh_file: str, schemes: list[str], T: float, dt: float) -> str:
+    """Both codes on a GetFEM mesh file: GetFEM loads it (as the demo does) and exports
+    it; contact-bench reads the export and runs `disc_drop` (2D) or `sphere_drop[degree=2]`
+    (3D) on it, with the contact zone's mean edge length as its Nitsche/penalty h."""
+    from contact_bench.api.registry import make_case
+
+    results: dict[str, dict] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        exported = os.path.join(tmp, "mesh.npz")
+        subprocess.run([GETFEM_PYTHON, os.path.abspath(__file__), "--getfem-export",
+                        mesh_file, exported], check=True, stdout=subprocess.DEVNULL)
+        mesh = read_getfem_mesh(exported)
+        faces = int(np.load(exported)["contact_faces"])
+        for contact in ("nitsche", "multipliers"):
+            out = os.path.join(tmp, f"{contact}.json")
+            subprocess.run([GETFEM_PYTHON, os.path.abspath(__file__), "--getfem-worker",
+                            mesh_file, contact, out, json.dumps({"T": T, "dt": dt})],
+                           check=True)
+            with open(out) as f:
+                results[f"GetFEM {'Nitsche' if contact == 'nitsche' else 'multipliers'}"] = \
+                    json.load(f)
+    d = mesh.dim()
+    case = on_mesh(make_case("disc_drop" if d == 2 else "sphere_drop[degree=2]"), mesh)
+    p = case.sparse_problem(case.nx, 1.0, "consistent")
+    zone = p.contact.dofs // d
+    C = mesh.facets if d == 2 else mesh.edges
+    inside = C[:, np.all(np.isin(C, zone), axis=0)]  # the zone's edges (vertex dofs first)
+    h = float(np.mean(np.linalg.norm(mesh.p[:, inside[0]] - mesh.p[:, inside[1]], axis=0)))
+    refused = []
+    for spec in schemes:
+        try:
+            results[f"contact-bench {spec}"] = bench_run(case, spec, case.nx, dt, T, h)
+        except ValueError as exc:  # e.g. a redistributed mass that is not SPD on this mesh
+            refused.append(f"contact-bench {spec} refuses this mesh: {exc}.")
+    body = "disc" if d == 2 else "ball"
+    head = (f"GetFEM mesh `{os.path.basename(mesh_file)}`: {mesh.t.shape[1]} quadratic "
+            f"{'triangles' if d == 2 else 'tetrahedra'}, {p.nfree} dofs (P2); contact zone: "
+            f"{faces} faces in GetFEM (outward n_{'yz'[d - 2]} < -0.01), {zone.size} nodes "
+            f"in contact-bench; contact-bench's h = {h:.3g} (the zone's mean edge length).\n\n")
+    return head + table(results, dt, T, case.exact_energy, body) + "".join(
+        "\n" + r for r in refused)
+
+
 def getfem_available(python: str) -> str | None:
     """None if `python` imports getfem, else the reason."""
     try:
@@ -336,10 +458,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="also write the table to this file")
     ap.add_argument("--demo", choices=("disc", "1d"), default="disc",
                     help="the disc drop (2D) or the 1D demo on the clamped bar")
+    ap.add_argument("--getfem-mesh", default=None, metavar="FILE",
+                    help="run on this GetFEM mesh file instead (GetFEM's tests/meshes/"
+                    "disc_P2_h*.mesh: the disc drop; sphere_with_quadratic_tetra_*.mesh: "
+                    "the 3D sphere drop, contact-bench's sphere_drop)")
     args = ap.parse_args(argv)
     why = getfem_available(GETFEM_PYTHON)
     if why:
         print(f"skipped: GetFEM is absent ({why}; apt-get install python3-getfem)")
+        return 0
+    if args.getfem_mesh:
+        if not os.path.isfile(args.getfem_mesh):
+            print(f"skipped: no GetFEM mesh file {args.getfem_mesh} (GetFEM's tests/meshes/, "
+                  "in its source tree, not in Debian's package)")
+            return 0
+        text = getfem_mesh_table(args.getfem_mesh, args.schemes, args.T, args.dt)
+        print(text)
+        if args.out:
+            with open(args.out, "w") as f:
+                f.write(text + "\n")
         return 0
     if args.demo == "1d":
         text = table_1d(GETFEM_PYTHON)
@@ -379,6 +516,9 @@ if __name__ == "__main__":
         res = getfem_run(mesh_npz, contact, **json.loads(kw))
         with open(out, "w") as f:
             json.dump(res, f)
+        sys.exit(0)
+    if len(sys.argv) > 1 and sys.argv[1] == "--getfem-export":
+        getfem_export(sys.argv[2], sys.argv[3])
         sys.exit(0)
     if len(sys.argv) > 1 and sys.argv[1] == "--getfem-1d":
         with open(sys.argv[2], "w") as f:

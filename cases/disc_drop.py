@@ -170,7 +170,8 @@ class DiscDrop(Case):
         contact = zone.contact_set()
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
-                             mass_kind=mass_kind, equal_groups=(mirror_pairs(P) * 2 + 1,),
+                             mass_kind=mass_kind,
+                             equal_groups=tuple(g for g in (mirror_pairs(P) * 2 + 1,) if g.size),
                              E_contact=self.E,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
@@ -218,10 +219,12 @@ def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def mirror_pairs(P: np.ndarray) -> np.ndarray:
-    """(pairs, 2) scalar dofs at (x, y) and (-x, y), x > 0."""
+    """(pairs, 2) scalar dofs at (x, y) and (-x, y), x > 0 (those with a mirror image:
+    all on the ring mesh, few or none on an external mesh)."""
     scale = float(np.max(np.abs(P)))
     key = {(round(x / scale, 9), round(y / scale, 9)): s for s, (x, y) in enumerate(P.T)}
     right = np.flatnonzero(P[0] > 1e-9 * scale)
-    return np.array([[s, key[(round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9))]]
-                     for s in right], np.int64)
+    pairs = [[s, key.get((round(-P[0, s] / scale, 9), round(P[1, s] / scale, 9)), -1)]
+             for s in right]
+    return np.array([q for q in pairs if q[1] >= 0], np.int64).reshape(-1, 2)
 

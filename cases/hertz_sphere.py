@@ -4,9 +4,11 @@ Sphere R = 1, E = 1, nu = 0.3, rho = 1 (c_p about 1.16), touching the plane z = 
 pole at t = 0 with velocity -v (`v`, default 0.01), no gravity; T = 1.25 x Hertz's contact
 time (15.4 at v = 0.01), dt = 0.01. The meridian half-disc r >= 0: the disc's ring mesh
 graded towards the pole (`grade`: distances from the pole along each chord raised to that
-power), P2 on P2 geometry, `--nx` rings. Axisymmetric forms: weight 2 pi r, hoop strain
-u_r / r, u_r = 0 on the axis. Contact set: the vertical dofs of the lower half of the
-meridian; their forces sum to the total force.
+power), its nodes then moved by the disc automorphism z -> (z - i s) / (1 + i s z) (`pole`
+= s: element sizes at the pole x (1 - s) / (1 + s), its boundary included), P2 on P2
+geometry, `--nx` rings. Axisymmetric forms: weight 2 pi r, hoop strain u_r / r, u_r = 0
+on the axis. Contact set: the vertical dofs of the lower half of the meridian; their
+forces sum to the total force.
 
 Reference quantities (`hertz`): Hertz's contact time and peak force
 (`contact_bench.exact.hertz`), the limit v / c -> 0 that the finite-element answer
@@ -40,6 +42,8 @@ class HertzSphere(Case):
         "v": Param(0.01, "impact speed", low=1e-6, high=1.0),
         "grade": Param(2.0, "mesh grading exponent towards the pole (1: uniform)", low=1.0,
                        high=4.0),
+        "pole": Param(0.6, "conformal zoom s on the pole: element sizes there x (1 - s) / "
+                      "(1 + s), on the boundary too (0: none)", low=0.0, high=0.9),
     }
     R, Young, nu, rho = 1.0, 1.0, 0.3, 1.0
     nx, dt, stride = 8, 0.01, 1
@@ -86,7 +90,9 @@ class HertzSphere(Case):
 
     def mesh(self, nx: int) -> fe.MeshTri2:
         """The meridian half-disc (r >= 0) of the ring mesh, graded towards the pole
-        (0, 0) and with its curved boundary on the circle."""
+        (0, 0) along the chords from it (interior nodes), zoomed on it by a conformal map
+        of the disc onto itself (every node: shapes kept, the circle and the axis mapped
+        onto themselves), its curved boundary on the circle."""
         p, t = ring_half_disc(int(nx))
         pole = np.array([[0.0], [-1.0]])
         d = p - pole
@@ -95,6 +101,9 @@ class HertzSphere(Case):
         scale = np.where(dist > 0, (dist / np.where(chord > 0, chord, 1.0))
                          ** (float(self.grade) - 1.0), 0.0)
         p = pole + d * scale
+        z = (p[0] + 1j * p[1] - 1j * float(self.pole)) / (1 + 1j * float(self.pole)
+                                                          * (p[0] + 1j * p[1]))
+        p = np.vstack([np.where(p[0] == 0.0, 0.0, z.real), z.imag])
         p = p * self.R + np.array([[0.0], [self.R]])
         m = fe.MeshTri2.from_mesh(fe.MeshTri1(p, t))
         loc = m.doflocs.copy()

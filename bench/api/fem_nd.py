@@ -1,10 +1,10 @@
 """Linear elasticity in 2D (plane strain) and 3D with scikit-fem, as sparse matrices.
 
 Lagrange elements on scikit-fem meshes: P1 and P2 triangles (`MeshTri1`, `MeshTri2`), P1
-and P2 tetrahedra, Q1 quadrilaterals and hexahedra. The vector unknown of scalar dof s,
-component c (0-based) is dof `dim * s + c` (scikit-fem's `ElementVector` interleaves
-them), so every isotropic vector mass is the scalar mass times the identity of the
-components, which is how the mass variants are built (`mass_matrix`).
+and P2 tetrahedra (`MeshTet1`, `MeshTet2`), Q1 quadrilaterals and hexahedra. The vector
+unknown of scalar dof s, component c (0-based) is dof `dim * s + c` (scikit-fem's
+`ElementVector` interleaves them), so every isotropic vector mass is the scalar mass
+times the identity of the components, which is how the mass variants are built (`mass_matrix`).
 
 Mass variants (see the project note "beyond the bar", sections 1 and 3):
 
@@ -50,6 +50,7 @@ _ELEMENTS: dict[type, dict[int, Callable[[], fe.Element]]] = {
     fe.MeshTri1: {1: fe.ElementTriP1, 2: fe.ElementTriP2},
     fe.MeshTri2: {1: fe.ElementTriP1, 2: fe.ElementTriP2},
     fe.MeshTet1: {1: fe.ElementTetP1, 2: fe.ElementTetP2},
+    fe.MeshTet2: {1: fe.ElementTetP1, 2: fe.ElementTetP2},
     fe.MeshQuad1: {1: fe.ElementQuad1},
     fe.MeshHex1: {1: fe.ElementHex1},
 }
