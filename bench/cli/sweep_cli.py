@@ -28,7 +28,7 @@ def _runner_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-cache", action="store_true", help="recompute every run")
     p.add_argument("--repeats", type=int, default=None,
                    help="timed repeats per run in the serial timing pass (0: no timing; "
-                        "default 5, 2 with --quick)")
+                        "default: sweep 5, study 3, study --quick 2)")
     p.add_argument("--retime", action="store_true",
                    help="measure the timings again, even those in the cache (the runs and "
                         "their errors still come from the cache)")
@@ -105,7 +105,9 @@ def _check_runner(args: argparse.Namespace) -> None:
     if args.jobs < 1:
         raise BenchError(f"-j must be >= 1, got {args.jobs}")
     if args.repeats is None:
-        args.repeats = 2 if getattr(args, "quick", False) else 5
+        # the study times its ~240 work-precision runs 3 times (within its 5 minutes)
+        study = hasattr(args, "quick")
+        args.repeats = (2 if args.quick else 3) if study else 5
     if args.repeats < 0:
         raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
     dask_address(args.dask)
