@@ -355,7 +355,8 @@ def table(results: dict[str, dict], dt: float, T: float, E0_exact: float,
         ratio = f"{ref / r['seconds_per_step']:.1f}" if ref else ""
         lines.append(
             f"| {name} | {r['ndofs']} | "
-            + " ".join(f"{E[int(round(t / dt))] / E0:.4f}" for t in times)
+            + " ".join(f"{E[k] / E0:.4f}" if k < E.size else "(blew up)"
+                       for k in (int(round(t / dt)) for t in times))
             + f" | {np.max(np.abs(E / E0 - 1)):.3g} | {shown or 'none'} | {R.max():.4g} | "
             f"{2 * len(iv) - (1 if iv and iv[-1][1] >= T - dt / 2 else 0)} | "
             f"{ff:.2g} | {r['seconds_per_step'] * 1e3:.3g} ms | {ratio} |")
@@ -398,7 +399,8 @@ def table_1d(python: str) -> str:
 def getfem_mesh_table(mesh_file: str, schemes: list[str], T: float, dt: float) -> str:
     """Both codes on a GetFEM mesh file: GetFEM loads it (as the demo does) and exports
     it; contact-bench reads the export and runs `disc_drop` (2D) or `sphere_drop[degree=2]`
-    (3D) on it, with the contact zone's mean edge length as its Nitsche/penalty h."""
+    (3D) on it, with the contact zone's mean edge length over p^2 as its Nitsche/penalty
+    length (the scenes' `fem_nd.contact_length`)."""
     from contact_bench.api.registry import make_case
 
     results: dict[str, dict] = {}
@@ -423,17 +425,22 @@ def getfem_mesh_table(mesh_file: str, schemes: list[str], T: float, dt: float) -
     C = mesh.facets if d == 2 else mesh.edges
     inside = C[:, np.all(np.isin(C, zone), axis=0)]  # the zone's edges (vertex dofs first)
     h = float(np.mean(np.linalg.norm(mesh.p[:, inside[0]] - mesh.p[:, inside[1]], axis=0)))
+    # the scenes' convention for penalty and Nitsche: that element size over p^2
+    from contact_bench.api import fem_nd
+
+    h_contact = fem_nd.contact_length(case.body(case.nx), h)
     refused = []
     for spec in schemes:
         try:
-            results[f"contact-bench {spec}"] = bench_run(case, spec, case.nx, dt, T, h)
+            results[f"contact-bench {spec}"] = bench_run(case, spec, case.nx, dt, T, h_contact)
         except ValueError as exc:  # e.g. a redistributed mass that is not SPD on this mesh
             refused.append(f"contact-bench {spec} refuses this mesh: {exc}.")
     body = "disc" if d == 2 else "ball"
     head = (f"GetFEM mesh `{os.path.basename(mesh_file)}`: {mesh.t.shape[1]} quadratic "
             f"{'triangles' if d == 2 else 'tetrahedra'}, {p.nfree} dofs (P2); contact zone: "
             f"{faces} faces in GetFEM (outward n_{'yz'[d - 2]} < -0.01), {zone.size} nodes "
-            f"in contact-bench; contact-bench's h = {h:.3g} (the zone's mean edge length).\n\n")
+            f"in contact-bench; contact-bench's h = {h:.3g} (the zone's mean edge length), "
+            f"h_contact = h / p^2 = {h_contact:.3g}.\n\n")
     return head + table(results, dt, T, case.exact_energy, body) + "".join(
         "\n" + r for r in refused)
 
