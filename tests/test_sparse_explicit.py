@@ -144,3 +144,10 @@ def test_embedded_bar_keeps_the_1d_declared_bounds(scheme):
     drift = sch.energy_drift_bound(semi, dt)
     if drift is not None:
         assert row["energy_drift_max"] <= drift
+
+
+def test_taylor_flanagan_blowing_up_between_samples_is_an_unstable_row():
+    """At twice its limit on the graded sphere the consistent Taylor-Flanagan step goes
+    non-finite between samples: the row says unstable (it raised in the LCP before)."""
+    row = run_one("hertz_sphere", "taylor_flanagan", nx=2, dt=0.0131, allow_unstable=True).row
+    assert row["status"] == "unstable", row["notes"]

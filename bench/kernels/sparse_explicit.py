@@ -352,7 +352,10 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
         inJ[:] = False
         grow = False
         for j in range(nc):
-            if gap0[j] + U[cd[j]] < 0.0:
+            gj = gap0[j] + U[cd[j]]
+            if not np.isfinite(gj):  # blown up between samples: stop before the LCP
+                return k, step, min_gap, step
+            if gj < 0.0:
                 inJ[j] = True
                 grow = True
         for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
