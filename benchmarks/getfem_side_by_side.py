@@ -425,10 +425,9 @@ def getfem_mesh_table(mesh_file: str, schemes: list[str], T: float, dt: float) -
     C = mesh.facets if d == 2 else mesh.edges
     inside = C[:, np.all(np.isin(C, zone), axis=0)]  # the zone's edges (vertex dofs first)
     h = float(np.mean(np.linalg.norm(mesh.p[:, inside[0]] - mesh.p[:, inside[1]], axis=0)))
-    # the scenes' convention for penalty and Nitsche: that element size over p^2
-    from contact_bench.api import fem_nd
-
-    h_contact = fem_nd.contact_length(case.body(case.nx), h)
+    # the scenes' convention for penalty and Nitsche (`fem_nd.contact_length`): that
+    # element size over p^2
+    h_contact = h / int(case.degree) ** 2
     refused = []
     for spec in schemes:
         try:
