@@ -273,6 +273,25 @@ def _impulse_sample(stats, k):  # pragma: no cover - compiled
         stats[9 + k] = stats[6]
 
 
+@njit(cache=True)
+def _write_sample(k, t, U, V, gap0, idx, stress, e, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out, stats):  # pragma: no cover - compiled
+    """Write sample k of a sparse kernel: time t, U, V, the smallest gap of the contact
+    dofs idx, the stress, the energy e and the impulse so far (`_impulse_sample`).
+    True when the run has blown up (e not finite or above BLOWUP_FACTOR |E0|)."""
+    t_out[k] = t
+    U_out[k, :] = U
+    V_out[k, :] = V
+    g = np.inf
+    for j in range(idx.size):
+        g = min(g, gap0[j] + U[idx[j]])
+    cu_out[k] = g
+    s_out[k] = stress
+    E_out[k] = e
+    _impulse_sample(stats, k)
+    return not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300)
+
+
 def _new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
     """The per-step contact statistics of a kernel, slots (`STATS_FIELDS`):
     0 status switches of the contact dofs (chatter), 1 first contact start (the time of
@@ -426,18 +445,11 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                     yi = min(0.0, y[i] + y0[i])
                     e += 0.5 * ew * kappa[i] * yi * yi
                     st += sc[i] * yi
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for i in range(nc):
-                g = min(g, gap0[i] + U[cd[i]])
-            cu_out[k] = g
-            s_out[k] = st / area if penalty else -lam.sum() / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            stress = st / area if penalty else -lam.sum() / area
+            blown = _write_sample(k, step * dt, U, V, gap0, cd, stress, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 
@@ -651,18 +663,10 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
                 e += 0.5 * m[i] * tmp[i] * tmp[i]
             csr_matvec(Kp, Ki, Kx, U, Un)
             e += 0.5 * (U @ Un)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = tmp
-            g = np.inf
-            for i in range(nc):
-                g = min(g, gap0[i] + U[cd[i]])
-            cu_out[k] = g
-            s_out[k] = -lam.sum() / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, tmp, gap0, cd, -lam.sum() / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 
@@ -768,18 +772,10 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
         if step % stride == 0 or step == nsteps:
             e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[mv[cl[j]]])
-            cu_out[k] = g
-            s_out[k] = -mu.sum() / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, V, gap0, mv[cl], -mu.sum() / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 

@@ -47,17 +47,16 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.sampling import BLOWUP_FACTOR
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     ContactLaw,
     Factor,
     _buffers,
-    _impulse_sample,
     _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
+    _write_sample,
     csr_arrays,
     csr_matvec,
     initial_acceleration,
@@ -164,18 +163,10 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
                 yn = min(0.0, y[j])
                 e += 0.5 * ew * c[j] * yn * yn
                 st += sc[j] * yn
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[cd[j]])
-            cu_out[k] = g
-            s_out[k] = st / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 
@@ -411,18 +402,10 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
             e = 0.5 * (V @ w)
             csr_matvec(Kp, Ki, Kx, U, w)
             e += 0.5 * (U @ w) - F @ U + offset
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[cd[j]])
-            cu_out[k] = g
-            s_out[k] = -lam.sum() / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 

@@ -51,11 +51,11 @@ from contact_bench.kernels.sparse import (
     Factor,
     _buffers,
     _energy,
-    _impulse_sample,
     _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
+    _write_sample,
     contact_extra,
     csr_arrays,
     csr_matvec,
@@ -257,18 +257,10 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
         if step % stride == 0 or step == nsteps:
             massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
             e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[mv[cl[j]]])
-            cu_out[k] = g
-            s_out[k] = -mu.sum() / area
-            E_out[k] = e
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, V, gap0, mv[cl], -mu.sum() / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 

@@ -40,17 +40,16 @@ from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.sampling import BLOWUP_FACTOR
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     Factor,
     _buffers,
     _energy,
-    _impulse_sample,
     _impulse_update,
     _new_stats,
     _stats_update,
     _trajectory,
+    _write_sample,
     csr_arrays,
     csr_matvec,
     delassus,
@@ -164,18 +163,10 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
             for i in range(n):
                 tmp[i] = (X[i] - Um[i]) / (2.0 * dt)
             en = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, tmp, offset, w)
-            t_out[k] = lvl * dt
-            U_out[k, :] = U
-            V_out[k, :] = tmp
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[cd[j]])
-            cu_out[k] = g
-            s_out[k] = -lam.sum() / area
-            E_out[k] = en
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, lvl * dt, U, tmp, gap0, cd, -lam.sum() / area, en, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(en) or abs(en) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, lvl, min_gap, lvl
         if step == nsteps + 1:
             break
@@ -308,18 +299,10 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
             min_gap = min(min_gap, gap0[j] + U[cd[j]])
         if step % stride == 0 or step == nsteps:
             en = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            t_out[k] = step * dt
-            U_out[k, :] = U
-            V_out[k, :] = V
-            g = np.inf
-            for j in range(nc):
-                g = min(g, gap0[j] + U[cd[j]])
-            cu_out[k] = g
-            s_out[k] = -lam.sum() / area
-            E_out[k] = en
-            _impulse_sample(stats, k)
+            blown = _write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, en, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
-            if not np.isfinite(en) or abs(en) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown:
                 return k, step, min_gap, step
     return k, nsteps, min_gap, -1
 
