@@ -46,6 +46,7 @@ same study on tiny grids (a smoke test, about a minute).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -71,17 +72,18 @@ SPARSE_QUICK = {"dt_factors": (16.0,), "limit_factors": (0.95, 1.05), "max_sampl
 
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
     """The scheme's declared stability limit as a CFL number on this scene's mesh."""
-    semi = problem_for(case, scheme, nx)
-    limit = declared_limit(case, scheme, semi)
-    return None if limit is None else limit * semi.c_max / semi.hmin
+    return _limit_as_cfl(case, scheme, problem_for(case, scheme, nx))
 
 
 def scene_cfl(case: Case, scheme: Scheme, nx: int) -> tuple[float, float | None]:
     """The scene's own dt as a CFL number on this mesh, and the declared limit as one."""
     semi = problem_for(case, scheme, nx)
+    return float(case.dt) * semi.c_max / semi.hmin, _limit_as_cfl(case, scheme, semi)
+
+
+def _limit_as_cfl(case: Case, scheme: Scheme, semi: Any) -> float | None:
     limit = declared_limit(case, scheme, semi)
-    cfl = float(case.dt) * semi.c_max / semi.hmin
-    return cfl, None if limit is None else limit * semi.c_max / semi.hmin
+    return None if limit is None else limit * semi.c_max / semi.hmin
 
 
 def stability_cfls(limit: float | None, points: int) -> list[float]:
@@ -195,18 +197,9 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
                     else [f * cfl0 for f in g["dt_factors"]])
             tasks += [Task(case.spec, spec, nxs[0], cfl=float(f"{c:.4g}"), T=T, max_samples=ms,
                            group="stability", timed=False) for c in cfls]
-            for pname, param in type(scheme).params.items():
-                if not param.sweep or f"{pname}=" in spec:
-                    continue
-                values = param.sweep if g["param_sweep"] == "all" else dict.fromkeys(
-                    (param.sweep[0], param.sweep[-1]))
-                for value in values:
-                    try:
-                        vs = make_scheme(_with_param(spec, pname, value))
-                    except Exception:  # noqa: BLE001 - a value outside the declared range
-                        continue
-                    tasks.append(Task(case.spec, vs.spec, nxs[0], cfl=cfl_r, T=T,
-                                      max_samples=ms, group="stability;param", timed=False))
+            tasks += [Task(case.spec, vs.spec, nxs[0], cfl=cfl_r, T=T, max_samples=ms,
+                           group="stability;param", timed=False)
+                      for vs in _param_variants(spec, scheme, g["param_sweep"])]
     # runs of one mesh and dt one after the other: a scene's numerical reference (kept by
     # the worker for its next runs) is computed about once per worker, not once per scheme
     return sorted(tasks, key=lambda t: (t.case, t.nx or 0, t.cfl or 0.0))
@@ -225,20 +218,27 @@ def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
 
     out = [Task(case_spec, spec, nx, cfl=c, T=T, max_samples=ms, group="stability", timed=False)
            for c in stability_cfls(limit_of(scheme), g["cfl_points"])]
+    for vs in _param_variants(spec, scheme, g["param_sweep"]):
+        out += [Task(case_spec, vs.spec, nx, cfl=c, T=T, max_samples=ms,
+                     group="stability", timed=False) for c in stability_cfls(limit_of(vs), 3)]
+    return out
+
+
+def _param_variants(spec: str, scheme: Scheme, which: str) -> list[Scheme]:
+    """The scheme at each value of its declared parameter sweeps (`Param.sweep`; `which`
+    "all" values or only the two ends), for the parameters the spec does not fix; values
+    outside the declared range are skipped."""
+    out = []
     for pname, param in type(scheme).params.items():
         if not param.sweep or f"{pname}=" in spec:
             continue
-        values = param.sweep if g["param_sweep"] == "all" else dict.fromkeys(
+        values = param.sweep if which == "all" else dict.fromkeys(
             (param.sweep[0], param.sweep[-1]))
         for value in values:
-            variant = _with_param(spec, pname, value)
             try:
-                vs = make_scheme(variant)
+                out.append(make_scheme(_with_param(spec, pname, value)))
             except Exception:  # noqa: BLE001 - a value outside the declared range: skip it
                 continue
-            cfls = stability_cfls(limit_of(vs), 3)
-            out += [Task(case_spec, vs.spec, nx, cfl=c, T=T, max_samples=ms,
-                         group="stability", timed=False) for c in cfls]
     return out
 
 
