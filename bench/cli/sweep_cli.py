@@ -35,6 +35,7 @@ def _runner_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar (CI)")
     p.add_argument("--traceback", action="store_true",
                    help="print the full traceback of every 'error' row on stderr")
+    p.set_defaults(default_repeats=5)  # timed repeats without --repeats
 
 
 def _figure_options(p: argparse.ArgumentParser) -> None:
@@ -84,6 +85,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     st.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
     _figure_options(st)
     _runner_options(st)
+    # the study times its ~240 work-precision runs 3 times (within its 5 minutes)
+    st.set_defaults(default_repeats=3)
 
 
 def _cache(args: argparse.Namespace):  # noqa: ANN202
@@ -105,9 +108,7 @@ def _check_runner(args: argparse.Namespace) -> None:
     if args.jobs < 1:
         raise BenchError(f"-j must be >= 1, got {args.jobs}")
     if args.repeats is None:
-        # the study times its ~240 work-precision runs 3 times (within its 5 minutes)
-        study = hasattr(args, "quick")
-        args.repeats = (2 if args.quick else 3) if study else 5
+        args.repeats = 2 if getattr(args, "quick", False) else args.default_repeats
     if args.repeats < 0:
         raise BenchError(f"--repeats must be >= 0, got {args.repeats}")
     dask_address(args.dask)
