@@ -10,7 +10,8 @@ number: run it before and after, then `diff` the outputs.
 the sampled energy apart, for a change that may move the energy's last digits but must
 leave the motion bit for bit alone. `--extra` adds the scheme variants that take the other
 stepping kernels (explicit Newmark, the generic and SPIKE kernels of the lumped-mass
-schemes, Nitsche's and the penalty's explicit forms).
+schemes, Nitsche's and the penalty's explicit forms). `--scenes` adds the 2D/3D scenes
+on small grids (`SCENES`), each run by every scheme (and the extra variants) that can.
 """
 
 from __future__ import annotations
@@ -37,11 +38,36 @@ EXTRA_SCHEMES = (
 )
 
 
+#: the 2D/3D scenes of `--scenes`: (spec, nx, T), small enough to run every scheme in minutes
+SCENES = (
+    ("disc_drop[degree=1]", 3, 12.0),
+    ("disc_drop", 2, 8.0),
+    ("hertz_sphere", 4, None),
+    ("sphere_drop[lift=0.1]", 8, 2.0),
+    ("embedded_bar[of=clamped_bar,dim=2]", 20, 3.0),
+    ("embedded_bar[of=dropped_bar,dim=3]", 10, None),
+)
+
+
 def digest(arrays: list[np.ndarray]) -> str:
     h = hashlib.sha256()
     for a in arrays:
         h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
     return h.hexdigest()[:16]
+
+
+def numeric_extra(extra: dict) -> list[np.ndarray]:
+    """The kernel's numeric diagnostics (contact statistics, the impulse at each sample),
+    in key order, so that a change in how a kernel keeps them shows in the digest."""
+    out = []
+    for key in sorted(extra):
+        value = extra[key]
+        if isinstance(value, float | int | np.floating | np.integer) and not isinstance(
+                value, bool):
+            out.append(np.array([float(value)]))
+        elif isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
+            out.append(value)
+    return out
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -50,18 +76,26 @@ def main(argv: list[str] | None = None) -> None:
                     help="digest the motion (t, U, V, contact u, stress) and the energy apart")
     ap.add_argument("--extra", action="store_true",
                     help="also the scheme variants that take the other stepping kernels")
+    ap.add_argument("--scenes", action="store_true",
+                    help="also the 2D/3D scenes on small grids (SCENES)")
+    ap.add_argument("--only-scenes", action="store_true",
+                    help="the 2D/3D scenes of --scenes alone")
     args = ap.parse_args(argv)
     specs = schemes().names() + (list(EXTRA_SCHEMES) if args.extra else [])
-    for case_name, cls in cases().plugins.items():
-        if not cls.in_default_run:
-            continue
+    runs: list[tuple[str, int | None, float | None]] = []
+    if not args.only_scenes:
+        runs += [(name, None, None) for name, cls in cases().plugins.items()
+                 if cls.in_default_run]
+    if args.scenes or args.only_scenes:
+        runs += list(SCENES)
+    for case_name, nx, T in runs:
         for scheme_name in specs:
-            run = run_one(case_name, scheme_name)
+            run = run_one(case_name, scheme_name, nx=nx, T=T)
             tr = run.trajectory
             if tr is None:
                 print(f"{case_name:<14} {scheme_name:<16} no trajectory ({run.row['status']})")
                 continue
-            motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress]
+            motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress, *numeric_extra(tr.extra)]
             if args.split:
                 print(f"{case_name:<14} {scheme_name:<16} motion {digest(motion)} "
                       f"energy {digest([tr.energy])}")
