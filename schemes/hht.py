@@ -25,7 +25,16 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    CallStepper,
+    Contact,
+    Energy,
+    Scheme,
+    Stepper,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.problem import banded
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import factor_pt, newmark_update, pt_backward, pt_solve
 from contact_bench.kernels.common import (
@@ -58,20 +67,28 @@ class HHT(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         return Traits(implicit=True, massless_contact_node=massless, contact=Contact.EXACT,
                       energy=Energy.DISSIPATED if massless and self.alpha < 0 else
                       (Energy.CONSERVED if massless else Energy.MAY_GROW),
                       order=2)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return None
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        semi = banded(problem)
+        return (massless_drift_bound(semi, dt)
+                if self.mass in MASSLESS_KINDS and semi is not None else None)
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: `contact_bench.kernels.sparse.newmark_sparse` with alpha
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
+        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta, self.gamma,
+                                                       alpha=float(self.alpha)))
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
+        """The bar's HHT step on the tridiagonal bands (`hht_kernel`)."""
         M, K = semi.M, semi.K
         dt = float(dt)
         beta, gamma, alpha = self.beta, self.gamma, float(self.alpha)
@@ -89,11 +106,6 @@ class HHT(Scheme):
             out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
         return trajectory(out, k, done, min_u0, blow, dt)
 
-    forms = frozenset({"banded1d", "sparse"})
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma,
-                              alpha=float(self.alpha))
 
 
 @njit(cache=True)

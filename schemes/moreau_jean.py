@@ -23,7 +23,8 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import CallStepper, Contact, Energy, Stepper, Traits, Trajectory
+from contact_bench.api.problem import banded
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import factor_pt, pt_backward, pt_solve, tri_row
 from contact_bench.kernels.common import (
@@ -50,20 +51,31 @@ class MoreauJean(MassiveContactNodeScheme):
                       choices=MASS_KINDS, aliases=MASS_ALIASES),
     }
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         conserved = self.e == 1 and self.theta == 0.5
         return Traits(implicit=True, massless_contact_node=False,
                       contact=Contact.VELOCITY_LEVEL,
                       energy=Energy.CONSERVED if conserved else Energy.DISSIPATED,
                       order=2 if self.theta == 0.5 else 1)
 
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
-        return 4.0 * dt * velocity_scale(semi)
+    def penetration_bound(self, problem, dt: float) -> float:
+        return 4.0 * dt * velocity_scale(banded(problem))
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e-8 if self.e == 1 and self.theta == 0.5 else None
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: the same step, Newton's law on the contact dofs whose predicted gap is
+        # <= 0 (the LCP on the Delassus matrix of M + theta^2 dt^2 K); the sampled stress
+        # is the impulse over dt (`contact_bench.kernels.sparse_impact.moreau_jean_sparse`)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
+        return CallStepper(lambda n, s: moreau_jean_sparse(problem, dt, n, s, self.e,
+                                                           self.theta))
+
+    def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
+        """The bar's step on the tridiagonal bands (`moreau_jean_kernel`)."""
         self.check_massive(semi)
         M, K = semi.M, semi.K
         t2 = (self.theta * dt) ** 2
@@ -79,15 +91,6 @@ class MoreauJean(MassiveContactNodeScheme):
             out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
         )
         return trajectory(out, k, done, min_u0, blow, dt)
-
-    # the general sparse problem: the same step, Newton's law on the contact dofs whose
-    # predicted gap is <= 0 (the LCP on the Delassus matrix of M + theta^2 dt^2 K); the
-    # sampled stress is the impulse over dt
-    # (`contact_bench.kernels.sparse_impact.moreau_jean_sparse`)
-    forms = frozenset({"banded1d", "sparse"})
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return moreau_jean_sparse(problem, dt, nsteps, stride, self.e, self.theta)
 
 
 @njit(cache=True)

@@ -25,8 +25,9 @@ import scipy.sparse as sp
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
-from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
+from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepper, Traits
+from contact_bench.api.problem import banded
+from contact_bench.kernels.boundary import bar_law, element_limit, energy_budget, run_boundary_law
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
 from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
@@ -50,9 +51,13 @@ class Nitsche(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
-    def traits(self, many_contact_dofs: bool = False) -> Traits:
+    def traits(self, problem=None) -> Traits:
+        # with a massless contact node the bar's row 0 gives u0 = max(0, u1): exact
+        # contact, redistributed's energy (module docstring); massless contact dofs of a
+        # body, coupled through the zone's normal stress, do not reduce to that dof by
+        # dof: Nitsche's own contact and energy (docs/sparse.md)
         massless = self.mass in MASSLESS_KINDS
-        if massless and not many_contact_dofs:  # u0 = max(0, u1): redistributed (docstring)
+        if massless and problem is not None and banded(problem) is not None:
             energy = Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED
             contact = Contact.EXACT
         else:
@@ -62,11 +67,6 @@ class Nitsche(Scheme):
         return Traits(implicit=self.beta > 0, massless_contact_node=massless, contact=contact,
                       energy=energy, order=2 if self.gamma == 0.5 else 1)
 
-    def sparse_traits(self) -> Traits:
-        # massless contact dofs coupled through the zone's normal stress do not reduce
-        # to u = max(0, ...) dof by dof: Nitsche's own contact and energy (docs/sparse.md)
-        return self.traits(many_contact_dofs=True)
-
     def _blocks(self) -> tuple[np.ndarray, np.ndarray]:
         """First element's stiffness changes (units E/h): inactive, active."""
         g0, th = self.gamma0, float(self.theta)
@@ -74,16 +74,26 @@ class Nitsche(Scheme):
         active = inactive + np.outer([g0 - th, th], [g0 - 1.0, 1.0]) / g0
         return inactive, active
 
-    def stability_limit(self, h: float, c: float) -> float | None:
+    def stability_limit(self, problem) -> float | None:
+        if banded(problem) is None:
+            # a body: the law's eigenvalues on this mesh, inactive and all active
+            # (`contact_bench.kernels.sparse_explicit.stable_dt`)
+            try:
+                law = self.contact_law(problem)
+            except ValueError:  # prepare says what is missing
+                return None
+            return stable_dt(problem, self.beta, self.gamma, law)
+        h, c = problem.hmin, problem.c_max
         limits = [element_limit(self.beta, self.gamma, h, c, self.mass, x) for x in self._blocks()]
         return None if limits[0] is None else float(min(limits))
 
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
+    def penetration_bound(self, problem, dt: float) -> float:
         """|u0| <= (|S| + |sigma|) / gam with (1/2gam) S^2 <= W' and the first element's
         (1 - theta+/gamma0) h sigma^2 / 2E <= W', W' = 2|E(0)| + g m h (energy at most
         twice the initial one, penetration below one element). Exact (0) when massless."""
         if self.mass in MASSLESS_KINDS:
             return 0.0
+        semi = banded(problem)
         h = float(semi.h[0])
         E = semi.E_contact
         gam = self.gamma0 * E / h
@@ -92,40 +102,39 @@ class Nitsche(Scheme):
         soft = 1.0 - max(self.theta, 0) / self.gamma0
         return float((math.sqrt(2.0 * gam * W) + math.sqrt(2.0 * E * W / (h * soft))) / gam)
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        h = float(semi.h[0])
-        E = semi.E_contact
-        gam = self.gamma0 * E / h
-        th = float(self.theta)
-        inactive, _ = self._blocks()
-        p = (gam - E / h, E / h)
-        q = (gam - th * E / h, th * E / h)
-        return run_boundary(semi, dt, nsteps, stride, self.beta, self.gamma,
-                            inactive * (E / h), 1.0 / gam, p, q, th, 1.0)
-
-    # the general sparse problem (implicit; explicit: the law at U_{n+1},
-    # `contact_bench.kernels.sparse_explicit`), with the problem's normal stress B at the
-    # contact dofs and nodal quadrature on the zone (weights w_i) for the contact term:
-    # P = gam C + B, Q = gam C + theta B; K' = K - (theta / gam) B^T M_f B with the
-    # zone's consistent mass M_f (coercive above a mesh-dependent gamma0, which the
-    # problem's h_contact = element size / degree^2 keeps near 1D's 1 for P1 and P2:
-    # docs/impact-scenes.md); gam = gamma0 E / h at the zone
-    # (`contact_bench.kernels.sparse.ContactLaw`)
-    forms = frozenset({"banded1d", "sparse"})
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        semi = banded(problem)
+        return (massless_drift_bound(semi, dt)
+                if self.mass in MASSLESS_KINDS and semi is not None else None)
 
     def contact_law(self, problem) -> ContactLaw:
-        """The Nitsche term on a `SparseProblem` as a piecewise-linear `ContactLaw`."""
+        """The Nitsche term as a piecewise-linear `ContactLaw`.
+
+        The bar: the first element's sigma = E (u1 - u0) / h, P = (gam - E/h, E/h), Q =
+        (gam - theta E/h, theta E/h), c = 1 / gam, K's first block changed by the
+        inactive block. A body: the problem's normal stress B at the contact points and
+        nodal quadrature on the zone (weights w_i) for the contact term: P = gam G + B,
+        Q = gam G + theta B; K' = K - (theta / gam) B^T M_f B with the zone's consistent
+        mass M_f (coercive above a mesh-dependent gamma0, which the problem's h_contact =
+        element size / degree^2 keeps near 1D's 1 for P1 and P2: docs/impact-scenes.md);
+        gam = gamma0 E / h at the zone.
+        """
+        semi = banded(problem)
+        if semi is not None:
+            h = float(semi.h[0])
+            E = semi.E_contact
+            gam = self.gamma0 * E / h
+            th = float(self.theta)
+            inactive, _ = self._blocks()
+            return bar_law(semi.nfree, inactive * (E / h), 1.0 / gam, (gam - E / h, E / h),
+                           (gam - th * E / h, th * E / h), th, 1.0, gam)
         B = problem.normal_stress
         if B is None or not (problem.E_contact > 0 and problem.h_contact > 0):
             raise ValueError("nitsche needs the problem's normal_stress, E_contact, h_contact")
         gam = self.gamma0 * problem.E_contact / problem.h_contact
         th = float(self.theta)
         c = problem.contact
-        n = problem.nfree
-        C = sp.csr_matrix((np.ones(c.size), (np.arange(c.size), c.dofs)), shape=(c.size, n))
+        C = c.gap_operator(problem.nfree)
         B = sp.csr_matrix(B)
         w = np.asarray(c.weights, float)
         Mf = sp.diags(w) if c.face_mass is None else sp.csr_matrix(c.face_mass)
@@ -133,17 +142,17 @@ class Nitsche(Scheme):
                           y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
                           K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
 
-    def sparse_stability_limit(self, problem) -> float | None:
-        # the law's eigenvalues on this mesh, inactive and all active
-        # (`contact_bench.kernels.sparse_explicit.stable_dt`)
-        try:
-            law = self.contact_law(problem)
-        except ValueError:  # integrate_sparse says what is missing
-            return None
-        return stable_dt(problem, self.beta, self.gamma, law)
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def prepare(self, problem, dt: float) -> Stepper:
+        # the bar: the first element's boundary kernel; a body: implicit Newmark with
+        # the law solved exactly at t_{n+1}, explicit: the law at U_{n+1}
+        # (`contact_bench.kernels.sparse`, `contact_bench.kernels.sparse_explicit`)
         law = self.contact_law(problem)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: run_boundary_law(semi, dt, n, s, self.beta,
+                                                             self.gamma, law))
         if self.beta == 0.0:
-            return explicit_law_sparse(problem, dt, nsteps, stride, self.gamma, law)
-        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, law=law)
+            return CallStepper(lambda n, s: explicit_law_sparse(problem, dt, n, s, self.gamma,
+                                                                law))
+        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
+                                                       self.gamma, law=law))

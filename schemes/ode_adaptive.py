@@ -22,7 +22,16 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    CallStepper,
+    Contact,
+    Energy,
+    Scheme,
+    Stepper,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.problem import banded
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import velocity_scale
@@ -41,14 +50,23 @@ class OdeAdaptive(Scheme):
     def mass_kind(self) -> str:
         return self.variant
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
                       energy=Energy.CONSERVED, order=None)
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e3 * self.rtol
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: DOP853 on the dofs with mass, the massless ones solved from their rows
+        # (`contact_bench.kernels.sparse_family.adaptive_sparse`)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
+        return CallStepper(lambda n, s: adaptive_sparse(problem, dt, n, s, float(self.rtol)))
+
+    def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
+        """The bar's ODE by DOP853 (`ode_rhs` on the tridiagonal bands)."""
         M, K, F = semi.M, semi.K, semi.F
         n = semi.nfree
         Sd, Se = factor_pt(M.diag[1:], M.off[1:])
@@ -88,15 +106,6 @@ class OdeAdaptive(Scheme):
             extra={"nfev": int(sol.nfev), "message": str(sol.message), "rtol": self.rtol},
         )
 
-    forms = frozenset({"banded1d", "sparse"})
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return adaptive_sparse(problem, dt, nsteps, stride, float(self.rtol))
-
-    def warm_up(self, semi: Semidiscrete) -> None:
-        Sd, Se = factor_pt(semi.M.diag[1:], semi.M.off[1:])
-        ode_rhs(np.concatenate([semi.U0[1:], semi.V0[1:]]), semi.K.diag, semi.K.off,
-                semi.F, Sd, Se)
 
 
 @njit(cache=True)

@@ -23,7 +23,17 @@ from numba import njit, uint64
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    CallStepper,
+    Contact,
+    Energy,
+    Scheme,
+    Semidiscrete,
+    Stepper,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.problem import banded
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.spike import L, lane_position, record_lane_sample, spike_factor
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
@@ -49,30 +59,33 @@ class OdeVerlet(Scheme):
     def mass_kind(self) -> str:
         return self.variant
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
                       energy=Energy.CONSERVED, order=2)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(0.0, 0.5, h, c, lumped=False,
+    def stability_limit(self, problem) -> float | None:
+        if banded(problem) is None:
+            # the 1D formula at the problem's hmin is too large in 2D and 3D: the ODE's
+            # own largest frequency (docs/sparse.md)
+            return 2.0 / massless_ode_omega(problem)
+        return newmark_limit(0.0, 0.5, problem.hmin, problem.c_max, lumped=False,
                              first_element_massless=self.variant == "first_element_massless")
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return 2.0 * (semi.c_max * dt / semi.hmin) ** 2
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        return 2.0 * (problem.c_max * dt / problem.hmin) ** 2
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        fast = kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike"
-        return run_ode_verlet(semi, dt, nsteps, stride, fast)
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: velocity Verlet on the dofs with mass, the massless ones solved from
+        # their rows (`contact_bench.kernels.sparse_family.verlet_sparse`)
+        semi = banded(problem)
+        if semi is None:
+            return CallStepper(lambda n, s: verlet_sparse(problem, dt, n, s))
 
-    forms = frozenset({"banded1d", "sparse"})
+        def run(nsteps: int, stride: int) -> Trajectory:
+            fast = kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike"
+            return run_ode_verlet(semi, dt, nsteps, stride, fast)
 
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return verlet_sparse(problem, dt, nsteps, stride)
-
-    def sparse_stability_limit(self, problem) -> float | None:
-        # the 1D formula at the problem's hmin is too large in 2D and 3D (0.29 x on the
-        # P2 disc): the ODE's own largest frequency (docs/sparse.md)
-        return 2.0 / massless_ode_omega(problem)
+        return CallStepper(run)
 
 
 @njit(cache=True)

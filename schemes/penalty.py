@@ -22,11 +22,12 @@ import numpy as np
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
-from contact_bench.kernels.boundary import element_limit, energy_budget, run_boundary
+from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepper, Traits
+from contact_bench.api.problem import banded
+from contact_bench.kernels.boundary import bar_law, element_limit, energy_budget, run_boundary_law
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
-from contact_bench.kernels.sparse import newmark_sparse
+from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
 from contact_bench.kernels.sparse_explicit import explicit_law_sparse, penalty_law, stable_dt
 
 
@@ -45,7 +46,7 @@ class Penalty(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         return Traits(implicit=self.beta > 0, massless_contact_node=massless,
                       contact=Contact.PENALTY,
@@ -53,50 +54,64 @@ class Penalty(Scheme):
                       if massless else Energy.MAY_GROW,
                       order=2 if self.gamma == 0.5 else 1)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        extra = np.array([[self.gamma_p, 0.0], [0.0, 0.0]])
-        return element_limit(self.beta, self.gamma, h, c, self.mass, extra)
-
-    def kappa(self, semi: Semidiscrete) -> float:
+    def kappa(self, problem) -> float:
+        """The bar's spring, gamma_p E / h at the contact node."""
+        semi = banded(problem)
         return self.gamma_p * semi.E_contact / float(semi.h[0])
 
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
-        kappa = self.kappa(semi)
-        W, gm = energy_budget(semi)
-        return float((gm + math.sqrt(gm * gm + 2.0 * kappa * W)) / kappa)
-
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt) if self.mass in MASSLESS_KINDS else None
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        kappa = self.kappa(semi)
-        return run_boundary(semi, dt, nsteps, stride, self.beta, self.gamma,
-                            np.zeros((2, 2)), kappa, (1.0, 0.0), (1.0, 0.0), 1.0, kappa)
-
-    # the general sparse problem: a spring kappa w_i on each contact dof (w_i its share
-    # of the zone's area), kappa = gamma_p E / h at the zone. Implicit: the springs'
-    # piecewise-linear step solved exactly (`contact_bench.kernels.sparse.penalty_solve`);
-    # explicit: the springs at U_{n+1}, massless dofs quasi-static
-    # (`contact_bench.kernels.sparse_explicit`)
-    forms = frozenset({"banded1d", "sparse"})
-
-    def _sparse_kappa(self, problem) -> np.ndarray:
+    def spring_stiffnesses(self, problem) -> np.ndarray:
+        """A body's springs: kappa w_i on each contact point (w_i its share of the zone's
+        area), kappa = gamma_p E / h at the zone."""
         if not (problem.E_contact > 0 and problem.h_contact > 0):
             raise ValueError("penalty needs the problem's E_contact and h_contact")
         return self.gamma_p * problem.E_contact / problem.h_contact * problem.contact.weights
 
-    def sparse_stability_limit(self, problem) -> float | None:
-        # the springs' eigenvalues on this mesh (the 1D element formula does not bound
-        # those of 2D/3D elements): `contact_bench.kernels.sparse_explicit.stable_dt`
+    def contact_law(self, problem) -> ContactLaw:
+        """The springs as a piecewise-linear `ContactLaw` (force kappa_i max(0, -g_i))."""
+        semi = banded(problem)
+        if semi is not None:
+            kappa = self.kappa(semi)
+            return bar_law(semi.nfree, np.zeros((2, 2)), kappa, (1.0, 0.0), (1.0, 0.0), 1.0,
+                           kappa)
+        return penalty_law(problem, self.spring_stiffnesses(problem))
+
+    def stability_limit(self, problem) -> float | None:
+        if banded(problem) is not None:
+            extra = np.array([[self.gamma_p, 0.0], [0.0, 0.0]])
+            return element_limit(self.beta, self.gamma, problem.hmin, problem.c_max,
+                                 self.mass, extra)
+        # a body: the springs' eigenvalues on this mesh (the 1D element formula does not
+        # bound those of 2D/3D elements): `contact_bench.kernels.sparse_explicit.stable_dt`
         try:
-            law = penalty_law(problem, self._sparse_kappa(problem))
-        except ValueError:  # no springs to size: integrate_sparse says what is missing
+            law = self.contact_law(problem)
+        except ValueError:  # no springs to size: prepare says what is missing
             return None
         return stable_dt(problem, self.beta, self.gamma, law)
 
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        kappa = self._sparse_kappa(problem)
+    def penetration_bound(self, problem, dt: float) -> float:
+        semi = banded(problem)
+        kappa = self.kappa(semi)
+        W, gm = energy_budget(semi)
+        return float((gm + math.sqrt(gm * gm + 2.0 * kappa * W)) / kappa)
+
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        semi = banded(problem)
+        return (massless_drift_bound(semi, dt)
+                if self.mass in MASSLESS_KINDS and semi is not None else None)
+
+    def prepare(self, problem, dt: float) -> Stepper:
+        # the bar: the first element's boundary kernel; a body: implicit, the springs'
+        # piecewise-linear step solved exactly (`contact_bench.kernels.sparse`);
+        # explicit, the springs at U_{n+1}, massless dofs quasi-static
+        # (`contact_bench.kernels.sparse_explicit`)
+        law = self.contact_law(problem)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: run_boundary_law(semi, dt, n, s, self.beta,
+                                                             self.gamma, law))
         if self.beta == 0.0:
-            return explicit_law_sparse(problem, dt, nsteps, stride, self.gamma,
-                                       penalty_law(problem, kappa))
-        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma, kappa)
+            return CallStepper(lambda n, s: explicit_law_sparse(problem, dt, n, s, self.gamma,
+                                                                law))
+        kappa = self.spring_stiffnesses(problem)
+        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
+                                                       self.gamma, kappa))

@@ -18,7 +18,8 @@ import numpy as np
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepper, Traits
+from contact_bench.api.problem import banded
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
 from contact_bench.kernels.sparse import newmark_sparse, quasistatic_sparse
@@ -38,36 +39,36 @@ class Redistributed(Scheme):
     def mass_kind(self) -> str:
         return self.variant
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=True, contact=Contact.EXACT,
                       energy=Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED,
                       order=2 if self.gamma == 0.5 else 1)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(self.beta, self.gamma, h, c, lumped=False,
+    def stability_limit(self, problem) -> float | None:
+        if self.beta == 0.0 and banded(problem) is None:
+            # explicit on a body: the massless-contact ODE's own largest frequency, as
+            # ode_verlet's (the 1D formula at the problem's hmin is too large in 2D and
+            # 3D: docs/sparse.md)
+            return float(1.0 / (np.sqrt(self.gamma / 2.0) * massless_ode_omega(problem)))
+        return newmark_limit(self.beta, self.gamma, problem.hmin, problem.c_max, lumped=False,
                              first_element_massless=self.variant == "first_element_massless")
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        semi = banded(problem)
+        return None if semi is None else massless_drift_bound(semi, dt,
+                                                              self.stability_limit(problem))
 
     def newmark_parameters(self) -> tuple[float, float] | None:
         return self.beta, self.gamma
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)
-
-    # the general sparse problem: the same Newmark step, exact contact on every contact
-    # dof through the Delassus matrix (`contact_bench.kernels.sparse.newmark_sparse`)
-    forms = frozenset({"banded1d", "sparse"})
-
-    def sparse_stability_limit(self, problem) -> float | None:
-        if self.beta > 0.0:
-            return self.stability_limit(problem.hmin, problem.c_max)
-        # explicit: the massless-contact ODE's own largest frequency, as ode_verlet's (the
-        # 1D formula at the problem's hmin is too large in 2D and 3D: docs/sparse.md)
-        return float(1.0 / (np.sqrt(self.gamma / 2.0) * massless_ode_omega(problem)))
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        if self.beta == 0.0:  # massless contact dofs solved from their rows
-            return quasistatic_sparse(problem, dt, nsteps, stride, self.gamma)
-        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma)
+    def prepare(self, problem, dt: float) -> Stepper:
+        # the bar: the banded Newmark kernel; a body: the same Newmark step, exact contact
+        # on every contact dof through the Delassus matrix, or (beta = 0) the massless
+        # contact dofs solved from their rows (`contact_bench.kernels.sparse`)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: run_newmark(semi, dt, n, s, self.beta, self.gamma))
+        if self.beta == 0.0:
+            return CallStepper(lambda n, s: quasistatic_sparse(problem, dt, n, s, self.gamma))
+        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
+                                                       self.gamma))

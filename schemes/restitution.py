@@ -26,7 +26,16 @@ from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    CallStepper,
+    Contact,
+    Energy,
+    Semidiscrete,
+    Stepper,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.problem import banded
 from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
@@ -61,36 +70,35 @@ class Restitution(MassiveContactNodeScheme):
                       low=0.0, high=0.5),
     }
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=False,
                       contact=Contact.EXACT if self.e == 0 else Contact.RESTITUTION,
                       energy=Energy.DISSIPATED if self.e == 0 else Energy.MAY_GROW, order=2)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(self.beta, 0.5, h, c, lumped=self.mass == "lumped")
+    def stability_limit(self, problem) -> float | None:
+        if banded(problem) is None:
+            # the two-step scheme is Newmark(beta, 1/2) between impacts (the projection
+            # adds no stiffness): 1 / (sqrt(1/4 - beta) omega_max), omega_max the mesh's
+            # own largest frequency (the 1D formula does not bound 2D/3D elements'); none
+            # for beta >= 1/4, as in 1D
+            return stable_dt(problem, self.beta, 0.5)
+        return newmark_limit(self.beta, 0.5, problem.hmin, problem.c_max,
+                             lumped=self.mass == "lumped")
 
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
-        return 4.0 * self.e * dt * velocity_scale(semi)
+    def penetration_bound(self, problem, dt: float) -> float:
+        return 4.0 * self.e * dt * velocity_scale(banded(problem))
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        self.check_massive(semi)
-        return run_paoli_schatzman(semi, dt, nsteps, stride, self.e, self.beta)
-
-    # the general sparse problem: the same two-step scheme, the impact law on every
-    # contact dof (a per-dof projection with a lumped mass and beta = 0, else the LCP on
-    # the Delassus matrix of S = M + beta dt^2 K:
-    # `contact_bench.kernels.sparse_impact.paoli_schatzman_sparse`)
-    forms = frozenset({"banded1d", "sparse"})
-
-    def sparse_stability_limit(self, problem) -> float | None:
-        # the two-step scheme is Newmark(beta, 1/2) between impacts (the projection adds
-        # no stiffness): 1 / (sqrt(1/4 - beta) omega_max), omega_max the mesh's own
-        # largest frequency (the 1D formula does not bound 2D/3D elements'); none for
-        # beta >= 1/4, as in 1D
-        return stable_dt(problem, self.beta, 0.5)
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return paoli_schatzman_sparse(problem, dt, nsteps, stride, self.e, self.beta)
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: the same two-step scheme, the impact law on every contact dof (a per-dof
+        # projection with a lumped mass and beta = 0, else the LCP on the Delassus matrix
+        # of S = M + beta dt^2 K: `contact_bench.kernels.sparse_impact`)
+        semi = banded(problem)
+        if semi is not None:
+            self.check_massive(semi)
+            return CallStepper(lambda n, s: run_paoli_schatzman(semi, dt, n, s, self.e,
+                                                                self.beta))
+        return CallStepper(lambda n, s: paoli_schatzman_sparse(problem, dt, n, s, self.e,
+                                                               self.beta))
 
 
 @njit(cache=True)

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS, MASSLESS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepper, Traits
+from contact_bench.api.problem import banded
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import GAMMA, newmark_limit, run_newmark
 from contact_bench.kernels.sparse import newmark_sparse
@@ -34,7 +35,7 @@ class Standard(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         massless = self.mass in MASSLESS_KINDS
         energy = ((Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED) if massless
                   else Energy.MAY_GROW)
@@ -42,28 +43,28 @@ class Standard(Scheme):
         return Traits(implicit=True, massless_contact_node=massless, contact=Contact.EXACT,
                       energy=energy, order=order)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(self.beta, self.gamma, h, c, lumped=self.mass == "lumped")
+    def stability_limit(self, problem) -> float | None:
+        return newmark_limit(self.beta, self.gamma, problem.hmin, problem.c_max,
+                             lumped=self.mass == "lumped")
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
-        if self.mass not in MASSLESS_KINDS:
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
+        if self.mass not in MASSLESS_KINDS or banded(problem) is None:
             return None
-        return massless_drift_bound(semi, dt, self.stability_limit(semi.hmin, semi.c_max))
+        return massless_drift_bound(banded(problem), dt, self.stability_limit(problem))
 
     def newmark_parameters(self) -> tuple[float, float] | None:
         return self.beta, self.gamma
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return run_newmark(semi, dt, nsteps, stride, self.beta, self.gamma)
-
-    # the general sparse problem: the same Newmark step, exact contact on every contact
-    # dof through the Delassus matrix (`contact_bench.kernels.sparse.newmark_sparse`)
-    forms = frozenset({"banded1d", "sparse"})
 
     def cannot_run(self, case) -> str | None:
         if case.form == "sparse" and self.beta == 0.0:
             return "the explicit (beta = 0) step has no sparse path yet"
         return None
 
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        return newmark_sparse(problem, dt, nsteps, stride, self.beta, self.gamma)
+    def prepare(self, problem, dt: float) -> Stepper:
+        # the bar: the banded Newmark kernel; a body: the same step, exact contact on
+        # every contact dof through the Delassus matrix (`contact_bench.kernels.sparse`)
+        semi = banded(problem)
+        if semi is not None:
+            return CallStepper(lambda n, s: run_newmark(semi, dt, n, s, self.beta, self.gamma))
+        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
+                                                       self.gamma))

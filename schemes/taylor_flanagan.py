@@ -26,7 +26,16 @@ from numba import njit, uint64
 
 from contact_bench.api.fem import MASS_ALIASES, MASS_KINDS
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    CallStepper,
+    Contact,
+    Energy,
+    Semidiscrete,
+    Stepper,
+    Traits,
+    Trajectory,
+)
+from contact_bench.api.problem import banded
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.spike import (
     SPIKE_CUTOFF,
@@ -67,40 +76,43 @@ class TaylorFlanagan(MassiveContactNodeScheme):
                       choices=MASS_KINDS, aliases=MASS_ALIASES),
     }
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=False, massless_contact_node=False,
                       contact=Contact.EXACT, energy=Energy.MAY_GROW, order=2)
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        return newmark_limit(0.0, 0.5, h, c, lumped=self.mass == "lumped")
+    def stability_limit(self, problem) -> float | None:
+        if banded(problem) is None:
+            # the mesh's largest eigenvalue (the 1D formula does not bound 2D/3D elements')
+            return stable_dt(problem, 0.0, 0.5)
+        return newmark_limit(0.0, 0.5, problem.hmin, problem.c_max,
+                             lumped=self.mass == "lumped")
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+    def energy_drift_bound(self, problem, dt: float) -> float | None:
         # no claim: the position correction dt^2 lam w works against the load, so a
         # contact held under gravity gains energy at every step (module docstring)
         return None
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def prepare(self, problem, dt: float) -> Stepper:
+        # a body: with the lumped mass each contact dof is stopped on its own
+        # (`contact_bench.kernels.sparse.central_sparse`); with the consistent one the
+        # penetrating dofs are stopped together through the Delassus matrix C M^-1 C^T
+        # (`contact_bench.kernels.sparse_explicit.taylor_flanagan_sparse`)
+        semi = banded(problem)
+        if semi is None:
+            if self.mass == "lumped":
+                return CallStepper(lambda n, s: central_sparse(problem, dt, n, s))
+            return CallStepper(lambda n, s: taylor_flanagan_sparse(problem, dt, n, s))
         self.check_massive(semi)
-        # a lumped M always takes its fused kernel; a banded one the serial natural-order
-        # kernel on small problems (`SERIAL_BELOW`), the SPIKE kernel on large ones
-        fast = (not np.any(semi.M.off)
-                or kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike")
-        return run_taylor_flanagan(semi, dt, nsteps, stride, fast)
 
-    # the general sparse problem: with the lumped mass each contact dof is stopped on its
-    # own (`contact_bench.kernels.sparse.central_sparse`); with the consistent one the
-    # penetrating dofs are stopped together through the Delassus matrix C M^-1 C^T
-    # (`contact_bench.kernels.sparse_explicit.taylor_flanagan_sparse`)
-    forms = frozenset({"banded1d", "sparse"})
+        def run(nsteps: int, stride: int) -> Trajectory:
+            # a lumped M always takes its fused kernel; a banded one the serial
+            # natural-order kernel on small problems (`SERIAL_BELOW`), the SPIKE kernel
+            # on large ones
+            fast = (not np.any(semi.M.off)
+                    or kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike")
+            return run_taylor_flanagan(semi, dt, nsteps, stride, fast)
 
-    def sparse_stability_limit(self, problem) -> float | None:
-        # the mesh's largest eigenvalue (the 1D formula does not bound 2D/3D elements')
-        return stable_dt(problem, 0.0, 0.5)
-
-    def integrate_sparse(self, problem, dt: float, nsteps: int, stride: int) -> Trajectory:
-        if self.mass == "lumped":
-            return central_sparse(problem, dt, nsteps, stride)
-        return taylor_flanagan_sparse(problem, dt, nsteps, stride)
+        return CallStepper(run)
 
 
 @njit(cache=True)

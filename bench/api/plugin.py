@@ -8,6 +8,7 @@ only reads these declarations: it never branches on a plugin's name.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, ClassVar, Protocol
@@ -356,54 +357,79 @@ class Traits:
                 raise BenchError(f"Traits.{name} = {value!r}: not one of {allowed}") from None
 
 
+class Stepper:
+    """A scheme prepared for one problem and one step size: what does not depend on the
+    number of steps (factorisations, Delassus or Schur operators, contact laws, the
+    initial acceleration) is made once, by `Scheme.prepare`; `run(nsteps, stride)`
+    steps from the problem's initial state, afresh at each call (a warm-up, timing
+    repeats and the recorded run share one stepper)."""
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        raise NotImplementedError
+
+
+class CallStepper(Stepper):
+    """A stepper with nothing to prepare: `run` calls `step(nsteps, stride)`."""
+
+    def __init__(self, step: Callable[[int, int], Trajectory]) -> None:
+        self.step = step
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        return self.step(nsteps, stride)
+
+
 class Scheme(Plugin):
-    """A time-integration / contact scheme. Subclasses implement `traits` and `integrate`."""
+    """A time-integration / contact scheme: it declares what it is (`traits`) and
+    prepares a `Stepper` for a problem and a step size (`prepare`).
 
-    #: the problem forms it integrates (`contact_bench.api.sparse.FORMS`): "banded1d"
-    #: through `integrate`, "sparse" through `integrate_sparse`
-    forms: ClassVar[frozenset[str]] = frozenset({"banded1d"})
+    The problem has one form in every dimension (`contact_bench.api.sparse.
+    SparseProblem`'s attributes: sparse M and K, the gap operator, loads, initial data);
+    a bar's problem also carries its tridiagonal form (`contact_bench.api.problem.banded`),
+    the fast backend the built-in 1D kernels take.
+    """
 
-    def integrate_sparse(self, problem: Any, dt: float, nsteps: int,
-                         stride: int) -> Trajectory:
-        """Integrate a `contact_bench.api.sparse.SparseProblem` (schemes whose `forms`
-        hold "sparse")."""
+    def prepare(self, problem: Any, dt: float) -> Stepper:
+        """The stepper of this scheme on `problem` with step `dt` (module docstring)."""
         raise NotImplementedError
 
-    def traits(self) -> Traits:
-        raise NotImplementedError
+    def integrate(self, problem: Any, dt: float, nsteps: int, stride: int) -> Trajectory:
+        """One run: `prepare(problem, dt).run(nsteps, stride)` (a bar's `Semidiscrete`
+        is taken as its problem, `contact_bench.api.problem.as_problem`)."""
+        from contact_bench.api.problem import as_problem  # the problem layer imports this one
 
-    def sparse_traits(self) -> Traits:
-        """The traits on the general sparse problem (many contact dofs), where an
-        argument that holds for the bar's single contact node may not; by default
-        `traits()`."""
-        return self.traits()
+        return self.prepare(as_problem(problem, self.mass_kind()), dt).run(int(nsteps),
+                                                                          int(stride))
+
+    def traits(self, problem: Any = None) -> Traits:
+        """What the scheme declares; on `problem`, what holds there (a property that
+        holds on the bar's single contact node may not on many: e.g. Nitsche with a
+        massless contact node is exact contact on the bar). None: the general problem."""
+        raise NotImplementedError
 
     def mass_kind(self) -> str:
         """Which `contact_bench.api.fem` mass variant the scheme uses."""
         return "consistent"
 
-    def stability_limit(self, h: float, c: float) -> float | None:
-        """Largest stable dt on a mesh with smallest element h and wave speed c (None: none)."""
+    def stability_limit(self, problem: Any) -> float | None:
+        """Largest stable dt on the problem (None: none). A 1D formula reads
+        `problem.hmin` and `problem.c_max`; an explicit scheme whose formula does not
+        bound a 2D/3D mesh's eigenvalues computes them (`contact_bench.kernels.
+        sparse_explicit.stable_dt`)."""
         return None
-
-    def sparse_stability_limit(self, problem: Any) -> float | None:
-        """Largest stable dt on a `contact_bench.api.sparse.SparseProblem` (None: none).
-        The default is `stability_limit(problem.hmin, problem.c_max)`; an explicit scheme
-        whose 1D formula does not bound the problem's eigenvalues computes its own."""
-        return self.stability_limit(problem.hmin, problem.c_max)
 
     def cannot_run(self, case: Case) -> str | None:
         """A reason why the scheme cannot run this scene, or None."""
         return None
 
-    def penetration_bound(self, semi: Semidiscrete, dt: float) -> float:
-        """Largest penetration max_t -u(0, t) the scheme admits (exact contact: 0).
+    def penetration_bound(self, problem: Any, dt: float) -> float:
+        """Largest penetration max_t -u(0, t) the scheme admits on the bar (exact
+        contact: 0).
 
         Round-off comes on top: callers compare with bound + 1e-12 * max|U0|.
         """
         return 0.0
 
-    def energy_drift_bound(self, semi: Semidiscrete, dt: float) -> float | None:
+    def energy_drift_bound(self, problem: Any, dt: float) -> float | None:
         """Bound on max |E(t) - E(0)| / |E(0)| the scheme claims (None: no claim).
 
         Meaningful for traits().energy == Energy.CONSERVED (and Energy.DISSIPATED: no
@@ -417,10 +443,3 @@ class Scheme(Plugin):
         re-implementation `contact_bench.harness.scipy_reference` then checks it), else
         None."""
         return None
-
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
-        raise NotImplementedError
-
-    def warm_up(self, semi: Semidiscrete) -> None:
-        """Compile the kernels outside any timing (a zero-step run)."""
-        self.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)

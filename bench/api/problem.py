@@ -1,14 +1,25 @@
-"""From a case and a mesh to the space-discrete problem a scheme integrates."""
+"""From a case and a mesh to the space-discrete problem a scheme integrates.
+
+Every scene gives a scheme one problem form: the general `SparseProblem` contract (sparse
+M and K, a gap operator, loads and initial data). The bar's `BarProblem` is that contract
+built on its tridiagonal form (`Semidiscrete`, kept as `banded`): M and K as CSR are made
+when first read, so that the 1D kernels, which take the bands, pay nothing for them.
+"""
 
 from __future__ import annotations
 
 import math
+from functools import cached_property
+from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from contact_bench.api.fem import MASSLESS_KINDS, assemble, canonical_mass, mass_variant
 from contact_bench.api.plugin import Case, Semidiscrete
+from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
 from contact_bench.core.errors import BenchError
+from contact_bench.core.sampling import energy_of
 
 
 def _number(case: Case, name: str, value: object, allowed: str, ok) -> None:
@@ -98,3 +109,95 @@ def discretise(case: Case, x: np.ndarray, mass_kind: str = "consistent") -> Semi
         u_fixed=uL, energy_offset=float(offset), massless=mass_kind in MASSLESS_KINDS,
         E_contact=E_contact, c_max=c_max,
     )
+
+
+class BarProblem:
+    """The bar's problem in the general form (`contact_bench.api.sparse.SparseProblem`'s
+    attributes and methods), with its tridiagonal form `banded` as the 1D kernels' fast
+    backend.
+
+    One contact point, node 0, against the obstacle at 0 (G picks dof 0, g0 = 0, weight
+    1: the contact stress is minus the obstacle's force); the axis view is the whole bar;
+    the normal stress at the contact point is E_contact (u_1 - u_0) / h_0.
+    """
+
+    dim = 1
+    equal_groups: tuple[np.ndarray, ...] = ()
+
+    def __init__(self, semi: Semidiscrete, mass_kind: str = "consistent") -> None:
+        self.banded = semi
+        self.F, self.U0, self.V0 = semi.F, semi.U0, semi.V0
+        self.hmin, self.c_max = semi.hmin, semi.c_max
+        self.energy_offset = semi.energy_offset
+        self.mass_kind = canonical_mass(mass_kind)
+        self.E_contact = semi.E_contact
+        self.h_contact = float(semi.h[0])
+        self.contact = ContactSet(dofs=np.zeros(1, np.int64), gap0=np.zeros(1),
+                                  weights=np.ones(1))
+        self.axis = AxisView(np.arange(semi.nfree), semi.x, semi.u_fixed)
+        self.extra: dict[str, Any] = {}
+
+    @property
+    def nfree(self) -> int:
+        return int(self.banded.nfree)
+
+    @cached_property
+    def M(self) -> sp.csr_matrix:  # noqa: N802 - the matrix's name
+        return sp.csr_matrix(self.banded.M.to_sparse())
+
+    @cached_property
+    def K(self) -> sp.csr_matrix:  # noqa: N802 - the matrix's name
+        return sp.csr_matrix(self.banded.K.to_sparse())
+
+    @cached_property
+    def normal_stress(self) -> sp.csr_matrix:
+        n, E, h = self.nfree, self.E_contact, self.h_contact
+        cols = [0, 1] if n > 1 else [0]
+        vals = [-E / h, E / h][:len(cols)]
+        return sp.csr_matrix((vals, ([0] * len(cols), cols)), shape=(1, n))
+
+    @property
+    def massless(self) -> np.ndarray:
+        """Boolean mask of the dofs without inertia (zero mass diagonal)."""
+        return np.asarray(self.banded.M.diag == 0.0)
+
+    @property
+    def nbytes(self) -> int:
+        s = self.banded
+        return int(sum(a.nbytes for a in (s.x, s.M.diag, s.M.off, s.K.diag, s.K.off, s.F,
+                                           s.U0, s.V0)))
+
+    def energy(self, U: np.ndarray, V: np.ndarray) -> float:
+        """1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset, as the 1D kernels sum it."""
+        s = self.banded
+        return float(energy_of(s.M.diag, s.M.off, s.K.diag, s.K.off, s.F,
+                               np.ascontiguousarray(U, float), np.ascontiguousarray(V, float),
+                               s.energy_offset))
+
+    def gaps(self, U: np.ndarray) -> np.ndarray:
+        """The gap of the contact node (u_0) of a state or of a stack of states."""
+        return np.asarray(U)[..., :1] + 0.0
+
+    def check(self) -> None:
+        """Nothing beyond `discretise`'s checks."""
+
+
+#: a problem of the one form: a 2D/3D body's, or the bar's with its banded backend
+Problem = SparseProblem | BarProblem
+
+
+def as_problem(problem: Any, mass_kind: str | None = None) -> Any:
+    """The problem in the general form: a `Semidiscrete` becomes its `BarProblem`; a
+    `SparseProblem` or `BarProblem` is returned as it is."""
+    if isinstance(problem, Semidiscrete):
+        kind = mass_kind or ("first_element_massless" if problem.massless else "consistent")
+        return BarProblem(problem, kind)
+    return problem
+
+
+def banded(problem: Any) -> Semidiscrete | None:
+    """The bar's tridiagonal form of a problem (the 1D kernels' fast backend), or None
+    for a 2D/3D body."""
+    if isinstance(problem, Semidiscrete):
+        return problem
+    return getattr(problem, "banded", None)

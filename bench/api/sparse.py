@@ -1,14 +1,17 @@
 """The general space-discrete problem: sparse M and K, many contact dofs, 1D to 3D.
 
-`Semidiscrete` (the bar's banded form, node 0 on the obstacle) stays what the 1D
-kernels integrate; `SparseProblem` is the form of every other scene. A scheme declares
-which forms it integrates (`Scheme.forms`), a case which one it produces (`Case.form`);
-the harness matches the two, never a name.
+This is the one problem form every scheme receives (`Scheme.prepare`). A 2D/3D body's is
+a `SparseProblem`; the bar's is `contact_bench.api.problem.BarProblem`, the same
+attributes with its tridiagonal form (`Semidiscrete`, node 0 on the obstacle) inside as
+the 1D kernels' fast backend. A case says which it produces (`Case.form`).
 
-Contact: a rigid plane, frictionless. Contact dof i (index `contact.dofs[i]` into the
-free dofs) is the displacement along the obstacle's inward normal, with gap
-`contact.gap0[i] + U[contact.dofs[i]] >= 0`; the obstacle's force on that dof is
-lambda_i >= 0 (along the same normal), lambda_i * gap_i = 0.
+Contact: a rigid obstacle, frictionless, as a gap operator: the gaps of the n_c contact
+points are g = g0 + G U >= 0 with G a sparse n_c x n operator (row i: the obstacle's
+inward normal at point i applied to the displacement there), the obstacle's force
+G^T lambda with lambda >= 0, lambda . g = 0. A plane whose normal is a coordinate axis
+makes each row of G pick one dof (`ContactSet.dofs`: contact dof i is `dofs[i]`, gap
+`gap0[i] + U[dofs[i]]`), which the compiled kernels use; a slanted or curved obstacle,
+and later two bodies, give a general G (`ContactSet.operator`) in the same contract.
 
 Energy of a state: 1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset (the offset accounts for
 eliminated Dirichlet dofs, so that it equals kinetic + strain + load potential of the
@@ -31,21 +34,44 @@ FORMS = (BANDED_1D, SPARSE)
 
 @dataclass(frozen=True)
 class ContactSet:
-    """The potential contact zone: normal dofs, their initial gaps, the area each
-    stands for (`weights`, summing to the zone's measure: the contact stress is
-    -sum(lambda) / sum(weights))."""
+    """The potential contact zone: its gap operator (module docstring), the initial
+    gaps, the area each contact point stands for (`weights`, summing to the zone's
+    measure: the contact stress is -sum(lambda) / sum(weights)).
 
-    dofs: np.ndarray  # (n_c,) int64 indices into the free dofs
-    gap0: np.ndarray  # (n_c,) initial gaps (the undeformed distance to the plane)
+    `dofs` gives G as a selection (row i picks dof dofs[i] with coefficient 1: a plane
+    normal to a coordinate axis); `operator` gives a general G (n_c x n CSR), and then
+    `dofs` is None. `gap_operator(n)` is G either way.
+    """
+
+    dofs: np.ndarray | None  # (n_c,) int64 indices into the free dofs; None: `operator`
+    gap0: np.ndarray  # (n_c,) initial gaps (the undeformed distance to the obstacle)
     weights: np.ndarray  # (n_c,) > 0
     #: the zone's consistent (scalar) mass over the contact dofs, n_c x n_c, whose row
     #: sums are the weights; None: diag(weights). Nitsche's stress-stress term uses it
     #: (with nodal weights there, coercivity would need gamma0 above 9 on Q1 faces)
     face_mass: sp.csr_matrix | None = None
+    #: a general gap operator G (n_c x n, CSR), when the rows are not dof selections
+    operator: sp.csr_matrix | None = None
 
     @property
     def size(self) -> int:
-        return int(self.dofs.size)
+        return int(np.asarray(self.gap0).size)
+
+    def gap_operator(self, n: int) -> sp.csr_matrix:
+        """G, n_c x n (CSR): the general operator, or the selection of `dofs`."""
+        if self.operator is not None:
+            return sp.csr_matrix(self.operator)
+        return sp.csr_matrix((np.ones(self.size), (np.arange(self.size), self.dofs)),
+                             shape=(self.size, n))
+
+    def selected_dofs(self, who: str) -> np.ndarray:
+        """The contact dofs of a selection G, for a kernel that steps dof by dof; a
+        one-line ValueError naming `who` when G is a general operator."""
+        if self.dofs is None:
+            raise ValueError(f"{who} needs contact dofs along coordinate normals; this "
+                             "problem's gap operator is general (a slanted or curved "
+                             "obstacle)")
+        return np.asarray(self.dofs, np.int64)
 
 
 @dataclass(frozen=True)
@@ -96,6 +122,9 @@ class SparseProblem:
     #: compression negative), for Nitsche; None: not given
     normal_stress: sp.csr_matrix | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the bar's tridiagonal form of the same problem (`contact_bench.api.problem.
+    #: BarProblem`), the fast backend of the 1D kernels; None for a 2D/3D body
+    banded: Any = None
 
     @property
     def nfree(self) -> int:
@@ -118,7 +147,10 @@ class SparseProblem:
 
     def gaps(self, U: np.ndarray) -> np.ndarray:
         """The contact set's gaps of a state (or of a stack of states, last axis)."""
-        return self.contact.gap0 + U[..., self.contact.dofs]
+        c = self.contact
+        if c.dofs is not None:
+            return c.gap0 + U[..., c.dofs]
+        return c.gap0 + np.asarray(U) @ c.gap_operator(self.nfree).T
 
     def check(self) -> None:
         """Shapes and symmetry; ValueError naming the first problem found."""
@@ -132,7 +164,12 @@ class SparseProblem:
             if v.shape != (n,) or not np.all(np.isfinite(v)):
                 raise ValueError(f"{name} must be {n} finite values")
         c = self.contact
-        if c.dofs.size and (c.dofs.min() < 0 or c.dofs.max() >= n):
+        if c.dofs is None and c.operator is None:
+            raise ValueError("the contact set has neither dofs nor a gap operator")
+        if c.dofs is not None and c.dofs.size and (c.dofs.min() < 0 or c.dofs.max() >= n):
             raise ValueError("contact dofs outside the free dofs")
+        if c.operator is not None and c.operator.shape != (c.size, n):
+            raise ValueError(f"the gap operator has shape {c.operator.shape}, expected "
+                             f"{(c.size, n)}")
         if np.any(self.gaps(self.U0) < 0):
             raise ValueError("the initial state penetrates the obstacle")

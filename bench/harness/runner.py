@@ -4,13 +4,17 @@ The harness reads only what plugins declare: the case's reference and the quanti
 it provides, the scheme's traits, stability limit and `cannot_run`. What a scene does
 not provide is left empty (NaN) and the row's `notes` say why.
 
-Two times per run (`TIMING_COLUMNS`), JIT compilation and the error norms excluded:
-- `run_s`: the run itself, recording every `stride`-th step as the norms need
+A run prepares the scheme's stepper once (`Scheme.prepare`: factorisations, Delassus
+operators, contact laws) and steps it several times: a warm-up, the timing repeats and the
+recorded run. Three times per run (`TIMING_COLUMNS`), JIT compilation and the error norms
+excluded:
+- `setup_s`: the preparation (`Scheme.prepare`), once;
+- `run_s`: the recorded run itself, recording every `stride`-th step as the norms need
   (`wall_s` is the same value under its former name, so `wall_s / (nx * steps)` still
   reads as ns per dof-step, recording included);
-- `step_s`: the stepping alone, the same scheme, grid and dt with samples only where
-  the scheme needs them (stride = steps: the first and the last), the minimum of up to
-  `STEP_REPEATS` calls after a warm-up call (`step_time`). Work-precision compares it.
+- `step_s`: the stepping alone, the same stepper with samples only where the scheme needs
+  them (stride = steps: the first and the last), the minimum of up to `STEP_REPEATS`
+  calls after a warm-up call (`step_time`). Work-precision compares it.
 """
 
 from __future__ import annotations
@@ -29,8 +33,8 @@ from numba.core import event as numba_event
 
 from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.params import format_value
-from contact_bench.api.plugin import Case, Exact, Scheme, Trajectory
-from contact_bench.api.problem import discretise
+from contact_bench.api.plugin import Case, Exact, Scheme, Stepper, Trajectory
+from contact_bench.api.problem import BarProblem, banded, discretise
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError, shown_repr
@@ -55,7 +59,8 @@ QUANTITY_COLUMNS = ("err_free_fall", "err_contact_start", "err_contact_end",
 COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
-    "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time", "reference",
+    "setup_s", "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time",
+    "reference",
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
@@ -65,7 +70,7 @@ COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "run_s", "wall_s")
+TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -297,7 +302,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     notes: list[str] = []
-    reason = form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme)
+    reason = scheme.cannot_run(case) or case.cannot_run(scheme)
     if reason:
         if strict:
             raise BenchError(f"scheme {scheme.spec} cannot run case {case.spec}: {reason}")
@@ -366,16 +371,9 @@ def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False)
 
 
-def form_mismatch(case: Case, scheme: Scheme) -> str | None:
-    """Why the scheme cannot integrate the problem form the case produces, or None."""
-    if case.form in scheme.forms:
-        return None
-    return (f"{scheme.name} integrates {', '.join(sorted(scheme.forms))} problems, "
-            f"not the {case.form} problem of {case.name}")
-
-
 def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
-    """The problem in the case's form with the scheme's mass variant."""
+    """The problem (one form for every scene) with the scheme's mass variant: a body's
+    `SparseProblem`, or the bar's `BarProblem` (its banded form inside)."""
     if case.form == SPARSE:
         try:
             problem = case.sparse_problem(nx, grading, scheme.mass_kind())
@@ -383,30 +381,48 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
             return problem
         except ValueError as exc:
             raise BenchError(f"case {case.spec}: {exc}") from None
-    return discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())
+    semi = discretise(case, mesh_nodes(_check_length(case), nx, grading), scheme.mass_kind())
+    return BarProblem(semi, scheme.mass_kind())
 
 
 def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0) -> Any:
-    """The problem a run integrates: the case's form (the 1D bar's `Semidiscrete` or a
-    `SparseProblem`) at nx with the scheme's mass variant; a mesh the case refuses (e.g.
-    a mass that is not positive definite) is a BenchError."""
+    """The problem a run integrates (`_discretise`) at nx with the scheme's mass variant;
+    a mesh the case refuses (e.g. a mass that is not positive definite) is a
+    BenchError."""
     return _discretise(case, scheme, int(nx), float(grading))
 
 
 def declared_limit(case: Case, scheme: Scheme, problem: Any) -> float | None:
     """The scheme's declared stability limit (largest stable dt) on the scene's
-    space-discrete problem: `sparse_stability_limit` on a sparse scene (the mesh's own
-    eigenvalues where the scheme computes them), else `stability_limit` at the bar's
-    smallest element and wave speed."""
-    if case.form == SPARSE:
-        return scheme.sparse_stability_limit(problem)
-    return scheme.stability_limit(problem.hmin, problem.c_max)
+    space-discrete problem (`Scheme.stability_limit`: the mesh's own eigenvalues where
+    the scheme computes them, else a 1D formula at the problem's hmin and c_max)."""
+    return scheme.stability_limit(problem)
 
 
-def integrator(case: Case, scheme: Scheme) -> Callable[..., Trajectory]:
-    """The scheme's integrate for the case's problem form (`integrate` or
-    `integrate_sparse`)."""
-    return scheme.integrate_sparse if case.form == SPARSE else scheme.integrate
+def compile_seconds(events: list) -> float:
+    """The time numba spent compiling (or loading from its cache), from the events of a
+    `numba.core.event.install_recorder("numba:compile")`: the outermost start-end pairs."""
+    total, depth, start = 0.0, 0, 0.0
+    for stamp, event in events:
+        if event.is_start:
+            if depth == 0:
+                start = stamp
+            depth += 1
+        elif event.is_end and depth > 0:
+            depth -= 1
+            if depth == 0:
+                total += stamp - start
+    return total
+
+
+def prepare_stepper(scheme: Scheme, problem: Any, dt: float) -> tuple[Stepper, float]:
+    """`scheme.prepare(problem, dt)` and its time (`setup_s`), JIT compilation during it
+    subtracted."""
+    with numba_event.install_recorder("numba:compile") as compiled:
+        start = time.perf_counter()
+        stepper = scheme.prepare(problem, dt)
+        elapsed = time.perf_counter() - start
+    return stepper, max(0.0, elapsed - compile_seconds(compiled.buffer))
 
 
 def on_axis(axis: AxisView, traj: Trajectory) -> Trajectory:
@@ -450,23 +466,21 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     norm_s = None
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
         semi = _discretise(case, scheme, row["nx"], row["grading"])
-    sparse = case.form == SPARSE
-    integrate = scheme.integrate_sparse if sparse else scheme.integrate
+    sparse = banded(semi) is None
+    stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
     key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
-        if sparse:
-            scheme.integrate_sparse(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
-        else:
-            scheme.warm_up(semi)
+        stepper.run(1, 1)
         _warmed.add(key)
     # the stepping alone first: its arrays are freed before the recorded run allocates
     # its samples, so a run's memory peak stays the recorded run's
-    row["step_s"] = step_time(integrate, semi, dt, plan.steps, step_repeats)
+    row["step_s"] = step_time(stepper.run, plan.steps, step_repeats)
     start = time.perf_counter()
-    traj = integrate(semi, dt, plan.steps, plan.stride)
+    traj = stepper.run(plan.steps, plan.stride)
     row["run_s"] = row["wall_s"] = time.perf_counter() - start
     if traj.steps_done < plan.steps:  # stopped (blow-up): time the steps it made
-        row["step_s"] = step_time(integrate, semi, dt, traj.steps_done, step_repeats)
+        row["step_s"] = step_time(stepper.run, traj.steps_done, step_repeats)
+    del stepper  # its factors go before the norms and the reference run
     if sparse:
         row.update(contact_metrics(semi, traj))
         row.update(impact_metrics(semi, traj, dt))
@@ -485,7 +499,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     else:
         row["status"] = "ok"
         exact = reference(case, plan.T_run) if case.reference else None
-        grid, samples = semi, traj  # what the error norms read
+        grid, samples = banded(semi) or semi, traj  # what the error norms read
         if sparse and exact is not None:  # a 1D reference, read on the problem's axis
             if semi.axis is None:
                 exact = None
@@ -515,27 +529,27 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     return Run(row, traj, semi, norm_s)
 
 
-def step_time(integrate: Callable[..., Trajectory], semi: Any, dt: float, steps: int,
+def step_time(run: Callable[[int, int], Trajectory], steps: int,
               repeats: int = STEP_REPEATS, budget_s: float = STEP_BUDGET_S) -> float | None:
-    """The stepping alone: `integrate(semi, dt, steps, steps)` (a scheme's `integrate` or
-    `integrate_sparse`; samples at the first and the last step only), the minimum over up
-    to `repeats` timed calls after a discarded warm-up call, stopping once the timed calls
-    took `budget_s` (at least one call). A warm-up call longer than `budget_s` is the
-    measurement, unless numba compiled during it (a kernel form the scheme's `warm_up` did
-    not reach, e.g. one chosen by problem size): then it is timed again. None for 0 steps.
+    """The stepping alone: `run(steps, steps)` (a prepared `Stepper.run`; samples at the
+    first and the last step only), the minimum over up to `repeats` timed calls after a
+    discarded warm-up call, stopping once the timed calls took `budget_s` (at least one
+    call). A warm-up call longer than `budget_s` is the measurement, unless numba
+    compiled during it (a kernel form the runner's one-step warm-up did not reach, e.g.
+    one chosen by the number of steps): then it is timed again. None for 0 steps.
     """
     if steps < 1:
         return None
     with numba_event.install_recorder("numba:compile") as compiled:
         start = time.perf_counter()
-        integrate(semi, dt, steps, steps)
+        run(steps, steps)
         first = time.perf_counter() - start
     if first > budget_s and not compiled.buffer:
         return first
     best, spent, calls = math.inf, 0.0, 0
     while calls < max(1, repeats) and not (calls >= 1 and spent > budget_s):
         start = time.perf_counter()
-        integrate(semi, dt, steps, steps)
+        run(steps, steps)
         elapsed = time.perf_counter() - start
         best, spent, calls = min(best, elapsed), spent + elapsed, calls + 1
     return best

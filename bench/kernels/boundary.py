@@ -26,6 +26,7 @@ stress: sc min(0, p.U) (penalty: sc = kappa; Nitsche: sc = 1, the Nitsche stress
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.plugin import Semidiscrete, Trajectory
@@ -39,6 +40,7 @@ from contact_bench.core.tridiag import (
     tri_row,
 )
 from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.kernels.sparse import ContactLaw
 
 
 @njit(cache=True)
@@ -214,3 +216,33 @@ def energy_budget(semi: Semidiscrete) -> tuple[float, float]:
     U0, V0 = semi.U0, semi.V0
     e0 = 0.5 * semi.M.quad(V0) + 0.5 * semi.K.quad(U0) - semi.F @ U0 + semi.energy_offset
     return 2.0 * abs(float(e0)), abs(float(np.sum(semi.F)))
+
+
+def bar_law(n: int, dK: np.ndarray, c: float, p: tuple[float, float], q: tuple[float, float],
+            ew: float, sc: float, fscale: float = 1.0) -> ContactLaw:
+    """A boundary force on the bar's first element as the general `ContactLaw` (the
+    same object the sparse kernels take): y = p0 u0 + p1 u1, the force -c min(0, y)
+    (q0, q1) on nodes 0 and 1, K's first 2 x 2 block changed by dK."""
+    cols = [0, 1]
+    P = sp.csr_matrix((list(p), ([0, 0], cols)), shape=(1, n))
+    Q = sp.csr_matrix((list(q), ([0, 0], cols)), shape=(1, n))
+    K_extra = sp.csr_matrix((np.asarray(dK, float).ravel(), ([0, 0, 1, 1], [0, 1, 0, 1])),
+                            shape=(n, n))
+    return ContactLaw(P=P, Q=Q, y0=np.zeros(1), c=np.array([float(c)]), ew=float(ew),
+                      sc=np.array([float(sc)]), K_extra=K_extra, fscale=float(fscale))
+
+
+def run_boundary_law(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: float,
+                     gamma: float, law: ContactLaw) -> Trajectory:
+    """`run_boundary` with the force given as a `ContactLaw` on the bar's first element
+    (`bar_law`); ValueError when the law reaches beyond nodes 0 and 1."""
+    K_extra = sp.csr_matrix(law.K_extra) if law.K_extra is not None else None
+    for name, A in (("P", law.P), ("Q", law.Q), ("K_extra", K_extra)):
+        if A is not None and sp.csr_matrix(A)[:, 2:].nnz:
+            raise ValueError(f"the bar's boundary kernel takes laws on nodes 0 and 1; {name} "
+                             "reaches further")
+    P, Q = sp.csr_matrix(law.P), sp.csr_matrix(law.Q)
+    dK = np.zeros((2, 2)) if K_extra is None else K_extra[:2, :2].toarray()
+    return run_boundary(semi, dt, nsteps, stride, beta, gamma, dK, float(law.c[0]),
+                        (float(P[0, 0]), float(P[0, 1])), (float(Q[0, 0]), float(Q[0, 1])),
+                        float(law.ew), float(law.sc[0]))

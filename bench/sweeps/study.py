@@ -53,7 +53,7 @@ import numpy as np
 from contact_bench.api.params import expand_spec
 from contact_bench.api.plugin import Case, Scheme
 from contact_bench.api.registry import cases, make_case, make_scheme, schemes
-from contact_bench.harness.runner import declared_limit, form_mismatch, problem_for
+from contact_bench.harness.runner import declared_limit, problem_for
 from contact_bench.sweeps.sweep import Task
 
 FULL = {"nx_refine": [20, 40, 80, 160, 320, 640], "nx_fine": 640, "dt_points": 5,
@@ -146,8 +146,6 @@ def _variants(case: Case, spec: str) -> str | None:
     """The spec that runs the scene: itself, or its lumped-mass variant when it cannot
     and the scheme takes a lumped `mass` (None: neither runs it)."""
     scheme = make_scheme(spec)
-    if "sparse" not in type(scheme).forms:
-        return None
     if not (scheme.cannot_run(case) or case.cannot_run(scheme)):
         return spec
     mass = type(scheme).params.get("mass")
@@ -176,7 +174,7 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
         case = make_case(variant)
         for spec in dict.fromkeys(v for s in specs if (v := _variants(case, s)) is not None):
             scheme = make_scheme(spec)
-            if form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme):
+            if scheme.cannot_run(case) or case.cannot_run(scheme):
                 tasks.append(Task(case.spec, spec, nxs[0], T=T, group="refine", timed=False))
                 continue
             try:

@@ -25,9 +25,9 @@ it, `step_s` is the harness's own, measured in the worker: `contact_bench.harnes
 `run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
 (assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
-Scenes of every problem form run (`Case.form`: the 1D bar, or a sparse 2D/3D problem
-through `integrate_sparse`, `contact_bench.harness.runner.problem_for`); a mesh a sparse
-scene refuses for a scheme's mass is an 'error' row, not a stop.
+Every scene runs (the bar or a 2D/3D body, one problem form:
+`contact_bench.harness.runner.problem_for`); a mesh a body scene refuses for a scheme's
+mass is an 'error' row, not a stop.
 
 A failing run never stops a sweep: it is a row with status 'error' and the reason.
 Rows also carry the scheme's declarations (implicit, energy behaviour, stability limit,
@@ -67,8 +67,6 @@ from contact_bench.harness.runner import (
     check_run,
     check_task_inputs,
     declared_limit,
-    form_mismatch,
-    integrator,
     problem_for,
     run_one,
 )
@@ -220,7 +218,7 @@ def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, A
     (stride above the steps, samples over memory, ...) is a BenchError before the sweep
     starts, as in `run`. `semis` keeps the meshes' problems for the next checks."""
     case, scheme = made
-    if form_mismatch(case, scheme) or scheme.cannot_run(case) or case.cannot_run(scheme):
+    if scheme.cannot_run(case) or case.cannot_run(scheme):
         return
     try:
         nx, grading = int(task["nx"]), float(task["grading"])
@@ -255,19 +253,17 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
     try:
         use_plugin_dirs(task.get("plugins", ()))
         case, scheme = make_case(task["case"]), make_scheme(task["scheme"])
-        traits = scheme.sparse_traits() if case.form == "sparse" else scheme.traits()
-        row.update(case_name=case.name, scheme_name=scheme.name, implicit=bool(traits.implicit),
-                   energy_trait=str(traits.energy), order_declared=traits.order,
-                   contact=str(traits.contact), massless_contact_node=traits.massless_contact_node)
+        row.update(case_name=case.name, scheme_name=scheme.name)
+        _trait_columns(row, scheme.traits())
         nx, grading = int(task["nx"]), float(task["grading"])
         T = float(case.T if task["T"] is None else task["T"])
-        reason = (form_mismatch(case, scheme) or scheme.cannot_run(case)
-                  or case.cannot_run(scheme))
+        reason = scheme.cannot_run(case) or case.cannot_run(scheme)
         if reason:
             run = run_one(case, scheme, nx, None, T, 1, grading, True)
             row.update(run.row)
         else:
             semi0 = problem_for(case, scheme, nx, grading)
+            _trait_columns(row, scheme.traits(semi0))  # what holds on this problem
             h, c = semi0.hmin, semi0.c_max
             limit = declared_limit(case, scheme, semi0)
             row.update(h=h, dt_limit=limit, cfl_limit=None if limit is None else c * limit / h)
@@ -292,6 +288,13 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
     row["run_date"] = f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}"
     row.update(environment())
     return row
+
+
+def _trait_columns(row: dict[str, Any], traits: Any) -> None:
+    """The row's columns of a scheme's declared traits."""
+    row.update(implicit=bool(traits.implicit), energy_trait=str(traits.energy),
+               order_declared=traits.order, contact=str(traits.contact),
+               massless_contact_node=traits.massless_contact_node)
 
 
 def drift_bound(scheme: Any, problem: Any, dt: float) -> float | None:
@@ -355,21 +358,19 @@ def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
 
 def time_run(row: dict[str, Any], repeats: int, modes: tuple[bool, ...] = (False, True)
              ) -> list[list[float]]:
-    """`time_integrate` for each mode (False: the row's stride, True: the stepping
-    alone) on one set-up: the problem is built and the kernels compiled once."""
+    """The timed calls for each mode (False: the row's stride, True: the stepping alone)
+    on one set-up: the problem is built, the scheme's stepper prepared and the kernels
+    compiled once."""
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = problem_for(case, scheme, int(row["nx"]), float(row["grading"]))
-    integrate = integrator(case, scheme)
     dt, steps = float(row["dt"]), int(row["steps"])
-    if case.form == "banded1d":
-        scheme.warm_up(semi)  # JIT compilation
-    else:
-        integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
+    stepper = scheme.prepare(semi, dt)
+    stepper.run(1, 1)  # JIT compilation
     out = []
     for i, stepping in enumerate(modes):
         stride = steps if stepping else int(row["stride"])
         if i == 0:  # discarded warm-up call (the next mode runs warm after it)
-            integrate(semi, dt, steps, stride)
+            stepper.run(steps, stride)
         times: list[float] = []
         gc.collect()
         enabled = gc.isenabled()
@@ -378,7 +379,7 @@ def time_run(row: dict[str, Any], repeats: int, modes: tuple[bool, ...] = (False
             while len(times) < max(1, repeats) and not (len(times) >= 2
                                                         and sum(times) > TIME_BUDGET_S):
                 t0 = time.perf_counter()
-                integrate(semi, dt, steps, stride)
+                stepper.run(steps, stride)
                 times.append(time.perf_counter() - t0)
         finally:
             if enabled:

@@ -141,7 +141,7 @@ def measure_time_order(scheme: Scheme, nx: int = NX, levels: int = LEVELS,
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     h, c = semi.hmin, semi.c_max
     dt_max = cfl * h / c
-    limit = scheme.stability_limit(h, c)
+    limit = scheme.stability_limit(semi)
     if limit is not None:
         dt_max = min(dt_max, 0.5 * limit)
     n0 = math.ceil(T_end / dt_max - 1e-9)
