@@ -49,12 +49,12 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
     scheme = make_scheme(name)
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     dt = 0.5 * semi.hmin / semi.c_max
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = scheme.stability_limit(semi)
     if limit is not None:
         dt = min(dt, 0.9 * limit)
     nsteps = (max(100, int(dof_steps / semi.nfree)) if T is None
               else max(1, math.ceil(T / dt - 1e-9)))
-    scheme.warm_up(semi)
+    scheme.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
 
     def call(stride: int) -> int:
         if form is None:

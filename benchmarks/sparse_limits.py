@@ -18,6 +18,7 @@ import argparse
 
 import scipy.linalg as sla
 
+from contact_bench.api.problem import BarScale
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.harness.runner import run_one
 
@@ -53,8 +54,8 @@ def main(argv: list[str] | None = None) -> int:
     for case, nx, T, spec in runs:
         scheme = make_scheme(spec)
         p = make_case(case).sparse_problem(nx, 1.0, scheme.mass_kind())
-        formula = scheme.stability_limit(p.hmin, p.c_max)
-        limit = scheme.sparse_stability_limit(p)
+        formula = scheme.stability_limit(BarScale(p.hmin, p.c_max))
+        limit = scheme.stability_limit(p)
         rows = [run_one(case, spec, nx=nx, T=T, dt=f * limit, allow_unstable=True,
                         step_repeats=1).row for f in (0.95, 1.05)]
         print(f"{case:36s} {spec:30s} {formula:10.4g} {limit:10.4g} {formula / limit:6.3f} "

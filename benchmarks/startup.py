@@ -28,7 +28,7 @@ from contact_bench.api.registry import make_case, make_scheme
 case, scheme = make_case("clamped_bar"), make_scheme({spec!r})
 semi = discretise(case, mesh_nodes(case.L, 100), scheme.mass_kind())
 dt = 0.5 * semi.hmin / semi.c_max
-limit = scheme.stability_limit(semi.hmin, semi.c_max)
+limit = scheme.stability_limit(semi)
 dt = dt if limit is None else min(dt, 0.9 * limit)
 start = time.perf_counter()
 scheme.integrate(semi, dt, 10, 10)

@@ -30,6 +30,7 @@ from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import PLUGINS_ENV, cases, make_case, make_scheme, schemes
 from contact_bench.cli.main import main
+from contact_bench.harness import run_one
 from contact_bench.sweeps.cache import code_hash
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -88,6 +89,21 @@ def test_the_environment_variable_names_folders(folder: Path, tmp_path: Path,
     cls = schemes().get("plain_central")
     assert cls.__module__ == "contact_bench.plugins.plain_central"  # hashed like built-ins
     assert len(code_hash(cases().get("released_bar"), cls)) == 16
+
+
+def test_the_template_runs_the_embedded_bar_as_the_bar(folder: Path, monkeypatch) -> None:
+    """The docs' 2D template on the 2D embedded clamped bar gives the 1D clamped bar's row
+    (the same file on both problem shapes), and the compiled scheme's."""
+    monkeypatch.setenv(PLUGINS_ENV, str(folder))
+    bar = run_one("clamped_bar", "plain_central", nx=40).row
+    body = run_one("embedded_bar[of=clamped_bar,dim=2]", "plain_central", nx=40).row
+    compiled = run_one("embedded_bar[of=clamped_bar,dim=2]", "taylor_flanagan[mass=lumped]",
+                       nx=40).row
+    assert bar["status"] == body["status"] == "ok" and bar["steps"] == body["steps"]
+    for key in ("err_u_linf_l2", "err_v_linf_l2", "err_u_l2_h1", "energy_drift_max"):
+        assert body[key] == pytest.approx(bar[key], rel=1e-9, abs=1e-12), key
+        assert body[key] == pytest.approx(compiled[key], rel=1e-9, abs=1e-12), key
+    assert body["chatter"] == compiled["chatter"] > 0
 
 
 def test_the_template_is_the_compiled_taylor_flanagan_step(folder: Path, monkeypatch) -> None:

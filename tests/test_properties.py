@@ -93,7 +93,7 @@ SPECS = _specs()
 def _run(case: RandomBar, scheme: Scheme, nx: int, cfl: float):
     """One run at a stable dt (cfl x the stability limit, or cfl h/c if unconditional)."""
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = scheme.stability_limit(semi)
     dt = cfl * (limit if limit is not None else semi.hmin / semi.c_max)
     return run_one(case, scheme, nx=nx, dt=dt, T=case.T)
 

@@ -1,10 +1,11 @@
 """The README's "Add your own scheme" template runs as it is.
 
 The first ```python block under that heading is written into a temporary plugins folder,
-imported from there, and run on the paper's two scenes on small grids. It steps the
-explicit central difference with a massless contact node, which the built-in
-`redistributed[beta=0]` steps in compiled code: the two must agree to round-off, and
-the template's errors must shrink under refinement.
+imported from there, and run on the paper's two scenes and on the disc, on small grids.
+It steps the explicit central difference with a lumped mass and the Taylor-Flanagan
+contact force on the general problem, which the built-in `taylor_flanagan[mass=lumped]`
+steps in compiled code (the bar's banded kernel, the body's sparse one): the two must
+agree to round-off, and the template's errors must shrink under refinement.
 """
 
 from __future__ import annotations
@@ -17,11 +18,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from contact_bench.api import make_scheme
+from contact_bench.api import make_case, make_scheme
 from contact_bench.api.plugin import Scheme
 from contact_bench.harness import run_one
+from contact_bench.harness.runner import problem_for
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 HEADING = "## Add your own scheme"
@@ -72,24 +75,27 @@ def test_readme_template_runs_and_matches_the_compiled_scheme(case: str, tmp_pat
         run = run_one(case, cls(), nx=nx)
         row = run.row
         assert row["status"] == "ok", row["notes"]
-        assert row["penetration_max"] <= 1e-12
-        ref = run_one(case, "redistributed[beta=0]", nx=nx).row
+        ref = run_one(case, "taylor_flanagan[mass=lumped]", nx=nx).row
         assert row["steps"] == ref["steps"] and row["dt"] == ref["dt"]
-        for key in ("err_u_linf_l2", "err_v_linf_l2", "err_stress_l2", "energy_drift_max"):
+        for key in ("err_u_linf_l2", "err_v_linf_l2", "err_stress_l2", "energy_drift_max",
+                    "penetration_max"):
             assert row[key] == pytest.approx(ref[key], rel=1e-8, abs=1e-12), key
         errors.append(row["err_u_linf_l2"])
     assert errors[1] < 0.75 * errors[0]  # refinement helps
 
 
-def test_readme_template_variant_parameter(tmp_path: Path):
-    """The template's parameter is parsed like a built-in one (spec, choices)."""
+def test_readme_template_runs_the_disc_as_the_compiled_scheme(tmp_path: Path):
+    """The same file on a 2D body: the compiled sparse kernel's trajectory to round-off."""
     cls, _ = load_template(tmp_path)
-    scheme = cls(variant="getfem")
-    assert scheme.spec == f"{cls.name}[variant=getfem]"
-    row = run_one("clamped_bar", scheme, nx=20, T=1.5).row
-    ref = run_one("clamped_bar", "redistributed[beta=0,variant=getfem]", nx=20, T=1.5).row
-    assert row["status"] == "ok"
-    assert row["err_u_linf_l2"] == pytest.approx(ref["err_u_linf_l2"], rel=1e-8)
+    mine = run_one("disc_drop[degree=1,lift=0.4]", cls(), nx=2, T=5.0)
+    ref = run_one("disc_drop[degree=1,lift=0.4]", "taylor_flanagan[mass=lumped]", nx=2,
+                  T=5.0)
+    assert mine.row["status"] == ref.row["status"] == "ok"
+    assert mine.row["chatter"] == ref.row["chatter"] > 0  # the contact statistics too
+    a, b = mine.trajectory, ref.trajectory
+    for field in ("U", "V", "contact_u", "stress", "energy"):
+        scale = max(float(np.max(np.abs(getattr(b, field)))), 1.0)
+        assert np.max(np.abs(getattr(a, field) - getattr(b, field))) <= 1e-11 * scale, field
 
 
 def _cli_has_plugins_option() -> bool:
@@ -113,11 +119,12 @@ def test_readme_template_runs_from_a_plugins_folder(tmp_path: Path):
 
 
 def test_readme_template_declares_the_compiled_schemes_stability_limit(tmp_path: Path):
-    """The template's declared limit is redistributed[beta=0]'s for every mass variant
-    (0.556 h/c with the first_element_massless mass's edge mode, h/(c sqrt 3) otherwise)."""
+    """The template's limit (2 / omega_max by eigsh) is the compiled scheme's on the disc
+    (the mesh's own eigenvalue); on the lumped bar it lies just above h / c, the 1D formula
+    (the sup of 2 / omega_max over every bar length)."""
     cls, _ = load_template(tmp_path)
-    for variant in cls.params["variant"].choices:
-        ref = make_scheme(f"redistributed[beta=0,variant={variant}]")
-        for h, c in ((0.1, 2.0), (1e-3, 5e3)):
-            assert cls(variant=variant).stability_limit(h, c) == pytest.approx(
-                ref.stability_limit(h, c), rel=1e-12), variant
+    ref = make_scheme("taylor_flanagan[mass=lumped]")
+    disc = problem_for(make_case("disc_drop[degree=1]"), ref, 2)
+    assert cls().stability_limit(disc) == pytest.approx(ref.stability_limit(disc), rel=1e-6)
+    bar = problem_for(make_case("clamped_bar"), ref, 40)
+    assert 1.0 <= cls().stability_limit(bar) / ref.stability_limit(bar) < 1.001

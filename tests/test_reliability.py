@@ -67,7 +67,7 @@ def _explicit_limit(nx: int = 20) -> float:
 
     scheme = make_scheme("redistributed[beta=0]")
     semi = discretise(ClampedBar(), mesh_nodes(1.0, nx), scheme.mass_kind())
-    return scheme.stability_limit(semi.hmin, semi.c_max)
+    return scheme.stability_limit(semi)
 
 
 # ------------------------------------------------------------------------ bad inputs

@@ -54,7 +54,7 @@ def _dt(spec: str, case_name: str, nx: int) -> float:
     scheme, case = make_scheme(spec), make_case(case_name)
     semi = discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind())
     dt = CFL * semi.hmin / semi.c_max
-    limit = scheme.stability_limit(semi.hmin, semi.c_max)
+    limit = scheme.stability_limit(semi)
     if limit is not None:
         dt = min(dt, 0.9 * limit)
     return dt

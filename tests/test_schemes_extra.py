@@ -139,7 +139,7 @@ def test_massless_explicit_limit_is_below_both_contact_states(spec):
 
     scheme = make_scheme(spec)
     semi = discretise(ClampedBar(), mesh_nodes(1.0, 40), scheme.mass_kind())
-    declared = scheme.stability_limit(semi.hmin, semi.c_max) * semi.c_max / semi.hmin
+    declared = scheme.stability_limit(semi) * semi.c_max / semi.hmin
     true = min(_cfl_of_largest_mode(semi, True), _cfl_of_largest_mode(semi, False))
     assert declared <= true
     assert declared > 0.99 * true  # and it is the limit, not a loose bound
@@ -156,7 +156,7 @@ def test_ode_verlet_seed_stable_below_and_blows_up_above_its_limit():
 
     sch = make_scheme(scheme)
     semi = discretise(case, mesh_nodes(1.0, nx), sch.mass_kind())
-    limit = sch.stability_limit(semi.hmin, semi.c_max)
+    limit = sch.stability_limit(semi)
     assert limit * semi.c_max / semi.hmin == pytest.approx(0.5562, abs=2e-4)
     below = run_one("clamped_bar", scheme, nx=nx, dt=0.98 * limit, T=36, stride=50)
     assert below.row["status"] == "ok"

@@ -39,7 +39,7 @@ def test_peak_contact_force_is_the_largest_sampled_force(case, scheme):
     -stress x area of the samples (the stress from the state after the step)."""
     sch, p = _problem(case, scheme, 3 if case == DISC else 8)
     T, dt = (14.0, 0.01) if case == DISC else (2.0, 2.1e-3)
-    tr = sch.integrate_sparse(p, dt, int(round(T / dt)), 1)
+    tr = sch.integrate(p, dt, int(round(T / dt)), 1)
     assert tr.steps_done == int(round(T / dt)) and np.all(np.isfinite(tr.energy))
     sampled = float(np.max(-tr.stress * np.sum(p.contact.weights)))
     assert sampled > 0.0  # the body hit the obstacle
@@ -61,7 +61,7 @@ def test_explicit_sparse_paths_on_the_disc(scheme):
     row = run_one(DISC, scheme, nx=3, T=20.0, step_repeats=1).row
     assert row["status"] == "ok", row["notes"]
     sch, p = _problem(DISC, scheme, 3)
-    traits = sch.sparse_traits()
+    traits = sch.traits()
     assert np.isfinite(row["energy_drift_max"]) and row["peak_contact_force"] > 0
     if traits.contact.value == "exact":
         assert row["penetration_max"] <= 1e-12 * 5.0
@@ -116,7 +116,7 @@ STABILITY = [("embedded_bar[of=clamped_bar,dim=2]", 16, 10.0, "penalty[beta=0]")
 @pytest.mark.parametrize(("case", "nx", "T", "scheme"), STABILITY)
 def test_declared_sparse_limit_is_the_stability_edge(case, nx, T, scheme):
     sch, p = _problem(case, scheme, nx)
-    limit = sch.sparse_stability_limit(p)
+    limit = sch.stability_limit(p)
     below = run_one(case, scheme, nx=nx, T=T, dt=0.95 * limit, step_repeats=1).row
     above = run_one(case, scheme, nx=nx, T=T, dt=1.05 * limit, allow_unstable=True,
                     step_repeats=1).row

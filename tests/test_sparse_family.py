@@ -10,6 +10,7 @@ import pytest
 import skfem as fe
 
 from contact_bench.api import fem_nd
+from contact_bench.api.problem import BarScale
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import ContactSet, SparseProblem
 from contact_bench.harness.runner import run_one
@@ -37,10 +38,10 @@ def _run(spec: str, p: SparseProblem):
     """(scheme, dt, trajectory sampled at every step over t in [0, 1.5])."""
     scheme = make_scheme(spec)
     dt = 0.01
-    limit = scheme.sparse_stability_limit(p)
+    limit = scheme.stability_limit(p)
     if limit is not None:
         dt = 0.9 * limit
-    return scheme, dt, scheme.integrate_sparse(p, dt, int(1.5 / dt), 1)
+    return scheme, dt, scheme.integrate(p, dt, int(1.5 / dt), 1)
 
 
 @pytest.mark.parametrize("spec", SPECS)
@@ -72,7 +73,7 @@ def test_exact_contact_complementarity_and_declared_energy(spec):
                                rtol=0, atol=1e-9 * scale)
     # the declared energy behaviour
     E = tr.energy
-    traits = scheme.sparse_traits()
+    traits = scheme.traits()
     if traits.energy == "dissipated":  # hht: never grows, and loses some
         assert E.max() <= E[0] + 1e-12 * abs(E[0])
         assert E[-1] < E[0] * (1 - 1e-4)
@@ -120,8 +121,8 @@ def test_explicit_massless_stability_limit_is_the_sparse_problems(spec):
     (the 1D formula at the problem's hmin is 3.5 x too large on the P2 disc)."""
     scheme = make_scheme(spec)
     p = make_case("disc_drop").sparse_problem(3, 1.0, scheme.mass_kind())
-    limit = scheme.sparse_stability_limit(p)
-    assert scheme.stability_limit(p.hmin, p.c_max) > 3 * limit
+    limit = scheme.stability_limit(p)
+    assert scheme.stability_limit(BarScale(p.hmin, p.c_max)) > 3 * limit
     stable = run_one("disc_drop", spec, nx=3, T=40, dt=0.95 * limit).row
     assert stable["status"] == "ok"
     blown = run_one("disc_drop", spec, nx=3, T=40, dt=1.05 * limit, allow_unstable=True).row
@@ -175,4 +176,4 @@ def test_ode_adaptive_embedded_bar_reproduces_the_1d_row():
 
 def test_the_massless_ode_needs_massless_contact_dofs():
     with pytest.raises(ValueError, match="massless"):
-        make_scheme("ode_verlet").integrate_sparse(_disc("consistent"), 0.01, 2, 1)
+        make_scheme("ode_verlet").integrate(_disc("consistent"), 0.01, 2, 1)

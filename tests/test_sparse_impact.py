@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from contact_bench.api.problem import BarScale
 from contact_bench.api.registry import make_case
 from contact_bench.harness.runner import run_one
 from contact_bench.kernels.sparse_impact import moreau_jean_sparse, paoli_schatzman_sparse
@@ -140,7 +141,7 @@ def test_what_cannot_run_says_why():
 
     spec = "restitution[mass=consistent]"
     p = make_case("hertz_sphere").sparse_problem(8, 1.0, "consistent")
-    dt1 = 0.9 * make_scheme(spec).stability_limit(p.hmin, p.c_max)
+    dt1 = 0.9 * make_scheme(spec).stability_limit(BarScale(p.hmin, p.c_max))
     row = run_one("hertz_sphere", spec, T=1.0, dt=dt1, allow_unstable=True).row
     assert row["status"] == "unstable" and row["blowup_time"] < 1.0, row["notes"]
     row = run_one("hertz_sphere", spec, T=1.0).row
@@ -164,13 +165,13 @@ def test_restitution_sparse_stability_limit_is_the_meshs(case, spec, nx, T):
 
     scheme = make_scheme(spec)
     p = make_case(case).sparse_problem(nx, 1.0, scheme.mass_kind())
-    limit = scheme.sparse_stability_limit(p)
-    assert scheme.stability_limit(p.hmin, p.c_max) > 1.3 * limit
+    limit = scheme.stability_limit(p)
+    assert scheme.stability_limit(BarScale(p.hmin, p.c_max)) > 1.3 * limit
     stable = run_one(case, spec, nx=nx, T=T, dt=0.95 * limit).row
     assert stable["status"] == "ok" and stable["energy_drift_max"] < 0.1
     blown = run_one(case, spec, nx=nx, T=T, dt=1.05 * limit, allow_unstable=True).row
     assert blown["status"] == "unstable"
     beta = make_scheme(spec.replace("]", ",beta=0.1]") if "[" in spec else spec + "[beta=0.1]")
-    assert beta.sparse_stability_limit(p) == pytest.approx(limit / np.sqrt(0.6), rel=1e-6)
+    assert beta.stability_limit(p) == pytest.approx(limit / np.sqrt(0.6), rel=1e-6)
     assert make_scheme(spec.replace("]", ",beta=0.25]") if "[" in spec
-                       else spec + "[beta=0.25]").sparse_stability_limit(p) is None
+                       else spec + "[beta=0.25]").stability_limit(p) is None

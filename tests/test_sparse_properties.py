@@ -77,11 +77,11 @@ def test_every_sparse_scene_declares_small_grids() -> None:
 def test_sparse_scene_keeps_the_declarations(spec: str, scene: str) -> None:
     case = make_case(cases().plugins[scene].study.small)
     scheme = make_scheme(spec)
-    if "sparse" not in scheme.forms or scheme.cannot_run(case) or case.cannot_run(scheme):
+    if scheme.cannot_run(case) or case.cannot_run(scheme):
         row = run_one(case, scheme, nx=case.study.small_nx[0], T=case.study.small_T).row
         assert row["status"] == "not applicable" and row["notes"], row
         return
-    traits = scheme.sparse_traits()
+    traits = scheme.traits()
     nx = _grid(case, scheme)
     run = run_one(case, scheme, nx=nx, T=case.study.small_T, step_repeats=1)
     row, tr, problem = run.row, run.trajectory, run.semi
@@ -116,13 +116,11 @@ def test_sparse_scene_keeps_the_declarations(spec: str, scene: str) -> None:
 
 
 def test_every_sparse_scheme_runs_some_scene() -> None:
-    """A scheme declaring the sparse form runs (some variant of it) on some scene."""
-    for name, cls in schemes().plugins.items():
-        if "sparse" not in cls.forms:
-            continue
+    """Every scheme runs (some variant of it) on some 2D/3D scene."""
+    for name in schemes().plugins:
         ok = [s for s in _specs() if s.split("[")[0] == name
               for scene in SCENES
               if not (make_scheme(s).cannot_run(make_case(cases().plugins[scene].study.small))
                       or make_case(cases().plugins[scene].study.small).cannot_run(
                           make_scheme(s)))]
-        assert ok, f"{name} declares the sparse form but no variant runs a sparse scene"
+        assert ok, f"no variant of {name} runs a 2D/3D scene"

@@ -14,32 +14,33 @@ from contact_bench.harness.runner import TIMING_COLUMNS, run_one, step_time
 from contact_bench.sweeps.analysis import WP_TIME, work_precision
 
 
-def test_a_run_records_step_s_and_run_s():
+def test_a_run_records_step_s_setup_s_and_run_s():
     row = run_one("clamped_bar", "redistributed", 20, T=1.0).row
     assert row["status"] == "ok"
     assert row["run_s"] == row["wall_s"] > 0
     assert math.isfinite(row["step_s"]) and row["step_s"] > 0
+    assert math.isfinite(row["setup_s"]) and row["setup_s"] >= 0
     assert set(TIMING_COLUMNS) <= set(runner.COLUMNS)
 
 
 class _Counting:
-    """A stand-in scheme that records the (steps, stride) of every integrate call."""
+    """A stand-in stepper that records the (steps, stride) of every run call."""
 
     def __init__(self) -> None:
         self.calls: list[tuple[int, int]] = []
 
-    def integrate(self, semi, dt, steps, stride):
+    def run(self, steps, stride):
         self.calls.append((steps, stride))
 
 
 def test_step_time_samples_only_the_last_step_after_a_warm_up():
     s = _Counting()
-    assert step_time(s.integrate, None, 0.1, 50, repeats=3) >= 0.0
+    assert step_time(s.run, 50, repeats=3) >= 0.0
     assert s.calls == [(50, 50)] * 4  # warm-up + 3 timed, stride = steps
     s = _Counting()
-    step_time(s.integrate, None, 0.1, 50, repeats=3, budget_s=-1.0)  # a long warm-up is it
+    step_time(s.run, 50, repeats=3, budget_s=-1.0)  # a long warm-up is it
     assert s.calls == [(50, 50)]
-    assert step_time(_Counting().integrate, None, 0.1, 0) is None
+    assert step_time(_Counting().run, 0) is None
 
 
 class _Compiling(_Counting):
@@ -50,14 +51,14 @@ class _Compiling(_Counting):
         super().__init__()
         self.kernel = njit(lambda x: x + 1.0)  # not compiled yet
 
-    def integrate(self, semi, dt, steps, stride):
+    def run(self, steps, stride):
         self.kernel(1.0)
-        super().integrate(semi, dt, steps, stride)
+        super().run(steps, stride)
 
 
 def test_a_warm_up_that_compiled_is_not_the_timing():
     s = _Compiling()
-    step_time(s.integrate, None, 0.1, 50, repeats=3, budget_s=-1.0)
+    step_time(s.run, 50, repeats=3, budget_s=-1.0)
     assert len(s.calls) == 2  # the compiling call is discarded, one timed call follows
 
 

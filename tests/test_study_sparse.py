@@ -16,7 +16,7 @@ from contact_bench.sweeps.study import plan_sparse, plan_study
 from contact_bench.sweeps.sweep import run_sweep
 
 SPARSE = tuple(n for n, c in sorted(cases().plugins.items()) if c.form == "sparse")
-SPARSE_SCHEMES = tuple(n for n, c in sorted(schemes().plugins.items()) if "sparse" in c.forms)
+SPARSE_SCHEMES = tuple(sorted(schemes().plugins))
 
 
 @pytest.fixture(scope="module")

@@ -7,15 +7,18 @@ What a plugin author needs is importable from here (docs/plugin-api.md):
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import (
+    CallStepper,
     Case,
     Contact,
     Energy,
     Exact,
     Scheme,
     Semidiscrete,
+    Stepper,
     Traits,
     Trajectory,
 )
+from contact_bench.api.problem import BarProblem, BarScale, as_problem, banded
 from contact_bench.api.recorder import TrajectoryRecorder, discrete_energy
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.core.errors import BenchError
@@ -31,8 +34,10 @@ from contact_bench.core.sampling import (
 )
 
 __all__ = [
-    "BLOWUP_FACTOR", "BenchError", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
-    "Semidiscrete", "Traits", "Trajectory", "TrajectoryRecorder", "blown_up",
+    "BLOWUP_FACTOR", "BarProblem", "BarScale", "BenchError", "CallStepper", "Case", "Contact",
+    "Energy", "Exact", "Param", "Scheme",
+    "Semidiscrete", "Stepper", "Traits", "Trajectory", "TrajectoryRecorder", "as_problem",
+    "banded", "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",
     "n_samples", "record_sample", "row_sums",
 ]

@@ -127,15 +127,22 @@ class BarProblem:
     def __init__(self, semi: Semidiscrete, mass_kind: str = "consistent") -> None:
         self.banded = semi
         self.F, self.U0, self.V0 = semi.F, semi.U0, semi.V0
-        self.hmin, self.c_max = semi.hmin, semi.c_max
+        self.c_max = semi.c_max
         self.energy_offset = semi.energy_offset
         self.mass_kind = canonical_mass(mass_kind)
         self.E_contact = semi.E_contact
-        self.h_contact = float(semi.h[0])
+        self.h_contact = float(semi.x[1] - semi.x[0])
         self.contact = ContactSet(dofs=np.zeros(1, np.int64), gap0=np.zeros(1),
                                   weights=np.ones(1))
-        self.axis = AxisView(np.arange(semi.nfree), semi.x, semi.u_fixed)
         self.extra: dict[str, Any] = {}
+
+    @cached_property
+    def hmin(self) -> float:
+        return self.banded.hmin
+
+    @cached_property
+    def axis(self) -> AxisView:
+        return AxisView(np.arange(self.nfree), self.banded.x, self.banded.u_fixed)
 
     @property
     def nfree(self) -> int:
@@ -176,7 +183,7 @@ class BarProblem:
 
     def gaps(self, U: np.ndarray) -> np.ndarray:
         """The gap of the contact node (u_0) of a state or of a stack of states."""
-        return np.asarray(U)[..., :1] + 0.0
+        return np.asarray(U)[..., :1]
 
     def check(self) -> None:
         """Nothing beyond `discretise`'s checks."""
@@ -201,3 +208,16 @@ def banded(problem: Any) -> Semidiscrete | None:
     if isinstance(problem, Semidiscrete):
         return problem
     return getattr(problem, "banded", None)
+
+
+class BarScale:
+    """A bar known only by its smallest element and its wave speed: what a scheme's 1D
+    step-limit formula reads (`Scheme.stability_limit`), e.g. as a CFL number on a unit
+    bar (every such limit scales like h / c)."""
+
+    def __init__(self, hmin: float = 1.0, c_max: float = 1.0) -> None:
+        self.hmin, self.c_max = float(hmin), float(c_max)
+
+    @property
+    def banded(self) -> BarScale:
+        return self

@@ -1,20 +1,24 @@
-"""`TrajectoryRecorder`: the sampling, energy and blow-up rules of every scheme, for a new
-scheme's time loop, so that it copies no boilerplate.
+"""`TrajectoryRecorder`: the sampling, energy, gap and blow-up rules of every scheme, for a
+new scheme's time loop in plain Python/numpy, on any problem (the bar or a 2D/3D body),
+so that it copies no boilerplate::
 
-In plain Python/numpy::
-
-    rec = TrajectoryRecorder(semi, dt, nsteps, stride)   # records step 0 (U0, V0)
+    rec = TrajectoryRecorder(problem, dt, nsteps, stride)   # records step 0 (U0, V0)
     for step in range(1, nsteps + 1):
-        ...                                            # advance U, V to t = step * dt
-        if rec.record(step, U, V, stress):             # True: blown up, stop
+        ...                                               # advance U, V to t = step * dt
+        if rec.record(step, U, V, stress, forces):        # True: blown up, stop
             break
     return rec.trajectory()
 
-A compiled (numba) kernel takes `rec.buffers` and writes its samples with
-`contact_bench.core.sampling.record_sample`, then `rec.from_kernel(...)` wraps them. The
-rules (docs/plugin-api.md): a sample every `stride` steps and at the last step;
-`min_contact_u` over every step; the run stops at the first sample whose energy is not
-finite or exceeds `BLOWUP_FACTOR` |E(0)|.
+The rules (docs/plugin-api.md): a sample every `stride` steps and at the last step; the
+smallest gap (the bar: u(0, t)) over every step, `min_contact_u`; the energy
+1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset (`problem.energy`) unless the scheme gives
+its own; the run stops at the first sample whose energy is not finite or exceeds
+`BLOWUP_FACTOR` |E(0)|. Given the contact forces of each step (one per contact point, >= 0),
+it keeps the contact statistics of the compiled kernels (status switches, first
+contact's start and end, peak total force: `Trajectory.extra`).
+
+A compiled (numba) kernel of the bar takes `rec.buffers` and writes its samples with
+`contact_bench.core.sampling.record_sample`, then `rec.from_kernel(...)` wraps them.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from contact_bench.core.sampling import blown_up, energy_of, is_sample, n_sample
 
 
 def discrete_energy(semi: Semidiscrete, U: np.ndarray, V: np.ndarray) -> float:
-    """The energy of the state (U, V): 1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset
+    """The energy of the bar's state (U, V): 1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset
     (kinetic + strain + gravity potential of the full nodal vector), computed as every
     built-in kernel computes it."""
     M, K = semi.M, semi.K
@@ -40,22 +44,38 @@ class TrajectoryRecorder:
     """Sample buffers of a run of `nsteps` steps of size `dt`, keeping every `stride`-th
     step and the last one, and the run's bookkeeping (see the module docstring).
 
-    `energy0` replaces the energy of the initial state when the scheme's own energy has
-    more terms (a penalty or Nitsche term); pass the same kind of value to `record`.
+    `problem`: the problem the scheme received (`Scheme.prepare`), or a bar's
+    `Semidiscrete`. `energy0` replaces the energy of the initial state when the scheme's
+    own energy has more terms (a penalty or Nitsche term); pass the same kind of value
+    to `record`.
     """
 
-    def __init__(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int,
+    def __init__(self, problem: Any, dt: float, nsteps: int, stride: int,
                  energy0: float | None = None) -> None:
-        self.semi, self.dt, self.nsteps, self.stride = semi, float(dt), int(nsteps), int(stride)
-        k, n = n_samples(self.nsteps, self.stride), semi.nfree
+        from contact_bench.api.problem import as_problem  # the problem layer imports this one
+
+        self.problem = as_problem(problem)
+        self.dt, self.nsteps, self.stride = float(dt), int(nsteps), int(stride)
+        k, n = n_samples(self.nsteps, self.stride), self.problem.nfree
         self.t, self.U, self.V = np.zeros(k), np.zeros((k, n)), np.zeros((k, n))
         self.contact_u, self.stress, self.energy = np.zeros(k), np.zeros(k), np.zeros(k)
         self.samples = 0
         self.steps_done = 0
         self.blowup_step = -1
-        self.energy0 = discrete_energy(semi, semi.U0, semi.V0) if energy0 is None else energy0
-        self.min_contact_u = float(semi.U0[0])
-        self._write(0, semi.U0, semi.V0, 0.0, self.energy0)
+        p = self.problem
+        self.energy0 = p.energy(p.U0, p.V0) if energy0 is None else float(energy0)
+        self.min_contact_u = self._gap(p.U0)
+        n_c = p.contact.size
+        self._status = np.zeros(n_c, bool)
+        self.stats: dict[str, float] = {
+            "chatter": 0.0, "first_contact_start": np.nan, "first_contact_end": np.nan,
+            "peak_contact_force": 0.0, "contact_steps": 0.0}
+        self._forces_given = False
+        self._write(0, p.U0, p.V0, 0.0, self.energy0)
+
+    def _gap(self, U: np.ndarray) -> float:
+        gaps = self.problem.gaps(U)
+        return float(np.min(gaps)) if gaps.size else np.inf
 
     @property
     def buffers(self) -> tuple[np.ndarray, ...]:
@@ -67,20 +87,38 @@ class TrajectoryRecorder:
                energy: float) -> None:
         k = self.samples
         self.t[k], self.U[k], self.V[k] = step * self.dt, U, V
-        self.contact_u[k], self.stress[k], self.energy[k] = U[0], stress, energy
+        self.contact_u[k], self.stress[k], self.energy[k] = self._gap(U), stress, energy
         self.samples += 1
 
+    def _contact(self, step: int, forces: np.ndarray) -> None:
+        """The contact statistics of the step's forces (one per contact point)."""
+        self._forces_given = True
+        now = np.asarray(forces, float) > 0.0
+        s = self.stats
+        s["chatter"] += float(np.count_nonzero(now != self._status))
+        self._status = now
+        total = float(np.sum(forces))
+        if now.any():
+            s["contact_steps"] += 1.0
+            if np.isnan(s["first_contact_start"]):
+                s["first_contact_start"] = step * self.dt
+        elif not np.isnan(s["first_contact_start"]) and np.isnan(s["first_contact_end"]):
+            s["first_contact_end"] = step * self.dt
+        s["peak_contact_force"] = max(s["peak_contact_force"], total)
+
     def record(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
-               energy: float | None = None) -> bool:
+               forces: np.ndarray | None = None, energy: float | None = None) -> bool:
         """After step `step` (1 ... nsteps): the new state, its contact stress (<= 0 in
-        compression) and, optionally, the scheme's own energy (default:
-        `discrete_energy`, computed at samples only). Returns True when the run has blown
-        up: stop stepping then."""
+        compression), optionally the step's contact forces (one per contact point, >= 0)
+        and the scheme's own energy (default: `problem.energy`, computed at samples
+        only). Returns True when the run has blown up: stop stepping then."""
         self.steps_done = step
-        self.min_contact_u = min(self.min_contact_u, float(U[0]))
+        self.min_contact_u = min(self.min_contact_u, self._gap(U))
+        if forces is not None:
+            self._contact(step, forces)
         if not is_sample(step, self.nsteps, self.stride):
             return False
-        e = discrete_energy(self.semi, U, V) if energy is None else float(energy)
+        e = self.problem.energy(U, V) if energy is None else float(energy)
         self._write(step, U, V, stress, e)
         if blown_up(e, self.energy0):
             self.blowup_step = step
@@ -88,9 +126,11 @@ class TrajectoryRecorder:
         return False
 
     def trajectory(self, **extra: Any) -> Trajectory:
-        """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics)."""
+        """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics;
+        the contact statistics when `record` was given the forces)."""
+        stats = dict(self.stats) if self._forces_given else {}
         return self.from_kernel(self.samples, self.steps_done, self.min_contact_u,
-                                self.blowup_step, **extra)
+                                self.blowup_step, **stats, **extra)
 
     def from_kernel(self, samples: int, steps_done: int, min_contact_u: float,
                     blowup_step: int, **extra: Any) -> Trajectory:

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from contact_bench import __version__
+from contact_bench.api.problem import BarScale
 from contact_bench.api.registry import PLUGINS_ENV, cases, checked_plugin_dirs, make_case, schemes
 from contact_bench.cli.checks import numbers, out_folder
 from contact_bench.cli.sweep_cli import COMMANDS as SWEEP_COMMANDS
@@ -73,22 +74,11 @@ def _case_record(name: str, cls: type) -> dict:
     }
 
 
-class _UnitBar:
-    """A bar of element size and wave speed 1, for a scheme's 1D step-limit formula as a
-    CFL number (every such limit scales like h / c)."""
-
-    hmin = c_max = 1.0
-
-    @property
-    def banded(self) -> _UnitBar:
-        return self
-
-
 def _scheme_record(name: str, cls: type) -> dict:
     sch = cls()
     tr = sch.traits()
     try:
-        limit = sch.stability_limit(_UnitBar())
+        limit = sch.stability_limit(BarScale())
     except (AttributeError, TypeError):  # a limit that needs the whole bar
         limit = None
     return {
