@@ -74,3 +74,31 @@ def test_work_precision_front_is_over_step_s_and_keeps_time_s():
     assert front == {"a": True, "b": False}  # over time_s, b would be on the front too
     old = work_precision(df.drop(columns=["step_s"]))  # a table from before step_s
     assert old.empty and np.isin(["step_s", "time_s"], old.columns).all()
+
+
+def test_a_run_prepares_its_stepper_once_and_times_the_set_up_apart():
+    """`run_one` calls `Scheme.prepare` once: the warm-up, the timing repeats and the
+    recorded run share the stepper; `setup_s` is the preparation, `step_s` the stepping."""
+    from contact_bench.api import CallStepper, make_scheme
+
+    inner = make_scheme("redistributed")
+    calls = {"prepare": 0, "run": 0}
+
+    class Counting(type(inner)):
+        def prepare(self, problem, dt):
+            calls["prepare"] += 1
+            import time
+
+            time.sleep(0.05)  # a set-up that step_s must not see
+            stepper = super().prepare(problem, dt)
+
+            def run(nsteps, stride):
+                calls["run"] += 1
+                return stepper.run(nsteps, stride)
+
+            return CallStepper(run)
+
+    row = run_one("clamped_bar", Counting(), 20, T=1.0).row
+    assert row["status"] == "ok"
+    assert calls["prepare"] == 1 and calls["run"] >= 3  # warm-up or timing, and recorded
+    assert row["setup_s"] >= 0.05 and row["step_s"] < 0.05
