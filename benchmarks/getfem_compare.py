@@ -33,7 +33,8 @@ from contact_bench.api.registry import make_case
 from contact_bench.core.tridiag import factor_pt, pt_solve
 from contact_bench.exact.clamped import ClampedBarExact
 from contact_bench.kernels.common import allocate, initial_acceleration, trajectory
-from contact_bench.schemes.restitution import ps_kernel, run_paoli_schatzman
+from contact_bench.kernels.paoli_schatzman import ps_kernel
+from contact_bench.schemes.restitution import run_paoli_schatzman
 
 NX, DT, T = 20, 0.002, 12.0
 

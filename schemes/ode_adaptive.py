@@ -18,7 +18,6 @@ the dofs with mass, the massless ones (with exact contact) solved at every evalu
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
@@ -33,8 +32,9 @@ from contact_bench.api.plugin import (
 )
 from contact_bench.api.problem import banded
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
-from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.core.tridiag import factor_pt
 from contact_bench.kernels.common import velocity_scale
+from contact_bench.kernels.massless_ode import ode_rhs
 from contact_bench.kernels.sparse_family import adaptive_sparse
 
 
@@ -106,23 +106,3 @@ class OdeAdaptive(Scheme):
             extra={"nfev": int(sol.nfev), "message": str(sol.message), "rtol": self.rtol},
         )
 
-
-
-@njit(cache=True)
-def ode_rhs(y, Kd, Ke, F, Sd, Se):
-    """d/dt (U_bar, V_bar) = (V_bar, M_bar^{-1} (F - K U)[1:]) with u0 = u0(u1)."""
-    m = y.size // 2  # = nfree - 1
-    U = np.empty(m + 1)
-    U[1:] = y[:m]
-    u0 = (F[0] - Ke[0] * U[1]) / Kd[0]
-    U[0] = u0 if u0 > 0.0 else 0.0
-    KU = np.empty(m + 1)
-    tri_matvec(Kd, Ke, U, KU)
-    dy = np.empty(2 * m)
-    dy[:m] = y[m:]
-    a = np.empty(m)
-    for i in range(m):
-        a[i] = F[i + 1] - KU[i + 1]
-    pt_solve(Sd, Se, a)
-    dy[m:] = a
-    return dy

@@ -19,7 +19,6 @@ their rows with exact contact, their velocity the exact derivative
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, uint64
 
 from contact_bench.api.fem import MASS_ALIASES, REDISTRIBUTED_KINDS
 from contact_bench.api.params import Param
@@ -34,11 +33,11 @@ from contact_bench.api.plugin import (
     Trajectory,
 )
 from contact_bench.api.problem import banded
-from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
-from contact_bench.core.spike import L, lane_position, record_lane_sample, spike_factor
-from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve, tri_matvec
+from contact_bench.core.spike import spike_factor
+from contact_bench.core.tridiag import factor_pt
 from contact_bench.kernels.common import allocate, trajectory
-from contact_bench.kernels.newmark import kernel_form, massless_acceleration, newmark_limit
+from contact_bench.kernels.massless_ode import verlet_kernel, verlet_spike_kernel
+from contact_bench.kernels.newmark import kernel_form, newmark_limit
 from contact_bench.kernels.sparse_family import massless_ode_omega, verlet_sparse
 
 #: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
@@ -86,121 +85,6 @@ class OdeVerlet(Scheme):
             return run_ode_verlet(semi, dt, nsteps, stride, fast)
 
         return CallStepper(run)
-
-
-@njit(cache=True)
-def ode_acceleration(Kd, Ke, F, Sd, Se, U, A, KU):
-    """u0 <- u0(u1); A[1:] = M_bar^{-1} (F - K U)[1:], A[0] = 0; returns lambda."""
-    lam = eliminate_contact_node(Kd, Ke, F, U)
-    tri_matvec(Kd, Ke, U, KU)
-    for i in range(U.size):
-        A[i] = F[i] - KU[i]
-    pt_solve(Sd, Se, A[1:])
-    A[0] = 0.0
-    return lam
-
-
-@njit(cache=True)
-def contact_node_velocity(Kd, Ke, U, V):
-    V[0] = -(Ke[0] / Kd[0]) * V[1] if U[0] > 0.0 else 0.0
-
-
-@njit(cache=True)
-def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
-                  t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Velocity Verlet on (P_U^mod); returns (samples, steps, min u0, blow-up step)."""
-    n = U.size
-    A = np.empty(n)
-    KU = np.empty(n)
-    lam = ode_acceleration(Kd, Ke, F, Sd, Se, U, A, KU)
-    contact_node_velocity(Kd, Ke, U, V)
-    min_u0 = U[0]
-    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
-    E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = -lam
-    E_out[0] = E0
-    k = 1
-    for step in range(1, nsteps + 1):
-        for i in range(1, n):
-            V[i] += 0.5 * dt * A[i]
-            U[i] += dt * V[i]
-        lam = ode_acceleration(Kd, Ke, F, Sd, Se, U, A, KU)
-        for i in range(1, n):
-            V[i] += 0.5 * dt * A[i]
-        contact_node_velocity(Kd, Ke, U, V)
-        if U[0] < min_u0:
-            min_u0 = U[0]
-        if is_sample(step, nsteps, stride):
-            energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
-            k += 1
-            if blown_up(energy, E0):
-                return k, step, min_u0, step
-    return k, nsteps, min_u0, -1
-
-
-@njit(cache=True, fastmath={"contract"})
-def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
-                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """`verlet_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V, A, z:
-    interleaved, A and z scratch). Same update, samples, stress, min u0 and blow-up step.
-
-    Between samples V holds the half-step velocity: the closing half kick of a step, the
-    next step's half kick and drift are one pass (the same operations, in the same
-    order, as the reference kernel's two loops).
-    """
-    m, nodes = fac[9], fac[10]
-    N = L * m
-    h = 0.5 * dt
-    p1 = lane_position(1, m)  # node 1's position
-    r = -(Ke[0] / Kd[0])  # v0 = r v1 while the node is off the obstacle
-    lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
-    V[0] = r * V[p1] if U[0] > 0.0 else 0.0
-    min_u0 = U[0]
-    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
-    E0 = record_lane_sample(0, 0.0, nodes, U, V, -lam, rM, Me, rK, Ke, F, offset,
-                            t_out, U_out, V_out, cu_out, s_out, E_out)
-    k = 1
-    kicked = False  # V, U already hold this step's half kick and drift
-    for step in range(1, nsteps + 1):
-        if not kicked:
-            for p in range(N):
-                pu = uint64(p)
-                v = V[pu] + h * A[pu]
-                V[pu] = v
-                U[pu] = U[pu] + dt * v
-        # U[0] was drifted with V[0] above; it is replaced by u0(u1) here
-        lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
-        A, z = z, A  # A^{n+1}; the old A is the next solve's scratch
-        u0 = U[0]
-        if u0 < min_u0:
-            min_u0 = u0
-        sample = step % stride == 0 or step == nsteps
-        if sample:
-            for p in range(N):
-                pu = uint64(p)
-                V[pu] = V[pu] + h * A[pu]
-        else:  # closing half kick, next half kick and drift
-            for p in range(N):
-                pu = uint64(p)
-                v = V[pu] + h * A[pu]
-                v = v + h * A[pu]
-                V[pu] = v
-                U[pu] = U[pu] + dt * v
-        kicked = not sample
-        if sample:
-            V[0] = r * V[p1] if u0 > 0.0 else 0.0
-            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, rM, Me, rK, Ke, F,
-                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
-            k += 1
-            if blown_up(energy, E0):
-                return k, step, min_u0, step
-    return k, nsteps, min_u0, -1
 
 
 def run_ode_verlet(semi: Semidiscrete, dt: float, nsteps: int, stride: int,

@@ -8,8 +8,8 @@ U[i + 1] is loaded once), the new level is written to a separate buffer and the
 buffers are rotated by swapping references, and the contact at node 0, the samples,
 the energy and the blow-up check are handled outside the loop. They are the fast
 paths of `restitution` (lumped, beta = 0) and `taylor_flanagan` (lumped); the generic
-kernels there, which take any tridiagonal M, are the reference they are tested
-against (tests/test_lumped_fastpath.py: agreement to round-off).
+kernels of `paoli_schatzman` and `taylor_flanagan` here, which take any tridiagonal M,
+are the reference they are tested against (tests/test_lumped_fastpath.py: agreement to round-off).
 
 `fastmath={"contract"}` only lets LLVM fuse a * b + c into an FMA (deterministic on a
 given machine); no reassociation.
@@ -68,7 +68,7 @@ def kick_drift(c, F, Kd, Ke, U, Vh, Un, dt):
 @njit(cache=True, fastmath={"contract"})
 def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, offset,
                      t_out, U_out, V_out, cu_out, s_out, E_out):
-    """`restitution.ps_kernel` for S = M diagonal (beta = 0): w = S^{-1} e0 = w0 e0.
+    """`paoli_schatzman.ps_kernel` for S = M diagonal (beta = 0): w = S^{-1} e0 = w0 e0.
 
     Same samples, stress, min u0 and blow-up step as the generic kernel; Um and U are
     used as buffers.
