@@ -64,8 +64,8 @@ class OdeVerlet(Scheme):
         return verlet_sparse(problem, dt, nsteps, stride)
 
     def sparse_stability_limit(self, problem) -> float | None:
-        # the 1D formula at the problem's hmin is too large in 2D and 3D (0.29 x on the
-        # P2 disc): the ODE's own largest frequency (docs/sparse.md)
+        # the 1D formula at the problem's hmin is too large in 2D and 3D (by how much:
+        # docs/sparse.md): the ODE's own largest frequency
         return 2.0 / massless_ode_omega(problem)
 
 

@@ -46,7 +46,7 @@ SPIKE_CUTOFF = 1e-20
 #: entries of the reduced-system map below this fraction of their row's largest are dropped
 H_CUTOFF = 1e-20
 #: bytes; lane arrays start on a cache line, so that a row of LANES doubles (two zmm
-#: loads) never straddles two lines (worth ~25% at n = 1e3)
+#: loads) never straddles two lines (what that saves: docs/performance.md)
 ALIGN = 64
 
 
