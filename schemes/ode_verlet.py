@@ -37,14 +37,9 @@ from contact_bench.core.spike import spike_factor
 from contact_bench.core.tridiag import factor_pt
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.massless_ode import verlet_kernel, verlet_spike_kernel
+from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
 from contact_bench.kernels.newmark import kernel_form, newmark_limit
 from contact_bench.kernels.sparse_family import massless_ode_omega, verlet_sparse
-
-#: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
-#: dof-steps) `integrate` takes the natural-order `verlet_kernel`, a plain serial sweep
-#: that is faster there than the SPIKE form and its set-up: the crossover measured on
-#: the project's machine (docs/performance-small-grids.md)
-SERIAL_BELOW = 160
 
 
 class OdeVerlet(Scheme):

@@ -48,16 +48,11 @@ from contact_bench.kernels.common import (
     trajectory,
 )
 from contact_bench.kernels.lumped import tf_lumped_kernel
+from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
 from contact_bench.kernels.newmark import kernel_form, newmark_limit
 from contact_bench.kernels.sparse import central_sparse
 from contact_bench.kernels.sparse_explicit import stable_dt, taylor_flanagan_sparse
 from contact_bench.kernels.taylor_flanagan import taylor_flanagan_kernel, tf_spike_kernel
-
-#: below this many unknowns (or `contact_bench.kernels.newmark.SPIKE_MIN_DOF_STEPS`
-#: dof-steps) a consistent mass steps with the natural-order `taylor_flanagan_kernel`,
-#: faster there than the SPIKE form and its set-up: the crossover measured on the
-#: project's machine (docs/performance-small-grids.md)
-SERIAL_BELOW = 160
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")

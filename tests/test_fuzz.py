@@ -1,4 +1,4 @@
-"""Fuzz (issue 28, item 10): spec strings, every CLI option and `run_one`, with hypothesis.
+"""Fuzz: spec strings, every CLI option and `run_one`, with hypothesis.
 
 Each generated input either runs or gives one stderr line (a `BenchError`), exit 2, no
 traceback and nothing written. Inputs mix edge numbers (inf, nan, 1e308, 5e-324, -0, huge

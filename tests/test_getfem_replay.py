@@ -1,6 +1,6 @@
 """GetFEM's Nitsche demo replayed (`benchmarks/getfem_nitsche_demo.py`):
 with the two terms the demo misses (K_N1 U in the initial and in every acceleration) the
-replay is this project's Nitsche scheme to round-off (issue 28, item 9)."""
+replay is this project's Nitsche scheme to round-off."""
 
 from __future__ import annotations
 

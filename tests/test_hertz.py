@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 from contact_bench.exact.hertz import CONTACT_TIME_FACTOR, HertzImpact
 
 
-def test_the_notes_numbers_at_v_001():
+def test_indentation_contact_time_and_peak_force_at_v_001():
     h = HertzImpact(R=1.0, E=1.0, nu=0.3, rho=1.0, v=0.01)
     assert h.d_max == pytest.approx(0.04181, abs=5e-6)
     assert h.contact_time == pytest.approx(12.30, abs=5e-3)

@@ -1,4 +1,4 @@
-"""Figures, tables, the HTML page and sweep timings for print (issue 26): formats and
+"""Figures, tables, the HTML page and sweep timings for print: formats and
 metadata, distinct curve styles, legends outside, readable tables, option checks before
 anything is written, min/median/IQR timings and --retime, the page in headless Chromium."""
 

@@ -1,4 +1,4 @@
-"""Issue #6 (performance): memory of a run and cost of the error norms.
+"""Memory of a run and cost of the error norms.
 
 - The error norms keep to blocks of elements x samples: their memory does not grow like
   the mesh times the samples (tracemalloc peak against a bound the former whole-mesh
@@ -161,9 +161,9 @@ def test_runs_step_without_pandas_loaded():
 
 def test_a_tables_last_run_on_a_grid_keeps_nothing_for_later_runs():
     """The norms keep a grid's quadrature and exact norms only for a later run of the
-    table on the same grid: a lone run (`contact-bench run --scheme X`) keeps nothing.
-    Kept at n = 1e6, those 80 bytes per element took a lone run from 488 to 552 MB
-    (the issue's bound: 500). The errors are the same either way."""
+    table on the same grid: a lone run (`contact-bench run --scheme X`) keeps nothing
+    (at n = 1e6 they are 80 bytes per element: docs/performance.md). The errors are the
+    same either way."""
     cols = list(ERROR_COLUMNS)
     lone = run_table(["clamped_bar"], ["standard"], [200], T=0.5)
     assert metrics._cache == []

@@ -1,4 +1,4 @@
-"""Property-based tests (hypothesis) over random valid data (issue 7).
+"""Property-based tests (hypothesis) over random valid data.
 
 - exact-contact schemes never penetrate beyond round-off;
 - schemes that declare an energy bound (`Scheme.energy_drift_bound`) keep it;
@@ -137,7 +137,7 @@ def _bar(xs: list[float], u0s: list[float], v0s: list[float], far_end: str) -> R
                      E=1.0, rho=1.0)
 
 
-# counterexamples found by this test (issue 7 report), always tried first
+# counterexamples this test has found, always tried first
 @example(case=_bar([0.0, 0.1171875, 0.125, 0.5, 1.0], [0.0, 1.0, -0.25, 0.0, 0.0], [0.0] * 5,
                    "clamped"), nx=17, cfl=0.5)
 @example(case=_bar([0.0, 0.75, 1.0], [0.0, 0.0, 1.0], [0.0] * 3, "free"), nx=4, cfl=0.75)

@@ -1,4 +1,4 @@
-"""Reliability (issue 7): bad inputs, blow-ups, determinism, atomic result files, Ctrl-C."""
+"""Reliability: bad inputs, blow-ups, determinism, atomic result files, Ctrl-C."""
 
 from __future__ import annotations
 
@@ -85,7 +85,7 @@ def test_bad_input_is_one_line_exit_2_nothing_written(item: BadInput, tmp_path, 
     assert _files(out) == []
 
 
-def test_bad_input_list_covers_the_issue():
+def test_bad_input_list_covers_every_kind_of_bad_input():
     whats = " ".join(b.what for b in BAD)
     for needed in ("nx < 1", "nx not an integer", "dt = 0", "dt NaN", "dt inf", "T = 0",
                    "T NaN", "E <= 0", "rho <= 0", "u0(0) < 0", "not finite", "unknown scene",

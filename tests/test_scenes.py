@@ -1,4 +1,4 @@
-"""The scene library (issue 3): every scene runs through the CLI and converges; the
+"""The scene library: every scene runs through the CLI and converges; the
 special properties each scene claims hold for its exact (or numerical) reference."""
 
 from __future__ import annotations

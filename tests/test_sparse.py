@@ -1,4 +1,4 @@
-"""The general sparse problem (issue 24): 2D/3D assembly, mass variants, the sparse
+"""The general sparse problem: 2D/3D assembly, mass variants, the sparse
 schemes' exact contact, and the embedded bar against its 1D scene."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The explicit sparse paths (issue 24): penalty and nitsche with beta = 0, taylor_flanagan
+"""The explicit sparse paths: penalty and nitsche with beta = 0, taylor_flanagan
 with a consistent mass, their declared stability limit on the mesh, and the peak contact
 force of the law paths against the sampled stress."""
 

@@ -1,4 +1,4 @@
-"""Every sparse scene x every registered scheme variant keeps what it declares (issue 25).
+"""Every sparse scene x every registered scheme variant keeps what it declares.
 
 Registry-driven like `test_scheme_properties.py`: the scenes are those whose `Case.form`
 is "sparse", each run on its declared small grid (`Case.study`: `small`, `small_nx`,

@@ -1,4 +1,4 @@
-"""The study's sparse part (issue 25): the quick study of every sparse scene picks up
+"""The study's sparse part: the quick study of every sparse scene picks up
 every scheme that integrates sparse problems and every declared parameter sweep from
 the registry, and its report draws work-precision on each error column a scene fills."""
 

@@ -1,4 +1,4 @@
-"""No NaN in an ok row without a word, and no damaged table published (issue 28, item 7)."""
+"""No NaN in an ok row without a word, and no damaged table published."""
 
 from __future__ import annotations
 

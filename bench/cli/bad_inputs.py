@@ -194,7 +194,7 @@ def bad_inputs() -> list[BadInput]:
         BadInput("unknown command (argparse)", ("frobnicate",), "'frobnicate'"),
         BadInput("plugin folder that does not exist", ("run", "--plugins", "no_such_folder"),
                  "no_such_folder"),
-        *_issue28_entries(),
+        *_edge_value_entries(),
     ]
     return fixed
 
@@ -208,8 +208,10 @@ def _run_T(*extra: str, scheme: str = "standard") -> tuple[str, ...]:
     return ("run", "--case", "clamped_bar", "--scheme", scheme, "--format", "csv", *extra)
 
 
-def _issue28_entries() -> list[BadInput]:
-    """Inputs that ended in a traceback, an internal-error row or a silent change."""
+def _edge_value_entries() -> list[BadInput]:
+    """Values at the edges (infinite, hundreds of digits, subnormal, empty, very long
+    names and paths): each must give a one-line error, never a traceback, an
+    internal-error row or a silent change."""
     long_name = "x" * 100_000
     return [
         BadInput("integer parameter infinite", _run(scheme="nitsche[theta=inf]"), "theta=inf"),

@@ -2,7 +2,8 @@
 
 A kernel keeps a sample every `stride` steps and at the last step (`is_sample`), writes
 it with `record_sample`, and stops at the first step whose energy is not finite or
-exceeds `BLOWUP_FACTOR` times |E(0)| (`blown_up`).
+exceeds `BLOWUP_FACTOR` times |E(0)| (`blown_up`; `blown_up_rows` is the same rule over
+an array of sampled energies, for the code that checks a finished trajectory).
 """
 
 from __future__ import annotations
@@ -120,6 +121,15 @@ def blown_up(energy, energy0):
     if not np.isfinite(energy):
         return True
     return abs(energy) > BLOWUP_FACTOR * max(abs(energy0), 1e-300)
+
+
+def blown_up_rows(energy: np.ndarray, energy0: float) -> np.ndarray:
+    """`blown_up` of every entry of `energy`: True where it is not finite or exceeds
+    `BLOWUP_FACTOR` |energy0|."""
+    energy = np.asarray(energy, dtype=float)
+    finite = np.isfinite(energy)
+    big = np.abs(np.where(finite, energy, 0.0)) > BLOWUP_FACTOR * max(abs(energy0), 1e-300)
+    return ~finite | big
 
 
 def n_samples(nsteps: int, stride: int) -> int:

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, uint64
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import energy_rows
 from contact_bench.core.tridiag import factor_pt, pt_solve
 
@@ -44,9 +45,8 @@ LANES = 16
 SPIKE_CUTOFF = 1e-20
 #: entries of the reduced-system map below this fraction of their row's largest are dropped
 H_CUTOFF = 1e-20
-_FM = {"contract"}
 #: bytes; lane arrays start on a cache line, so that a row of LANES doubles (two zmm
-#: loads) never straddles two lines (worth ~25% at n = 1e3)
+#: loads) never straddles two lines (what that saves: docs/performance.md)
 ALIGN = 64
 
 
@@ -218,7 +218,7 @@ def lane_position(i, m):  # pragma: no cover - compiled
     return (i % m) * L + i // m
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def forward_rows(z, lo, start, N):
     """z[p] -= lo[p] * z[p - LANES] for positions start .. N-1 (start >= LANES)."""
     for p in range(start, N):
@@ -226,7 +226,7 @@ def forward_rows(z, lo, start, N):
         z[pu] = z[pu] - lo[pu] * z[pu - uint64(L)]
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def backward_rows(z, lo, invd, N):
     """z <- diag(d)^-1 L^-T z in place (all rows)."""
     for p in range(N - L, N):
@@ -237,7 +237,7 @@ def backward_rows(z, lo, invd, N):
         z[pu] = z[pu] * invd[pu] - lo[pu + uint64(L)] * z[pu + uint64(L)]
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def reduced(z, Hrow, Hpos, Hval, coef):
     """coef = H y_interface: (A, B) in coef[:2 LANES] and the free x[0] in coef[2 LANES].
 
@@ -254,7 +254,7 @@ def reduced(z, Hrow, Hpos, Hval, coef):
     return coef[coef.size - 1]
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def correct(z, a, b, coef, m, ja, jb):
     """z <- z - A_c a - B_c b (the truncated spikes: first ja rows, last jb rows)."""
     P = (coef.size - 1) // 2
@@ -272,7 +272,7 @@ def correct(z, a, b, coef, m, ja, jb):
             z[base + cu] = z[base + cu] - coef[uint64(P) + cu] * b[bb + cu]
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def block_end_rows(Sd, Slo, X, G, sign, m, z):
     """z = G + sign * S X on rows 0 and m-1, whose neighbours are in other lanes.
 
@@ -303,7 +303,7 @@ def block_end_rows(Sd, Slo, X, G, sign, m, z):
             z[p] = G[p] + sign * r
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def stencil_forward(Sd, Slo, X, G, sign, lo, m, z):
     """z = L^-1 (G + sign * S X), S = (Sd, Slo) tridiagonal (Slo[p] = S[i, i-1] at node i's
     position), L the factor of `spike_factor`: the right-hand side of a step and the
@@ -319,7 +319,7 @@ def stencil_forward(Sd, Slo, X, G, sign, lo, m, z):
         forward_rows(z, lo, N - L, N)
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
     """z = S^-1 (G + sign * T X), S factored in fac (`Spike.factors()`), T = (Sd, Slo) a
     tridiagonal in the interleaved layout; returns x[0]. The right-hand side, the
@@ -332,7 +332,7 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
     return x0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def record_lane_sample(k, t, nodes, X, V, stress, rM, Me, rK, Ke, F, offset,
                        t_out, U_out, V_out, cu_out, s_out, E_out):
     """Sample k from the interleaved X, V of the nodes 0 .. nodes-1 (node c m + j at

@@ -114,7 +114,7 @@ search gives it, node conventions included), and on a run the fields are polynom
 x - x_a (x_a its first point): u quadratic, u_x and u_t linear, evaluated 8 points at a
 time. They differ from the pointwise values (`fields`) by round-off only (the
 polynomials are rounded otherwise): a few eps of the data scale (u: max |u| +
-L max |u_x|; u_x, u_t: their maxima plus gam L, c gam L; measured 4e-16,
+L max |u_x|; u_x, u_t: their maxima plus gam L, c gam L;
 tests/test_characteristics_runs.py bounds it by 2e-15). Sorted points sparse in the
 cells (fewer than _RUN_POINTS per cell: the Gauss points of a mesh on the fine grid of a
 smooth scene such as pulse) have no runs: each point needs its own cells. They are
@@ -1668,7 +1668,7 @@ def _fields_grid(how, x, tau, L, gam, clamped, u_L, c, ds, lut, uniform, nlut, s
     """`fields_into`'s kernel `how` (0: `_grid_kernel`, 1: `_run_kernel`, 2:
     `_sparse_kernel`, `_HOW`) behind one entry: the three are loaded from numba's cache
     at once, by the first call in a process (a warm-up), whichever kernel later points
-    need (a load is about 10 ms a kernel)."""
+    need (so that no timed call pays a load)."""
     if how == 1:
         return _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP,
                            dQ, sP, sQ, delta, ncells, u, ux, ut)

@@ -30,7 +30,7 @@ def _mod3(y: float, fl: float) -> float:
 
     y - 3 fl is exact (Sterbenz) and is the remainder unless y / 3 rounded up to the
     integer fl, where it is slightly negative and + 3 gives it. Branch-free, unlike the
-    libm fmod behind `%` (ten times slower here)."""
+    libm fmod behind `%`, which is slower."""
     m = y - 3.0 * fl
     return m + 3.0 if m < 0.0 else m
 

@@ -286,9 +286,8 @@ class _Geometry:
     These are the expressions of scikit-fem's `Basis` (its `global_coordinates`, `dx`
     and `gbasis`, called one by one: the same arrays, bit for bit,
     tests/test_perf_memory_norms.py),
-    without the rest of what a `Basis` builds (its dofs, its per-point tables): 45 us
-    instead of 160 for the 80 elements of a default grid, which a lone run paid inside
-    its norm time."""
+    without the rest of what a `Basis` builds (its dofs, its per-point tables), which a
+    lone run would pay inside its norm time (both costs: docs/performance.md)."""
 
     lo: int  # first node of the block
     X: np.ndarray  # (elements, 4) quadrature points

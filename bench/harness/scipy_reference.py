@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from contact_bench.api.plugin import Scheme, Semidiscrete, Trajectory
-from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+from contact_bench.core.sampling import blown_up, n_samples
 
 
 def _energy(semi: Semidiscrete, U: np.ndarray, V: np.ndarray) -> float:
@@ -83,7 +83,7 @@ def reference_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
             t_out[k], U_out[k], V_out[k] = step * dt, U, V
             cu[k], s_out[k], E_out[k] = U[0], -lam, energy
             k += 1
-            if not np.isfinite(energy) or abs(energy) > BLOWUP_FACTOR * max(abs(E0), 1e-300):
+            if blown_up(energy, E0):
                 blowup, done = step * dt, step
                 break
     return Trajectory(t=t_out[:k], U=U_out[:k], V=V_out[:k], contact_u=cu[:k],

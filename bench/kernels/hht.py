@@ -19,8 +19,8 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     (module docstring; `tri_matvec`, `pt_solve`) in the same order, so the same bits:
     up, the predictor, the right-hand side and the forward sweep; down, the backward
     sweep; up, the contact and the Newmark update. The first and last rows are written
-    apart rather than by `tri_row` in one loop, which was slower here (how this layout
-    was chosen, with timings: docs/performance.md)."""
+    apart rather than by `tri_row` in one loop (the layouts compared, with their
+    timings: docs/performance.md)."""
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)

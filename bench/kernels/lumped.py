@@ -8,11 +8,10 @@ U[i + 1] is loaded once), the new level is written to a separate buffer and the
 buffers are rotated by swapping references, and the contact at node 0, the samples,
 the energy and the blow-up check are handled outside the loop. They are the fast
 paths of `restitution` (lumped, beta = 0) and `taylor_flanagan` (lumped); the generic
-kernels of `paoli_schatzman` and `taylor_flanagan` here, which take any tridiagonal M,
-are the reference they are tested against (tests/test_lumped_fastpath.py: agreement to round-off).
-
-`fastmath={"contract"}` only lets LLVM fuse a * b + c into an FMA (deterministic on a
-given machine); no reassociation.
+kernels of `contact_bench.kernels.paoli_schatzman` and `.taylor_flanagan`, which take
+any tridiagonal M, are the reference they are tested against
+(tests/test_lumped_fastpath.py: agreement to round-off). They compile with
+`contact_bench.core.config.FASTMATH` (FMA contraction only).
 """
 
 from __future__ import annotations
@@ -20,11 +19,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import tri_matvec
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def cd_stencil(c, F, Kd, Ke, Um, U, Up):
     """Up = 2 U - Um + c (F - K U), K = (Kd, Ke), c = dt^2 / diag(M); Up must not alias U, Um."""
     n = U.size
@@ -43,7 +43,7 @@ def cd_stencil(c, F, Kd, Ke, Um, U, Up):
     Up[i] = 2.0 * u_cur - Um[i] + c[i] * (F[i] - Kd[i] * u_cur - k_prev * u_prev)
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def kick_drift(c, F, Kd, Ke, U, Vh, Un, dt):
     """Vh += c (F - K U), Un = U + dt Vh; c = dt / diag(M); Un must not alias U, Vh."""
     n = U.size
@@ -65,7 +65,7 @@ def kick_drift(c, F, Kd, Ke, U, Vh, Un, dt):
     Un[i] = u_cur + dt * v
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, offset,
                      t_out, U_out, V_out, cu_out, s_out, E_out):
     """`paoli_schatzman.ps_kernel` for S = M diagonal (beta = 0): w = S^{-1} e0 = w0 e0.
@@ -116,7 +116,7 @@ def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, of
     return k, nsteps, min_u0, -1
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def tf_lumped_kernel(Md, Me, Kd, Ke, F, w0, U, V, A, dt, nsteps, stride, offset,
                      t_out, U_out, V_out, cu_out, s_out, E_out):
     """`taylor_flanagan.taylor_flanagan_kernel` for a diagonal M: w = M^{-1} e0 = w0 e0.

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.spike import L, lane_position, record_lane_sample
 from contact_bench.core.tridiag import eliminate_contact_node, pt_solve, tri_matvec
@@ -94,7 +95,7 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
     return k, nsteps, min_u0, -1
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
                         stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
     """`verlet_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V, A, z:

@@ -29,6 +29,7 @@ from numba import njit
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import energy_of
 from contact_bench.core.spike import L, Spike, lane_zeros, spike_factor, stencil_solve
@@ -80,9 +81,8 @@ def newmark_limit(beta: float, gamma: float, h: float, c: float, lumped: bool,
 # (X, Q): X the next solve's predictor, Q = dt V + dt^2 (1 - gamma) A; V is formed on
 # sample steps only. Each step is two passes over the state: the backward sweep, then
 # one pass that finishes row j + 1 (spike correction, Newmark update) and starts row j
-# of the next step (right-hand side, forward sweep). `contract` lets LLVM fuse a*b+c
-# into one FMA (deterministic: results are bit-identical from run to run).
-_FM = {"contract"}
+# of the next step (right-hand side, forward sweep). They compile with
+# `contact_bench.core.config.FASTMATH` (FMA contraction only).
 #: rows per lane block the vector kernels need (smaller systems are padded)
 MIN_ROWS = 3
 #: systems with fewer unknowns step with the serial Thomas kernels
@@ -94,6 +94,12 @@ SERIAL_BELOW = 64
 #: the SPIKE form's set-up (its factors, the reduced system, the interleaved layout) costs
 #: about as much as this many dof-steps save (docs/performance-small-grids.md)
 SPIKE_MIN_DOF_STEPS = 250_000
+#: the same crossover for the kernel pairs with one solve with M per step (`ode_verlet`:
+#: `contact_bench.kernels.massless_ode`, `taylor_flanagan`:
+#: `contact_bench.kernels.taylor_flanagan`): below this many unknowns (or
+#: `SPIKE_MIN_DOF_STEPS` dof-steps) their natural-order kernel, a plain serial sweep, is
+#: faster than the SPIKE form and its set-up (docs/performance-small-grids.md)
+EXPLICIT_SERIAL_BELOW = 160
 #: the kernel forms `run_newmark` can be asked for (None: chosen by size)
 FORMS = ("serial", "spike")
 
@@ -115,7 +121,7 @@ def kernel_form(n: int, nsteps: int | None = None, form: str | None = None,
     return "spike"
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
     """The ODE (P_U^mod) of Dabaghi et al. 2014 in the interleaved layout: U[0] <- u0(u1)
     (node 1 at position p1), z <- A = M_r^-1 (F - K U) on nodes 1.. and A[0] = 0; returns lambda.

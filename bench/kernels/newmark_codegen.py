@@ -221,7 +221,7 @@ def _backward_reduced(e: _Emitter, implicit: bool) -> None:
 
 
 _SIGNATURE = """\
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def {name}(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
 {pad}X0pos, X0val, hw, w0, X, Q, z, Vs, coef, ibuf, u0, k1s, k2s, kvs, sscale,
 {pad}dt, massless, nsteps, stride, offset,
@@ -356,12 +356,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, row_sums
 from contact_bench.core.simd import vfma, vfnma, vload, vsplat, vstore
 from contact_bench.core.spike import record_lane_sample
 from contact_bench.core.tridiag import eliminate_contact_node
 
-_FM = {"contract"}
 U8 = uint64(8)
 U16 = uint64(16)
 '''

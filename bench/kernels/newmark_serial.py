@@ -19,13 +19,12 @@ from __future__ import annotations
 
 from numba import njit
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import eliminate_contact_node
 
-_FM = {"contract"}
 
-
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def _forward(Td, Te, G, X, ef, invd, z, first):  # pragma: no cover - compiled
     """z <- D^-1 L^-1 (G + T X) on rows first .. n-1 (first 0 or 1; row 0 of first = 1
     is set to 0), each row summed as the fused passes of the kernels sum it, so that a
@@ -48,7 +47,7 @@ def _forward(Td, Te, G, X, ef, invd, z, first):  # pragma: no cover - compiled
     z[n - 1] = y * invd[n - 1]
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def _backward(ef, z):  # pragma: no cover - compiled
     """z[i] -= ef[i] z[i+1] from row n-2 up, the running value in a register."""
     n = z.size
@@ -58,7 +57,7 @@ def _backward(ef, z):  # pragma: no cover - compiled
         z[i] = x
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, k2, kv,
                     sscale, dt, massless, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out):
@@ -146,7 +145,7 @@ def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, 
     return k, nsteps, min_u0, -1
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=FASTMATH)
 def serial_explicit(Md, Me, Kd, Ke, F, Td, Te, G, ef, invd, X, Q, z, Vs, u0, k1, k2, kv,
                     dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
     """Central differences with a massless contact node, state (X, Q): node 0 eliminated

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, uint64
 
+from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.spike import L, record_lane_sample, stencil_solve
 from contact_bench.core.tridiag import pt_solve, tri_matvec
@@ -61,7 +62,7 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
     return k, nsteps, min_u0, -1
 
 
-@njit(cache=True, fastmath={"contract"})
+@njit(cache=True, fastmath=FASTMATH)
 def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, A, z, coef,
                     dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
     """`taylor_flanagan_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V,

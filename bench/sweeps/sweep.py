@@ -57,6 +57,7 @@ import pandas as pd
 from contact_bench.api.params import expand_spec
 from contact_bench.api.registry import make_case, make_scheme, plugin_dirs, use_plugin_dirs
 from contact_bench.core.errors import BenchError, shown
+from contact_bench.core.sampling import BLOWUP_FACTOR, blown_up_rows
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
@@ -72,8 +73,6 @@ from contact_bench.harness.runner import (
 )
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
-#: energy |E| above this multiple of |E(0)| (or not finite) is a blow-up
-BLOWUP_FACTOR = 1e3
 #: growth max (E - E0)/|E0| tolerated for 'conserved'/'dissipated' schemes with no bound
 DEFAULT_GROWTH_TOL = 1e-2
 TRACE_POINTS = 200
@@ -314,7 +313,7 @@ def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
         finite = np.isfinite(E)
         row["energy_growth_max"] = (float(np.max(E[finite] - E0) / scale)
                                     if finite.any() else float("nan"))
-        bad = ~finite | (np.abs(np.where(finite, E, 0.0)) > BLOWUP_FACTOR * max(abs(E0), 1e-300))
+        bad = blown_up_rows(E, E0)
     row["energy_trace"] = _trace(t, E)
     if row["status"] == "ok" and bad.any():
         when = float(t[int(np.argmax(bad))])
