@@ -60,8 +60,8 @@ from contact_bench.core.errors import BenchError, shown
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
-from contact_bench.harness.runner import COLUMNS as HARNESS_COLUMNS
 from contact_bench.harness.runner import (
+    BASE_COLUMNS,
     MAX_STEPS,
     check_mesh_grading,
     check_run,
@@ -71,6 +71,7 @@ from contact_bench.harness.runner import (
     integrator,
     problem_for,
     run_one,
+    table_columns,
 )
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
@@ -632,17 +633,19 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    extra = [k for r in rows for k in r if k not in COLUMNS]
-    extra += [k for k in HARNESS_COLUMNS if k not in COLUMNS and k not in extra]
-    cols = list(COLUMNS) + list(dict.fromkeys(extra))
-    df = pd.DataFrame(rows, columns=cols)
+    """The rows as a table: `COLUMNS`, the harness's other base columns, then every other
+    column of the rows sorted by name (`contact_bench.harness.runner.table_columns`: a
+    scene's declared `err_<q>` too), with the column types `run_sweep` gives."""
+    base = (*COLUMNS, *(c for c in BASE_COLUMNS if c not in COLUMNS))
+    df = pd.DataFrame(rows, columns=table_columns(rows, base))
     for col in ("nx", "steps", "stride", "order_declared", "time_repeats", "env_ncpu"):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
-    for col in ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
+    for col in ("h", "dt", "cfl", "T", "grading", "energy_initial",
                 "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
                 "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound",
-                *(c for c in TIMING_COLUMNS if c.endswith("_s"))):
+                *(c for c in TIMING_COLUMNS if c.endswith("_s")),
+                *(c for c in df.columns if str(c).startswith("err_"))):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
     for col in ("implicit", "massless_contact_node", "from_cache",
