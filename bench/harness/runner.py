@@ -8,7 +8,9 @@ A table's columns (`table_columns`): `BASE_COLUMNS`, which every row has, in the
 then, sorted by name, the relative errors `err_<q>` of the quantities its scenes declare
 (`Case.reference_quantities`, `quantity_columns`) and any other column a row carries.
 
-Two times per run (`TIMING_COLUMNS`), JIT compilation and the error norms excluded:
+Times per run (`TIMING_COLUMNS`), JIT compilation and the error norms excluded:
+- `setup_s`: the scheme's set-up (factorisations and the like), apart from the stepping;
+  empty (NaN) where the run does not time it apart;
 - `run_s`: the run itself, recording every `stride`-th step as the norms need
   (`wall_s` is the same value under its former name, so `wall_s / (nx * steps)` still
   reads as ns per dof-step, recording included);
@@ -57,7 +59,8 @@ if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs ste
 BASE_COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
-    "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time", "reference",
+    "setup_s", "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time",
+    "reference",
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
@@ -65,7 +68,7 @@ BASE_COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "run_s", "wall_s")
+TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)

@@ -22,7 +22,8 @@ them and returns one DataFrame:
 
 Time columns (`TIMING_COLUMNS`): `step_s` and `time_s` from the timing pass (without
 it, `step_s` is the harness's own, measured in the worker: `contact_bench.harness.runner`);
-`run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
+`setup_s`, `run_s` and `wall_s` the harness's single recorded run (its set-up, the run:
+`contact_bench.harness.runner`); `task_s` the whole task
 (assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
 Scenes of every problem form run (`Case.form`: the 1D bar, or a sparse 2D/3D problem
@@ -84,7 +85,7 @@ STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
 #: columns that vary from one execution of the same run to the next
 TIMING_COLUMNS = ("step_s", "step_median_s", "step_iqr_s", "step_repeats", "step_noisy",
                   "time_s", "time_median_s", "time_iqr_s", "time_repeats", "time_noisy",
-                  "run_s", "wall_s", "task_s")
+                  "setup_s", "run_s", "wall_s", "task_s")
 #: a timing whose interquartile range exceeds this fraction of its median is flagged noisy
 NOISY_SPREAD = 0.1
 VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
@@ -551,7 +552,7 @@ _INT_COLUMNS = ("nx", "steps", "stride", "order_declared")
 _FLOAT_COLUMNS = ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
                   "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
                   "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", "wall_s",
-                  "run_s")
+                  "run_s", "setup_s")
 _TEXT_COLUMNS = ("case", "scheme", "case_name", "scheme_name", "status", "stability", "notes",
                  "reference", "energy_trait", "contact", "energy_trace", "key", "code_hash",
                  "run_date")
