@@ -20,6 +20,7 @@ from contact_bench.cli.sweep_cli import run_command as run_sweep_command
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import provenance, return_freed_memory
 from contact_bench.harness.io import folder_set, write_text
+from contact_bench.harness.metrics import NEEDS
 from contact_bench.harness.runner import Run, reference, run_table
 
 if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
@@ -29,14 +30,31 @@ if TYPE_CHECKING:  # pandas loads with the first table, not before the runs
 #: `git status` clean; the published results/default/ is refreshed by --out results/default
 DEFAULT_OUT = "contact-bench-output"
 
-SHOWN = ["case", "scheme", "nx", "dt", "steps", "err_u_linf_l2", "err_v_linf_l2",
-         "err_stress_l2", "energy_drift_max", "penetration_max", "step_s", "run_s", "status"]
+#: the printed table's columns (and runs.md's) before and after its error columns ...
+SHOWN_FIRST = ["case", "scheme", "nx", "dt", "steps"]
+SHOWN_LAST = ["energy_drift_max", "penetration_max", "step_s", "run_s", "status"]
+#: ... which are these field norms, for the fields a scene's reference provides
+SHOWN_NORMS = ("err_u_linf_l2", "err_v_linf_l2", "err_stress_l2")
+
+
+def shown_columns(df: pd.DataFrame) -> list[str]:
+    """The printed table's columns: `SHOWN_FIRST`, the error columns the table's scenes
+    declare, `SHOWN_LAST`. The error columns: the norms of `SHOWN_NORMS` whose field a
+    scene's reference provides (`Case.reference`, `Case.provides`), then the relative
+    errors `err_<q>` of the scenes' own quantities (`Case.quantities`), sorted by name.
+    The first contact's quantities the harness reads from an exact stress, and the
+    other norms, are in the CSV."""
+    found = [make_case(spec) for spec in dict.fromkeys(df["case"])]
+    norms = [c for c in SHOWN_NORMS
+             if any(case.reference and NEEDS[c] in case.provides for case in found)]
+    own = sorted({f"err_{q}" for case in found for q in case.quantities})
+    return SHOWN_FIRST + norms + [c for c in own if c in df] + SHOWN_LAST
 
 
 def _fmt_table(df: pd.DataFrame) -> str:
     import pandas as pd
 
-    view = df[SHOWN].copy()
+    view = df[shown_columns(df)].copy()
     for col in view.columns:
         if col in {"nx", "steps"}:
             view[col] = view[col].map(lambda v: "" if pd.isna(v) else f"{int(v)}")
@@ -48,7 +66,7 @@ def _fmt_table(df: pd.DataFrame) -> str:
 
 
 def _markdown(df: pd.DataFrame) -> str:
-    view = df[SHOWN + ["notes"]].copy()
+    view = df[[*shown_columns(df), "notes"]].copy()
     return view.to_markdown(index=False, floatfmt=".3g")
 
 

@@ -4,6 +4,13 @@
 kept for the next runs.
 """
 
-from contact_bench.harness.runner import COLUMNS, Run, reference, run_one, run_table
+from contact_bench.harness.runner import (
+    BASE_COLUMNS,
+    Run,
+    reference,
+    run_one,
+    run_table,
+    table_columns,
+)
 
-__all__ = ["COLUMNS", "Run", "reference", "run_one", "run_table"]
+__all__ = ["BASE_COLUMNS", "Run", "reference", "run_one", "run_table", "table_columns"]

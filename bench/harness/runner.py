@@ -4,6 +4,10 @@ The harness reads only what plugins declare: the case's reference and the quanti
 it provides, the scheme's traits, stability limit and `cannot_run`. What a scene does
 not provide is left empty (NaN) and the row's `notes` say why.
 
+A table's columns (`table_columns`): `BASE_COLUMNS`, which every row has, in their order;
+then, sorted by name, the relative errors `err_<q>` of the quantities its scenes declare
+(`Case.reference_quantities`, `quantity_columns`) and any other column a row carries.
+
 A run prepares the scheme's stepper once (`Scheme.prepare`: factorisations, Delassus
 operators, contact laws) and steps it several times: a warm-up, the timing repeats and the
 recorded run. Three times per run (`TIMING_COLUMNS`), JIT compilation and the error norms
@@ -24,7 +28,7 @@ import math
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -52,11 +56,9 @@ from contact_bench.harness.quantities import first_contact_errors
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
 
-QUANTITY_COLUMNS = ("err_free_fall", "err_contact_start", "err_contact_end",
-                    "err_contact_duration", "err_peak_force", "err_contact_impulse",
-                    "err_u_numerical",
-                    "err_contact_force_numerical")
-COLUMNS = (
+#: the columns every row has, in this order; a table adds after them the columns its
+#: rows declare or carry (`table_columns`: the scenes' `err_<q>`, sorted by name)
+BASE_COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
     "setup_s", "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time",
@@ -64,8 +66,6 @@ COLUMNS = (
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
-    # a scene's reference quantities (`Case.reference_quantities`), relative errors
-    *QUANTITY_COLUMNS,
     # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
@@ -301,7 +301,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     stride_given = stride is not None
     stride = _check_stride(case.stride if stride is None else stride)  # scene's default
     grading = _check_grading(grading)
-    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row: dict[str, Any] = dict.fromkeys((*BASE_COLUMNS, *quantity_columns(case)))
     row.update(case=case.spec, scheme=scheme.spec, nx=nx, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     notes: list[str] = []
@@ -571,7 +571,11 @@ def step_time(run: Callable[[int, int], Trajectory], steps: int,
 def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
                grading: Any, exc: BaseException, row: dict[str, Any] | None = None) -> Run:
     """The row of a run that raised an unexpected exception (a bug, not a bad input)."""
-    out: dict[str, Any] = dict.fromkeys(COLUMNS)
+    try:
+        declared = quantity_columns(case)
+    except Exception:  # noqa: BLE001 - a broken declaration leaves the base columns
+        declared = ()
+    out: dict[str, Any] = dict.fromkeys((*BASE_COLUMNS, *declared, *(row or ())))
     out.update(case=case.spec, scheme=scheme.spec, nx=nx, dt=dt, T=T, stride=stride,
                grading=grading, reference=case.reference or "none")
     if row is not None:
@@ -674,7 +678,7 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
         del plan, run
     import pandas as pd  # here: not loaded while the runs step (its memory adds to theirs)
 
-    return pd.DataFrame(rows, columns=list(COLUMNS))
+    return pd.DataFrame(rows, columns=table_columns(rows))
 
 
 def _semi_bytes(semi: Any) -> int:
@@ -682,3 +686,18 @@ def _semi_bytes(semi: Any) -> int:
         return int(semi.nbytes)
     return sum(a.nbytes for a in (semi.x, semi.M.diag, semi.M.off, semi.K.diag, semi.K.off,
                                    semi.F, semi.U0, semi.V0))
+
+
+def quantity_columns(case: Case) -> tuple[str, ...]:
+    """The relative error columns `err_<q>` of the quantities q the case declares
+    (`Case.reference_quantities`), sorted by name: its rows have them, empty when a run
+    does not fill them."""
+    return tuple(sorted(f"err_{q}" for q in case.reference_quantities))
+
+
+def table_columns(rows: Iterable[Mapping[str, Any]],
+                  base: Sequence[str] = BASE_COLUMNS) -> list[str]:
+    """A table's columns: `base`, then every other column of its rows sorted by name
+    (the scenes' `err_<q>`, `quantity_columns`, and any other a plugin's row carries),
+    so that no column is dropped and the order does not depend on the rows' order."""
+    return [*base, *sorted({k for row in rows for k in row} - set(base))]

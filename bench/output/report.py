@@ -72,9 +72,12 @@ def slug(text: str) -> str:
 
 
 def header(col: str) -> str:
-    """The readable header of a column (its raw name when there is none)."""
+    """The readable header of a column (its raw name when there is none; a scene's
+    quantity `err_<q>` is "error <q> (rel.)")."""
     if col in HEADERS:
         return HEADERS[col]
+    if col.startswith("err_"):
+        return f"error {col[4:].replace('_', ' ')} (rel.)"
     if col.startswith(("scheme_", "case_")) and col not in ("scheme_name", "case_name"):
         kind, _, param = col.partition("_")
         return f"{kind} {param}"

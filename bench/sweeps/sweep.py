@@ -22,7 +22,8 @@ them and returns one DataFrame:
 
 Time columns (`TIMING_COLUMNS`): `step_s` and `time_s` from the timing pass (without
 it, `step_s` is the harness's own, measured in the worker: `contact_bench.harness.runner`);
-`run_s` and `wall_s` the harness's single recorded run; `task_s` the whole task
+`setup_s`, `run_s` and `wall_s` the harness's single recorded run (its set-up, the run:
+`contact_bench.harness.runner`); `task_s` the whole task
 (assembly, run, error norms, bookkeeping). Work-precision uses `step_s`.
 
 Every scene runs (the bar or a 2D/3D body, one problem form:
@@ -61,8 +62,8 @@ from contact_bench.core.sampling import BLOWUP_FACTOR, blown_up_rows
 from contact_bench.harness.environment import cpu_model, environment
 from contact_bench.harness.io import atomic_write, write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
-from contact_bench.harness.runner import COLUMNS as HARNESS_COLUMNS
 from contact_bench.harness.runner import (
+    BASE_COLUMNS,
     MAX_STEPS,
     check_mesh_grading,
     check_run,
@@ -70,6 +71,7 @@ from contact_bench.harness.runner import (
     declared_limit,
     problem_for,
     run_one,
+    table_columns,
 )
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
@@ -80,7 +82,7 @@ STABILITY_CLASSES = ("stable", "energy-growing", "blown up")
 #: columns that vary from one execution of the same run to the next
 TIMING_COLUMNS = ("step_s", "step_median_s", "step_iqr_s", "step_repeats", "step_noisy",
                   "time_s", "time_median_s", "time_iqr_s", "time_repeats", "time_noisy",
-                  "run_s", "wall_s", "task_s")
+                  "setup_s", "run_s", "wall_s", "task_s")
 #: a timing whose interquartile range exceeds this fraction of its median is flagged noisy
 NOISY_SPREAD = 0.1
 VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
@@ -550,7 +552,7 @@ _INT_COLUMNS = ("nx", "steps", "stride", "order_declared")
 _FLOAT_COLUMNS = ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
                   "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
                   "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound", "wall_s",
-                  "run_s")
+                  "run_s", "setup_s")
 _TEXT_COLUMNS = ("case", "scheme", "case_name", "scheme_name", "status", "stability", "notes",
                  "reference", "energy_trait", "contact", "energy_trace", "key", "code_hash",
                  "run_date")
@@ -632,17 +634,19 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    extra = [k for r in rows for k in r if k not in COLUMNS]
-    extra += [k for k in HARNESS_COLUMNS if k not in COLUMNS and k not in extra]
-    cols = list(COLUMNS) + list(dict.fromkeys(extra))
-    df = pd.DataFrame(rows, columns=cols)
+    """The rows as a table: `COLUMNS`, the harness's other base columns, then every other
+    column of the rows sorted by name (`contact_bench.harness.runner.table_columns`: a
+    scene's declared `err_<q>` too), with the column types `run_sweep` gives."""
+    base = (*COLUMNS, *(c for c in BASE_COLUMNS if c not in COLUMNS))
+    df = pd.DataFrame(rows, columns=table_columns(rows, base))
     for col in ("nx", "steps", "stride", "order_declared", "time_repeats", "env_ncpu"):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype("Int64")
-    for col in ("h", "dt", "cfl", "T", "grading", *ERROR_COLUMNS, "energy_initial",
+    for col in ("h", "dt", "cfl", "T", "grading", "energy_initial",
                 "energy_final", "energy_drift_max", "energy_growth_max", "penetration_max",
                 "blowup_time", "dt_limit", "cfl_limit", "energy_drift_bound",
-                *(c for c in TIMING_COLUMNS if c.endswith("_s"))):
+                *(c for c in TIMING_COLUMNS if c.endswith("_s")),
+                *(c for c in df.columns if str(c).startswith("err_"))):
         if col in df:
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
     for col in ("implicit", "massless_contact_node", "from_cache",
