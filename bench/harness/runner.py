@@ -93,16 +93,23 @@ KEEP_SEMI_BYTES = 64 * 2**20
 class Run:
     """One finished run: its metrics row and, unless it did not start, its trajectory.
 
-    `norm_s`: the time spent on the error norms (`contact_bench.harness.metrics.error_metrics`, JIT
-    compilation excluded), None when there were none; compare with row["run_s"].
+    `problem`: the problem the scheme stepped (the one form: a body's `SparseProblem`,
+    the bar's `BarProblem`); `semi` the form the error norms read (the bar's
+    `Semidiscrete`, a body's problem). `norm_s`: the time spent on the error norms
+    (`contact_bench.harness.metrics.error_metrics`, JIT compilation excluded), None when
+    there were none; compare with row["run_s"].
     """
 
     row: dict[str, Any]
     trajectory: Trajectory | None = None
-    semi: Any = None
+    problem: Any = None
     norm_s: float | None = None
     #: the formatted traceback of an 'error' row (`contact-bench run --traceback`)
     traceback: str | None = None
+
+    @property
+    def semi(self) -> Any:
+        return None if self.problem is None else (banded(self.problem) or self.problem)
 
     def without_samples(self) -> Run:
         """The same run without what grows with the mesh: the semi-discrete problem and
