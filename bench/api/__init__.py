@@ -7,6 +7,8 @@ What a plugin author needs is importable from here (docs/plugin-api.md):
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import (
+    BarCase,
+    BodyCase,
     Case,
     Contact,
     Energy,
@@ -31,8 +33,9 @@ from contact_bench.core.sampling import (
 )
 
 __all__ = [
-    "BLOWUP_FACTOR", "BenchError", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
-    "Semidiscrete", "Traits", "Trajectory", "TrajectoryRecorder", "blown_up",
+    "BLOWUP_FACTOR", "BarCase", "BenchError", "BodyCase", "Case", "Contact", "Energy",
+    "Exact", "Param", "Scheme", "Semidiscrete", "Traits", "Trajectory", "TrajectoryRecorder",
+    "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",
     "n_samples", "record_sample", "row_sums",
 ]
