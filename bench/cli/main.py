@@ -210,7 +210,8 @@ def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]
         exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
         with use_style(style):
-            fig = contact_figure(these, exact, case.spec)
+            fig = contact_figure(these, exact, case.spec, contact_label=case.contact_label,
+                                 force_label=case.force_label)
         written += save_figure(fig, out / fname, formats, prov)
     tables = [r.trajectory.extra["impact_table"].assign(
         case=r.row["case"], scheme=r.row["scheme"], nx=r.row["nx"], dt=r.row["dt"])
