@@ -375,15 +375,23 @@ class Semidiscrete:
 
 @dataclass
 class Trajectory:
-    """What a scheme returns: samples every `stride` steps (and the last step)."""
+    """What a scheme returns: samples every `stride` steps (and the last step).
+
+    `contact_u` is the scene's contact observable (`Case.contact_label`): on a bar
+    (`BarCase`) u(0, t), the contact node's displacement `U[:, 0]`; on a body
+    (`BodyCase`) the smallest gap of the contact set, min_i (gap0_i + U[:, dof_i]).
+    `min_contact_u` is its minimum over every step. `stress` is the contact stress
+    (`Case.force_label`): on a bar E u_x(0, t), on a body the total contact force over
+    the contact zone's measure; negative in compression on both.
+    """
 
     t: np.ndarray  # (K,)
     U: np.ndarray  # (K, nfree) displacement samples
     V: np.ndarray  # (K, nfree) velocity samples
-    contact_u: np.ndarray  # (K,) u(0, t)
+    contact_u: np.ndarray  # (K,) bar: u(0, t); body: the smallest gap
     stress: np.ndarray  # (K,) numerical contact stress (<= 0 for compression)
     energy: np.ndarray  # (K,) the scheme's discrete energy (incl. penalty/Nitsche terms)
-    min_contact_u: float  # min over *all* steps of u(0, t_n)
+    min_contact_u: float  # min over *all* steps of contact_u (not only the samples)
     steps_done: int
     blowup_time: float | None = None  # first time NaN/inf or energy > 1e3 E(0)
     extra: dict[str, Any] = field(default_factory=dict)
