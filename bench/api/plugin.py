@@ -194,9 +194,9 @@ class Case(Plugin):
     stiff: ClassVar[bool] = False
     #: the scene kind ("bar" or "body"), set by `BarCase` and `BodyCase`
     kind: ClassVar[str] = ""
-    #: what `Trajectory.contact_u` holds on this kind of scene (figures, tables)
+    #: what `Trajectory.contact_u` holds on this kind of scene (figure axes, `list`)
     contact_label: ClassVar[str] = ""
-    #: what `Trajectory.stress` holds on this kind of scene (figures, tables)
+    #: what `Trajectory.stress` holds on this kind of scene (figure axes, `list`)
     force_label: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
