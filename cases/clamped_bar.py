@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.clamped import ClampedBarExact
 
 
-class ClampedBar(Case):
+class ClampedBar(BarCase):
     name = "clamped_bar"
     summary = "clamped bar released from compression, period 3, energy 1/8 (closed form)"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0

@@ -27,15 +27,14 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, StudyGrid
+from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.registry import make_scheme
 from contact_bench.api.sparse import SparseProblem
 
 
-class DiscDrop(Case):
+class DiscDrop(BodyCase):
     name = "disc_drop"
     summary = "GetFEM's elastic disc dropped on a plane (2D plane strain, P1/P2)"
-    form = "sparse"
     params = {
         "degree": Param(2, "polynomial degree of the elements", choices=(1, 2)),
         "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
@@ -47,12 +46,14 @@ class DiscDrop(Case):
     T, nx, dt, stride = 40.0, 5, 0.01, 1
 
     @property
-    def E(self) -> float:  # the P-wave modulus lambda + 2 mu: wave_speed = c_p
-        return self.lam + 2 * self.mu
+    def size(self) -> float:
+        """The disc's diameter."""
+        return 2 * self.R
 
     @property
-    def L(self) -> float:
-        return 2 * self.R
+    def p_modulus(self) -> float:
+        """The P-wave modulus lambda + 2 mu: the contact stiffness scale (`E_contact`)."""
+        return self.lam + 2 * self.mu
 
     @property
     def impact_time(self) -> float:
@@ -172,7 +173,7 @@ class DiscDrop(Case):
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind,
                              equal_groups=tuple(g for g in (mirror_pairs(P) * 2 + 1,) if g.size),
-                             E_contact=self.E,
+                             E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
                              extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),

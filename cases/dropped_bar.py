@@ -19,14 +19,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 COARSE_PERIODS = 2.0  # ... up to T = this many periods 16 L / c (default grid beyond)
 
 
-class DroppedBar(Case):
+class DroppedBar(BarCase):
     name = "dropped_bar"
     summary = "free bar dropped under gravity on the obstacle (the paper's sec. 5.2)"
     L, rho, E, g = 10.0, 1.0, 900.0, 10.0

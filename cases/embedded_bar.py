@@ -25,16 +25,15 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import MASS_KINDS, mesh_nodes
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, StudyGrid
+from contact_bench.api.plugin import BarCase, BodyCase, StudyGrid
 from contact_bench.api.registry import make_case
 from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
 from contact_bench.core.errors import BenchError
 
 
-class EmbeddedBar(Case):
+class EmbeddedBar(BodyCase):
     name = "embedded_bar"
     summary = "a 1D scene's bar as a 2D/3D Q1 body (reference: the 1D exact solution)"
-    form = "sparse"
     #: those of the default `of` (clamped_bar); an instance takes its own scene's
     reference = "exact"
     provides = frozenset({"u", "v", "stress", "energy"})
@@ -53,23 +52,22 @@ class EmbeddedBar(Case):
         if self.of == self.name or self.of.startswith(self.name + "["):
             raise BenchError(f"{self.spec}: of = {self.of!r}: a bar, not an embedded bar")
         bar = make_case(self.of)
-        if bar.form != "banded1d":
+        if not isinstance(bar, BarCase):
             raise BenchError(f"{self.spec}: of = {self.of!r} is not a 1D scene")
         if callable(bar.E) or callable(bar.rho):
             raise BenchError(f"{self.spec}: of = {self.of!r} has x-dependent E or rho; "
                              "allowed: scenes with constant E and rho")
+        #: the embedded 1D scene: its bar's length, material, gravity, far end and data
+        #: are this body's (`bar.L`, `bar.E`, ...)
         self.bar = bar
-        self.L, self.rho, self.E, self.g = bar.L, bar.rho, bar.E, bar.g
-        self.far_end, self.u_L = bar.far_end, bar.u_L
         self.T, self.nx, self.dt, self.stride = bar.T, bar.nx, bar.dt, bar.stride
         self.reference = bar.reference
         self.provides = bar.provides
 
-    def u0(self, x):
-        return self.bar.u0(x)
-
-    def v0(self, x):
-        return self.bar.v0(x)
+    @property
+    def size(self) -> float:
+        """The bar's length."""
+        return self.bar.L
 
     def exact(self, T: float):
         return self.bar.exact(T)
@@ -87,7 +85,7 @@ class EmbeddedBar(Case):
         h = float(x[1] - x[0])
         rows = np.repeat(np.arange(face.size), 2)
         cols = np.stack([index[dim * face], index[dim * nxt]], axis=1).ravel()
-        vals = np.tile([-float(self.E) / h, float(self.E) / h], face.size)
+        vals = np.tile([-float(self.bar.E) / h, float(self.bar.E) / h], face.size)
         keep = cols >= 0  # a clamped next node contributes nothing (its value is u_L)
         return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])),
                              shape=(face.size, int(np.count_nonzero(index >= 0))))
@@ -96,31 +94,31 @@ class EmbeddedBar(Case):
         if mass_kind not in MASS_KINDS:
             raise ValueError(f"mass {mass_kind!r} has no tensor form; allowed: "
                              f"{', '.join(MASS_KINDS)}")
-        dim = int(self.dim)
-        x = mesh_nodes(float(self.L), int(nx), grading)
+        bar, dim = self.bar, int(self.dim)
+        x = mesh_nodes(float(bar.L), int(nx), grading)
         y = np.linspace(0.0, 1.0, int(self.cells) + 1)
         mesh = (fe.MeshQuad.init_tensor(x, y) if dim == 2
                 else fe.MeshHex.init_tensor(x, y, y))
         nu = 0.0 if self.sides == "free" else float(self.nu)
         # lambda + 2 mu = E (1 - nu) / ((1 + nu) (1 - 2 nu)) is the 1D E
-        E_nd = float(self.E) * (1 + nu) * (1 - 2 * nu) / (1 - nu)
-        body = fem_nd.assemble(mesh, E_nd, nu, float(self.rho))
+        E_nd = float(bar.E) * (1 + nu) * (1 - 2 * nu) / (1 - nu)
+        body = fem_nd.assemble(mesh, E_nd, nu, float(bar.rho))
         M = fem_nd.mass_matrix(body, "kron:" + mass_kind)
         P = body.dof_coordinates  # (dim, nodes); node s has dofs dim s + c
         nodes = P.shape[1]
         n = dim * nodes
         g = np.zeros(dim)
-        g[0] = -float(self.g)
+        g[0] = -float(bar.g)
         F = fem_nd.body_force(M, dim, g)
         U = np.zeros(n)
         V = np.zeros(n)
-        U[0::dim] = np.asarray(self.u0(P[0]), float) * np.ones(nodes)
-        V[0::dim] = np.asarray(self.v0(P[0]), float) * np.ones(nodes)
-        L = float(self.L)
+        U[0::dim] = np.asarray(bar.u0(P[0]), float) * np.ones(nodes)
+        V[0::dim] = np.asarray(bar.v0(P[0]), float) * np.ones(nodes)
+        L = float(bar.L)
         far = np.isclose(P[0], x[-1], rtol=0, atol=1e-12 * L)
         clamp = []
-        if self.far_end == "clamped":
-            values = [float(self.u_L)] + [0.0] * (dim - 1)
+        if bar.far_end == "clamped":
+            values = [float(bar.u_L)] + [0.0] * (dim - 1)
             clamp = [fem_nd.Dirichlet(lambda q: np.isclose(q[0], L, rtol=0, atol=1e-12 * L),
                                       values=values)]
         sides = []
@@ -129,7 +127,7 @@ class EmbeddedBar(Case):
                                        for c in range(1, dim)], axis=0)]
         red = fem_nd.constrain(body, M, F, dirichlet=clamp, sliding=sides)
         index = red.index
-        face = np.flatnonzero(np.isclose(P[0], 0.0, rtol=0, atol=1e-12 * float(self.L)))
+        face = np.flatnonzero(np.isclose(P[0], 0.0, rtol=0, atol=1e-12 * float(bar.L)))
         weights = np.ones(face.size)
         for c in range(1, dim):
             weights *= _trapezoid_weights(y)[np.searchsorted(y, P[c][face])]
@@ -144,22 +142,22 @@ class EmbeddedBar(Case):
         on_axis = np.ones(nodes, bool)
         for c in range(1, dim):
             on_axis &= P[c] == 0.0
-        axis_nodes = np.flatnonzero(on_axis & ~(far & (self.far_end == "clamped")))
+        axis_nodes = np.flatnonzero(on_axis & ~(far & (bar.far_end == "clamped")))
         axis_nodes = axis_nodes[np.argsort(P[0][axis_nodes])]
         axis = AxisView(dofs=index[dim * axis_nodes], x=x,
-                        u_fixed=float(self.u_L) if self.far_end == "clamped" else None)
+                        u_fixed=float(bar.u_L) if bar.far_end == "clamped" else None)
         # the x-displacement of every section: equal across it
         order = np.lexsort(tuple(P[c] for c in range(dim - 1, -1, -1)))  # x slowest
         groups = (dim * order).reshape(x.size, -1)
-        if self.far_end == "clamped":
+        if bar.far_end == "clamped":
             groups = groups[:-1]
         problem = SparseProblem(
             M=red.M, K=red.K, F=red.F, U0=U[red.free], V0=V[red.free], contact=contact,
             dim=dim, hmin=min(float(np.min(np.diff(x))), float(y[1] - y[0])),
-            c_max=float(np.sqrt(float(self.E) / float(self.rho))),
+            c_max=float(np.sqrt(float(bar.E) / float(bar.rho))),
             energy_offset=red.energy_offset,
             mass_kind=mass_kind, axis=axis, equal_groups=(index[groups],),
-            E_contact=float(self.E), h_contact=float(x[1] - x[0]),
+            E_contact=float(bar.E), h_contact=float(x[1] - x[0]),
             normal_stress=self._normal_stress(P, face, index, x, dim))
         return problem
 

@@ -20,14 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 GAP_FRACTION = 0.01  # initial gap / L
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 
-class FastImpact(Case):
+class FastImpact(BarCase):
     name = "fast_impact"
     summary = "free bar at uniform speed towards the obstacle, Mach v/c from 1e-3 to 0.5"
     params = {"mach": Param(0.01, "impact speed / wave speed c", low=1e-3, high=0.5)}

@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.grazing import GrazingExact
 
 AMPLITUDE = 0.1
 
 
-class Grazing(Case):
+class Grazing(BarCase):
     name = "grazing"
     summary = "first free-free mode whose end touches the obstacle with zero velocity"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0

@@ -29,15 +29,14 @@ from skfem.helpers import ddot, sym_grad, trace
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, StudyGrid
+from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact.hertz import HertzImpact
 
 
-class HertzSphere(Case):
+class HertzSphere(BodyCase):
     name = "hertz_sphere"
     summary = "axisymmetric ball hits a plane at speed v; Hertz contact time, peak force"
-    form = "sparse"
     params = {
         "v": Param(0.01, "impact speed", low=1e-6, high=1.0),
         "grade": Param(2.0, "mesh grading exponent towards the pole (1: uniform)", low=1.0,
@@ -57,13 +56,15 @@ class HertzSphere(Case):
         return fem_nd.lame(self.Young, self.nu)
 
     @property
-    def E(self) -> float:  # the P-wave modulus: wave_speed = c_p
-        lam, mu = self.lam_mu
-        return lam + 2 * mu
+    def size(self) -> float:
+        """The ball's diameter."""
+        return 2 * self.R
 
     @property
-    def L(self) -> float:
-        return 2 * self.R
+    def p_modulus(self) -> float:
+        """The P-wave modulus lambda + 2 mu: the contact stiffness scale (`E_contact`)."""
+        lam, mu = self.lam_mu
+        return lam + 2 * mu
 
     quantities = frozenset({"contact_duration", "peak_force"})
     study = StudyGrid(specs=("hertz_sphere",), nx=(2, 3, 4), T=None, small="hertz_sphere",
@@ -152,7 +153,8 @@ class HertzSphere(Case):
         return SparseProblem(M=red.M, K=red.K, F=red.F,
                              U0=np.zeros(free.size), V0=V0[free], contact=contact, dim=2,
                              hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
-                             E_contact=self.E, h_contact=fem_nd.contact_length(body, body.hmin),
+                             E_contact=self.p_modulus,
+                             h_contact=fem_nd.contact_length(body, body.hmin),
                              normal_stress=zone.stress(free),
                              extra={"mass": mass,  # and the vertical translation:
                                     "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})

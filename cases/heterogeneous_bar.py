@@ -24,7 +24,7 @@ from functools import cache
 import numpy as np
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.numerical import NumericalReference
 
 REFERENCE_SCHEME = "redistributed[variant=mass_conserving]"
@@ -34,7 +34,7 @@ REFERENCE_SAMPLES = 4000
 GAP, SPEED, INTERFACE = 0.05, 0.5, 0.5
 
 
-class HeterogeneousBar(Case):
+class HeterogeneousBar(BarCase):
     name = "heterogeneous_bar"
     summary = "two materials (E jumps at L/2), free-free impact; numerical reference"
     params = {"contrast": Param(4.0, "E on [L/2, L] / E on [0, L/2)", low=0.1, high=10.0)}

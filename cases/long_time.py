@@ -20,11 +20,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.clamped import ClampedBarExact
 
 
-class LongTime(Case):
+class LongTime(BarCase):
     name = "long_time"
     summary = "clamped_bar over 1000 periods (T = 3000): accumulated energy drift"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0

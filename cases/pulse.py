@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.dalembert import DalembertSolution
 
 GAP, AMPLITUDE, CENTER, WIDTH = 0.1, 0.2, 0.5, 0.2
 
 
-class Pulse(Case):
+class Pulse(BarCase):
     name = "pulse"
     summary = "smooth compact pulse hitting the obstacle again and again (4 impacts)"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 U0_DATA = (np.array([0.0, 0.3, 1.0]), np.array([0.1, 0.35, 0.0]))
@@ -27,7 +27,7 @@ V0_DATA = (np.array([0.0, 0.5, 0.5, 1.0]), np.array([-0.5, -0.5, 0.25, 0.25]))
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for tuple data
 
 
-class RoughData(Case):
+class RoughData(BarCase):
     name = "rough_data"
     summary = "step in v0 (only L2) and kinked u0 (H1): the paper's minimal regularity"
     L, rho, E, g = 1.0, 1.0, 1.0, 0.0

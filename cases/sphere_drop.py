@@ -25,14 +25,13 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, StudyGrid
+from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.sparse import SparseProblem
 
 
-class SphereDrop(Case):
+class SphereDrop(BodyCase):
     name = "sphere_drop"
     summary = "GetFEM's elastic ball dropped on a plane (3D tetrahedra, P1/P2)"
-    form = "sparse"
     params = {
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
         "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
@@ -44,12 +43,14 @@ class SphereDrop(Case):
     T, nx, dt, stride = 40.0, 8, 0.01, 20
 
     @property
-    def E(self) -> float:  # the P-wave modulus lambda + 2 mu: wave_speed = c_p
-        return self.lam + 2 * self.mu
+    def size(self) -> float:
+        """The ball's diameter."""
+        return 2 * self.R
 
     @property
-    def L(self) -> float:
-        return 2 * self.R
+    def p_modulus(self) -> float:
+        """The P-wave modulus lambda + 2 mu: the contact stiffness scale (`E_contact`)."""
+        return self.lam + 2 * self.mu
 
     @property
     def impact_time(self) -> float:
@@ -110,7 +111,7 @@ class SphereDrop(Case):
         vertical = np.tile([0.0, 0.0, 1.0], n // 3)
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=3, hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
-                             E_contact=self.E,
+                             E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
                              extra={"mass": float(np.sum(M @ vertical)), "vertical": vertical})

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from contact_bench.api.plugin import Case
+from contact_bench.api.plugin import BarCase
 from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
 
 GAP = 5e-5  # m
@@ -29,7 +29,7 @@ SPEED = 0.1  # m/s, towards the obstacle
 EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 
-class SteelBar(Case):
+class SteelBar(BarCase):
     name = "steel_bar"
     summary = "Siconos ImpactingBar: steel, SI units, gap 5e-5 m, v0 = -0.1 m/s (stiff)"
     L, rho, E, g = 1.0, 7800.0, 210e9, 0.0

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from contact_bench.api.fem import mesh_nodes
-from contact_bench.api.plugin import Case, Scheme
+from contact_bench.api.plugin import BarCase, Case, Scheme
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_scheme, schemes
 from contact_bench.cases.clamped_bar import ClampedBarExact
@@ -34,7 +34,7 @@ SETTINGS = settings(max_examples=20, deadline=None, print_blob=True, database=No
                     suppress_health_check=[HealthCheck.too_slow])
 
 
-class RandomBar(Case):
+class RandomBar(BarCase):
     """A bar with piecewise linear data (test only: lives in no `cases/` module)."""
 
     name = "random_bar"

@@ -7,6 +7,8 @@ What a plugin author needs is importable from here (docs/plugin-api.md):
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import (
+    BarCase,
+    BodyCase,
     CallStepper,
     Case,
     Contact,
@@ -34,8 +36,8 @@ from contact_bench.core.sampling import (
 )
 
 __all__ = [
-    "BLOWUP_FACTOR", "BarProblem", "BarScale", "BenchError", "CallStepper", "Case", "Contact",
-    "Energy", "Exact", "Param", "Scheme",
+    "BLOWUP_FACTOR", "BarCase", "BarProblem", "BarScale", "BenchError", "BodyCase",
+    "CallStepper", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
     "Semidiscrete", "Stepper", "Traits", "Trajectory", "TrajectoryRecorder", "as_problem",
     "banded", "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",

@@ -1,9 +1,10 @@
 """The two plugin kinds, schemes and cases (scenes), and what passes between them.
 
-A *case* describes a bar, its data and (if known) its exact solution; it declares what
-exists for it (`Case.quantities`). A *scheme* declares how it integrates in time
-(`Scheme.traits`) and turns a `Semidiscrete` problem into a `Trajectory`. The harness
-only reads these declarations: it never branches on a plugin's name.
+A *case* (scene) is a 1D bar (`BarCase`) or a 2D/3D body (`BodyCase`), with its data and
+(if known) its exact solution; it declares what exists for it (`Case.quantities`). A
+*scheme* declares how it integrates in time (`Scheme.traits`) and turns a `Semidiscrete`
+problem into a `Trajectory`. The harness only reads these declarations: it never branches
+on a plugin's name.
 """
 
 from __future__ import annotations
@@ -164,18 +165,18 @@ class StudyGrid:
 
 
 class Case(Plugin):
-    """A scene: a bar, its data, a default resolution and its exact solution if any.
+    """A scene: what every scene declares, whatever it is (a 1D bar, `BarCase`, or a
+    2D/3D body, `BodyCase`): its default resolution and final time, its reference and
+    the quantities it provides, the problem form it produces, and the labels of its
+    contact observable and contact force.
 
-    Subclasses set the class attributes (or properties, when they depend on params)
-    and implement `u0`, `v0` and, when there is one, `exact`.
+    A scene derives from one of the two kinds, never from `Case` directly: the harness
+    reads only what each kind declares. A class deriving from `Case` directly, and a
+    named body scene without a `size`, are a one-line TypeError at their definition (a
+    plugin file defining one is listed as broken). Subclasses set the class attributes
+    (or properties, when they depend on params).
     """
 
-    L: float = 1.0
-    rho: float = 1.0
-    E: float = 1.0
-    g: float = 0.0
-    far_end: str = "clamped"  # "clamped" (u(L) = u_L) or "free" (u_x(L) = 0)
-    u_L: float = 0.0
     T: float = 1.0
     nx: int = 40
     dt: float = 0.01
@@ -192,12 +193,33 @@ class Case(Plugin):
     in_default_run: ClassVar[bool] = False
     #: a stiff scene (physical units, short time scale): the study's stability part runs it
     stiff: ClassVar[bool] = False
+    #: the scene kind ("bar" or "body"), set by `BarCase` and `BodyCase`
+    kind: ClassVar[str] = ""
+    #: what `Trajectory.contact_u` holds on this kind of scene (figure axes, `list`)
+    contact_label: ClassVar[str] = ""
+    #: what `Trajectory.stress` holds on this kind of scene (figure axes, `list`)
+    force_label: ClassVar[str] = ""
 
-    def u0(self, x: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.kind:
+            raise TypeError(f"{cls.__name__} derives from Case; a scene derives from "
+                            "BarCase (a 1D bar) or BodyCase (a 2D/3D body)")
+        if cls.name and cls.size is Case.__dict__["size"]:
+            raise TypeError(f"{cls.__name__} ({cls.name}) declares no size: a body scene "
+                            "sets its characteristic length `size` (e.g. its diameter)")
 
-    def v0(self, x: np.ndarray) -> np.ndarray:
-        return np.zeros_like(np.asarray(x, dtype=float))
+    @property
+    def size(self) -> float:
+        """The scene's characteristic length: the harness bounds a run's final time in
+        wave transits T c_max / size. A bar's is its length; a body declares its own."""
+        raise BenchError(f"case {self.spec} declares no size (its characteristic length, "
+                         "e.g. a body's diameter)")
+
+    def declarations(self) -> dict[str, Any]:
+        """What the scene is, for `contact-bench list`: name -> value (a number, a
+        string, or a function of x)."""
+        return {}
 
     def exact(self, T: float) -> Exact | None:
         """The reference solution on [0, T], or None."""
@@ -207,10 +229,6 @@ class Case(Plugin):
     def exact_energy(self) -> float | None:
         """The conserved energy of the continuous problem, if known."""
         return None
-
-    @property
-    def wave_speed(self) -> float:
-        return float(np.sqrt(self.E / self.rho))
 
     def cannot_run(self, scheme: Scheme) -> str | None:
         """A reason why this scene cannot be run by the scheme, or None."""
@@ -250,6 +268,69 @@ class Case(Plugin):
         """The relative errors `err_<q>` of a run in the quantities q of `quantities`
         (the run's trajectory and the row's contact columns against the reference)."""
         return {}
+
+
+class BarCase(Case):
+    """A 1D bar scene: the bar (0, L) with density `rho` and Young modulus `E` (numbers,
+    or functions of x), gravity `g`, its far end x = L `clamped` at `u_L` or `free`, the
+    initial data `u0`, `v0` (u0(0) >= 0), and its exact solution if any. The obstacle
+    is at x = 0; its problem is the banded `Semidiscrete` (`contact_bench.api.problem.
+    discretise`).
+
+    Subclasses set the class attributes (or properties) and implement `u0`, `v0` and,
+    when there is one, `exact`.
+    """
+
+    kind = "bar"
+    contact_label = "u(0, t)"
+    force_label = "contact stress E u_x(0, t)"
+
+    L: float = 1.0
+    rho: float = 1.0
+    E: float = 1.0
+    g: float = 0.0
+    far_end: str = "clamped"  # "clamped" (u(L) = u_L) or "free" (u_x(L) = 0)
+    u_L: float = 0.0
+
+    def u0(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def v0(self, x: np.ndarray) -> np.ndarray:
+        return np.zeros_like(np.asarray(x, dtype=float))
+
+    @property
+    def wave_speed(self) -> float:
+        return float(np.sqrt(self.E / self.rho))
+
+    @property
+    def size(self) -> float:
+        """The bar's length L."""
+        return self.L
+
+    def declarations(self) -> dict[str, Any]:
+        return {"L": self.L, "rho": self.rho, "E": self.E, "g": self.g,
+                "far_end": self.far_end}
+
+
+class BodyCase(Case):
+    """A 2D/3D body scene: an elastic body, its data and its obstacle, given as the
+    sparse problem it produces at a resolution (`sparse_problem`: mass, stiffness, load,
+    initial data, contact set, smallest element, largest wave speed `c_max`).
+
+    It declares its characteristic length `size` (e.g. its diameter; there is no
+    default: reading it undeclared is a one-line BenchError) and the study's grids
+    (`study`). Its contact observable is the smallest gap of the contact set and its
+    contact stress the total contact force over the contact zone's measure (the sparse
+    kernels' `-sum(lambda) / area`, or the contact law's stress over that measure).
+    """
+
+    kind = "body"
+    form = "sparse"
+    contact_label = "smallest gap"
+    force_label = "contact stress (total force / zone measure)"
+
+    def declarations(self) -> dict[str, Any]:
+        return {"size": self.size}
 
 
 # --------------------------------------------------------------------------- schemes
@@ -295,15 +376,23 @@ class Semidiscrete:
 
 @dataclass
 class Trajectory:
-    """What a scheme returns: samples every `stride` steps (and the last step)."""
+    """What a scheme returns: samples every `stride` steps (and the last step).
+
+    `contact_u` is the scene's contact observable (`Case.contact_label`): on a bar
+    (`BarCase`) u(0, t), the contact node's displacement `U[:, 0]`; on a body
+    (`BodyCase`) the smallest gap of the contact set, min_i (gap0_i + U[:, dof_i]).
+    `min_contact_u` is its minimum over every step. `stress` is the contact stress
+    (`Case.force_label`): on a bar E u_x(0, t), on a body the total contact force over
+    the contact zone's measure; negative in compression on both.
+    """
 
     t: np.ndarray  # (K,)
     U: np.ndarray  # (K, nfree) displacement samples
     V: np.ndarray  # (K, nfree) velocity samples
-    contact_u: np.ndarray  # (K,) u(0, t)
+    contact_u: np.ndarray  # (K,) bar: u(0, t); body: the smallest gap
     stress: np.ndarray  # (K,) numerical contact stress (<= 0 for compression)
     energy: np.ndarray  # (K,) the scheme's discrete energy (incl. penalty/Nitsche terms)
-    min_contact_u: float  # min over *all* steps of u(0, t_n)
+    min_contact_u: float  # min over *all* steps of contact_u (not only the samples)
     steps_done: int
     blowup_time: float | None = None  # first time NaN/inf or energy > 1e3 E(0)
     extra: dict[str, Any] = field(default_factory=dict)

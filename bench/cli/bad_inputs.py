@@ -24,12 +24,21 @@ from typing import Any
 import numpy as np
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Case, Contact, Energy, Scheme, Semidiscrete, Traits, Trajectory
+from contact_bench.api.plugin import (
+    BarCase,
+    Case,
+    Contact,
+    Energy,
+    Scheme,
+    Semidiscrete,
+    Traits,
+    Trajectory,
+)
 from contact_bench.api.registry import cases, schemes
 from contact_bench.core.errors import shown
 
 
-class DemoBar(Case):
+class DemoBar(BarCase):
     """A clamped bar with material and data parameters (demo for bad input)."""
 
     name = "demo_bar"
@@ -76,7 +85,7 @@ class DemoFreeOnly(Scheme):
         raise NotImplementedError("demo_free_only is a demo: it integrates nothing")
 
     def cannot_run(self, case: Case) -> str | None:
-        if case.far_end == "clamped":
+        if isinstance(case, BarCase) and case.far_end == "clamped":
             return "needs a free far end (demo), this scene is clamped"
         return None
 

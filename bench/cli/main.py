@@ -81,15 +81,29 @@ def _param_records(cls: type) -> list[dict]:
 
 def _case_record(name: str, cls: type) -> dict:
     case = cls()
+    declared = {key: "x-dependent" if callable(value) else value
+                for key, value in case.declarations().items()}
     return {
-        "kind": "case", "name": name, "summary": cls.summary, "L": case.L,
-        "rho": "x-dependent" if callable(case.rho) else case.rho,
-        "E": "x-dependent" if callable(case.E) else case.E, "g": case.g,
-        "far_end": case.far_end, "T": case.T, "nx": case.nx, "dt": case.dt,
+        "kind": "case", "name": name, "summary": cls.summary, "scene": cls.kind,
+        **declared, "declared": list(declared), "T": case.T, "nx": case.nx, "dt": case.dt,
         "stride": case.stride, "reference": case.reference or "none", "form": cls.form,
         "provides": sorted(cls.provides), "in_default_run": bool(cls.in_default_run),
+        "contact_label": cls.contact_label, "force_label": cls.force_label,
         "params": _param_records(cls),
     }
+
+
+def _declared_text(r: dict) -> str:
+    """A scene's declarations (`Case.declarations`) as `list` prints them."""
+    parts = []
+    for key in r["declared"]:
+        value = r[key]
+        if key == "g":
+            parts.append(f"g={value:g}" if value > 0 else "no gravity")
+        else:
+            text = value if isinstance(value, str) else f"{value:g}"
+            parts.append(f"{key.replace('_', ' ')}={text}")
+    return " ".join(parts)
 
 
 def _scheme_record(name: str, cls: type) -> dict:
@@ -148,8 +162,6 @@ def _list_text(records: list[dict]) -> str:
         for r in recs:
             out += _wrap(f"{r['name']:<18} {r['summary']}", 2)
             if kind == "case":
-                rho, E = (v if isinstance(v, str) else f"{v:g}" for v in (r["rho"], r["E"]))
-                gravity = f"g={r['g']:g}" if r["g"] > 0 else "no gravity"
                 stride = f" stride={r['stride']}" if r["stride"] != 1 else ""
                 absent = sorted({"u", "v", "stress", "energy"} - set(r["provides"]))
                 out += _wrap(f"defaults T={r['T']:g} nx={r['nx']} dt={r['dt']:g}{stride}; "
@@ -157,8 +169,7 @@ def _list_text(records: list[dict]) -> str:
                              f"{','.join(r['provides']) or '-'}"
                              + (f" (not: {','.join(absent)})" if absent else "")
                              + f"; form={r['form']}", 6)
-                out += _wrap(f"L={r['L']:g} rho={rho} E={E} {gravity} far end={r['far_end']}",
-                             6)
+                out += _wrap(f"{r['scene']}: {_declared_text(r)}", 6)
             else:
                 stab = ("none" if r["cfl_limit"] is None
                         else f"dt <= {r['cfl_limit']:.3g} h/c")
@@ -220,7 +231,8 @@ def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]
         exact = reference(case, T) if case.reference == "exact" else None
         fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
         with use_style(style):
-            fig = contact_figure(these, exact, case.spec)
+            fig = contact_figure(these, exact, case.spec, contact_label=case.contact_label,
+                                 force_label=case.force_label)
         written += save_figure(fig, out / fname, formats, prov)
     tables = [r.trajectory.extra["impact_table"].assign(
         case=r.row["case"], scheme=r.row["scheme"], nx=r.row["nx"], dt=r.row["dt"])

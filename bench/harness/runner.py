@@ -251,7 +251,8 @@ def _check_grading(grading: Any) -> float:
 MAX_SAMPLE_BYTES = 4 * 2**30
 #: most time steps of one run (a smaller dt is refused up front, not run for days)
 MAX_STEPS = 10**9
-#: longest run, in wave transits of the bar (T c_max / L): this bounds the cost of a
+#: longest run, in wave transits of the scene (T c_max / size, `Case.size`: a bar's
+#: length, a body's declared characteristic length): this bounds the cost of a
 #: reference (characteristics, numerical) as the sample memory bounds a run's
 MAX_TRANSITS = 1e5
 #: the graded mesh's smallest element, as a fraction of the bar: below, the system
@@ -329,7 +330,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
         raise BenchError(f"dt = {_num(dt)} with T = {_num(T)} makes {_many(T / dt)} steps; "
                          f"allowed: at most {MAX_STEPS:.0e} steps (a larger dt or a smaller T)")
     semi = _discretise(case, scheme, nx, grading)
-    length = _check_length(case)
+    length = _check_size(case)
     transits = T * semi.c_max / length
     if not transits <= MAX_TRANSITS:
         raise BenchError(f"T = {_num(T)} is {transits:.3g} wave transits of {case.spec}; "
@@ -464,6 +465,18 @@ def _check_length(case: Case) -> float:
     if not (math.isfinite(L) and L > 0):
         raise BenchError(f"case {case.spec}: L = {case.L!r} must be finite and > 0")
     return L
+
+
+def _check_size(case: Case) -> float:
+    """The scene's characteristic length (`Case.size`), checked."""
+    size = case.size
+    try:
+        value = float(size)
+    except (TypeError, ValueError):
+        raise BenchError(f"case {case.spec}: size = {size!r} must be a number > 0") from None
+    if not (math.isfinite(value) and value > 0):
+        raise BenchError(f"case {case.spec}: size = {size!r} must be finite and > 0")
+    return value
 
 
 def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:

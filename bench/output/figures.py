@@ -2,7 +2,9 @@
 writes it in the asked formats with the provenance in the file's metadata and in a sidecar
 JSON (nothing is drawn into the image).
 
-- `contact_figure`: u(0, t), contact stress and energy against the exact ones (`run`);
+- `contact_figure`: the scene's contact observable and contact stress (`Case.contact_label`,
+  `Case.force_label`: u(0, t) on a bar, the smallest gap on a body) and the energy, against
+  the exact ones (`run`);
 - `work_precision_figure`, `convergence_figure` (error against h and dt, log-log, the
   fitted order in the legend, reference slopes), `stability_figure` (scheme x CFL on a
   log axis, every class in the legend, the declared limits drawn), `energy_figure`
@@ -90,8 +92,11 @@ def use_style(style: str | None) -> Iterator[None]:
 def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png",),
                 prov: str = "") -> list[Path]:
     """stem.<format> for each format (PNG at PNG_DPI), provenance in each file's
-    metadata, plus stem.fig.json (provenance and the files); closes the figure."""
+    metadata, plus stem.fig.json (provenance, the files and each panel's title and axis
+    labels); closes the figure."""
     stem = Path(stem)
+    panels = [{"title": ax.get_title(), "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel()}
+              for ax in fig.get_axes()]
     written: list[Path] = []
     meta = {"png": {"Description": prov, "Software": "contact-bench"},
             "pdf": {"Subject": prov, "Creator": "contact-bench"},
@@ -107,7 +112,7 @@ def save_figure(fig: Figure, stem: str | Path, formats: Sequence[str] = ("png",)
             written.append(atomic_write(path, writer))
     finally:
         plt.close(fig)
-    side = {"provenance": prov, "files": [p.name for p in written]}
+    side = {"provenance": prov, "files": [p.name for p in written], "axes": panels}
     written.append(write_text(stem.with_name(f"{stem.name}.fig.json"),
                               json.dumps(side, indent=1) + "\n"))
     return written
@@ -131,9 +136,12 @@ def _legend(ax: plt.Axes, **kw: Any) -> None:
 # ------------------------------------------------------------------------ run
 
 
-def contact_figure(runs: list, exact: Any, title: str) -> Figure:
-    """Three panels: contact displacement, contact stress (axis clipped at 4x the exact
-    minimum), relative energy drift (symlog); one line per scheme, legend outside."""
+def contact_figure(runs: list, exact: Any, title: str, *, contact_label: str,
+                   force_label: str) -> Figure:
+    """Three panels: the contact observable (`Trajectory.contact_u`), the contact stress
+    (axis clipped at 4x the exact minimum), relative energy drift (symlog); one line per
+    scheme, legend outside. The first two panels' labels are the scene's
+    (`Case.contact_label`, `Case.force_label`)."""
     fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
     runs = [r for r in runs if r.trajectory is not None]
     for i, run in enumerate(runs):
@@ -151,8 +159,8 @@ def contact_figure(runs: list, exact: Any, title: str) -> Figure:
         axes[1].plot(t, s_exact, "k--", lw=1.2, label="exact")
         if s_exact.min() < 0:  # spikes of chattering schemes run off the axis
             axes[1].set_ylim(4.0 * s_exact.min(), -0.5 * s_exact.min())
-    axes[0].set_ylabel("u(0, t)")
-    axes[1].set_ylabel("contact stress E u_x(0, t)")
+    axes[0].set_ylabel(contact_label)
+    axes[1].set_ylabel(force_label)
     axes[2].set_ylabel("(E(t) - E(0)) / |E(0)|")
     axes[2].set_yscale("symlog", linthresh=1e-5)
     axes[2].set_xlabel("t")

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from contact_bench.api.fem import mesh_nodes
-from contact_bench.api.plugin import Case, Scheme, Semidiscrete
+from contact_bench.api.plugin import BarCase, Scheme, Semidiscrete
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_scheme, schemes
 from contact_bench.core.errors import BenchError
@@ -59,7 +59,7 @@ TOLERANCE = 0.3
 AMPLITUDE, CENTER, WIDTH = 0.1, 0.6, 0.4
 
 
-class SmoothStretch(Case):
+class SmoothStretch(BarCase):
     """A smooth free motion that never reaches the obstacle (see the module docstring)."""
 
     name = "smooth_stretch"
@@ -127,7 +127,7 @@ def _samples(scheme: Scheme, semi: Semidiscrete, T_end: float, steps: int,
 
 
 def measure_time_order(scheme: Scheme, nx: int = NX, levels: int = LEVELS,
-                       cfl: float = CFL, case: Case | None = None) -> TimeOrder:
+                       cfl: float = CFL, case: BarCase | None = None) -> TimeOrder:
     """The scheme's order in dt on `SmoothStretch` or the given case, up to its T (see
     the module docstring).
 
