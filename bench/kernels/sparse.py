@@ -46,15 +46,13 @@ from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import (
-    SampleBuffers,
     csr_energy,
     impulse_update,
-    new_stats,
     smallest_gap,
     stats_update,
     write_sample,
 )
-from contact_bench.kernels.stepper import SparseStepper
+from contact_bench.kernels.stepper import KernelStepper
 
 #: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
 KEEP_Z_ENTRIES = 10_000_000
@@ -84,6 +82,33 @@ def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: n
         work[i] = s / Ux[Up[i]]
     for i in range(n):  # x = Pc z
         out[i] = work[perm_c[i]]
+
+
+@njit(cache=True)
+def add_response(Z, mu, X):  # pragma: no cover - compiled
+    """X += Z mu over the nonzero entries of mu (the contact dofs that push; Z's rows
+    contiguous)."""
+    on = np.flatnonzero(mu)
+    for i in range(X.size):
+        acc = 0.0
+        for j in on:
+            acc += Z[i, j] * mu[j]
+        X[i] += acc
+
+
+@njit(cache=True)
+def correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - compiled
+    """X += S^-1 C^T mu: with Z = S^-1 C^T if kept (`keep_z`), else one more solve with
+    S's factor `fac` (rhs, w, work: scratch of X's size)."""
+    if keep_z:
+        add_response(Z, mu, X)
+    else:
+        rhs[:] = 0.0
+        for j in range(cd.size):
+            rhs[cd[j]] = mu[j]
+        lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, w, work)
+        for i in range(X.size):
+            X[i] += w[i]
 
 
 @dataclass
@@ -267,20 +292,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 penalty_solve(W, gf, cpen, mu, active)
             else:
                 lcp_solve(W, gf, mu, active, tol, was_in_contact)
-            if keep_z:
-                on = np.flatnonzero(mu)
-                for i in range(n):  # X += Z mu over the nonzero mu (Z's rows contiguous)
-                    acc = 0.0
-                    for j in on:
-                        acc += Z[i, j] * mu[j]
-                    X[i] += acc
-            else:
-                rhs[:] = 0.0
-                for j in range(nc):
-                    rhs[cd[j]] = mu[j]
-                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
-                for i in range(n):
-                    X[i] += w[i]
+            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j] and not penalty:
                     X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
@@ -374,7 +386,7 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
     return Z, np.ascontiguousarray(0.5 * (W + W.T))
 
 
-class NewmarkStepper(SparseStepper):
+class NewmarkStepper(KernelStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
 
@@ -413,12 +425,11 @@ class NewmarkStepper(SparseStepper):
             else:
                 W = delassus_only(fac, cd, n)
                 Z = np.zeros((1, 1))
-        #: the sampled energy at t = 0 with the law's terms (None: the problem's)
-        self.E0: float | None = None
-        if law is not None:
+        if law is not None:  # the sampled energy at t = 0 with the law's terms
             y = np.minimum(0.0, Pm @ p.U0 + y0)
-            self.E0 = float(p.energy(p.U0, p.V0) + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
-                            + 0.5 * ew * np.sum(lk * y * y))
+            self.sample0["energy"] = float(p.energy(p.U0, p.V0)
+                                           + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
+                                           + 0.5 * ew * np.sum(lk * y * y))
         # the law's total force at t = 0 (in the initial acceleration): the impulse's start
         self.force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
                        if law is not None else 0.0)
@@ -438,18 +449,8 @@ class NewmarkStepper(SparseStepper):
                           fac.arrays, cd, np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float), W, Z, keep_z, p.massless)
         self.params = (beta, gamma, dt)
-        self.law_arrays = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        p = self.problem
-        out = SampleBuffers(p, nsteps, stride)
-        if self.E0 is not None:
-            out.energy[0] = self.E0
-        stats = new_stats(self.force0, out.size)
-        k, done, min_gap, blow = _newmark_kernel(
-            *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
-            int(stride), float(p.energy_offset), *out.arrays(), stats, *self.law_arrays)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+        self.kernel = _newmark_kernel
+        self.tail = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
 
 
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
@@ -480,6 +481,59 @@ def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
         W[:, j] = fac.solve(e)[cd]
         e[d] = 0.0
     return np.ascontiguousarray(0.5 * (W + W.T))
+
+
+@dataclass
+class MasslessSplit:
+    """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
+    compiled kernels: the massless rows K_mm factored with the Delassus matrix of the
+    contact dofs among them, M_hh factored unless diagonal (`quasistatic_sparse`,
+    `contact_bench.kernels.sparse_family`). ValueError unless every contact dof is
+    massless and some dof has mass."""
+
+    hv: np.ndarray
+    mv: np.ndarray
+    cl: np.ndarray  # the contact dofs' positions in mv
+    Kh: tuple  # CSR rows K[hv] (all columns)
+    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
+    mfac: tuple  # K_mm factored
+    hfac: tuple  # M_hh factored (unless diagonal)
+    diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
+    W: np.ndarray  # C K_mm^-1 C^T
+    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
+    tol: float
+
+    @classmethod
+    def of(cls, p: SparseProblem) -> MasslessSplit:
+        massless = p.massless
+        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+        pos = np.full(p.nfree, -1)
+        pos[mv] = np.arange(mv.size)
+        cd = np.asarray(p.contact.dofs, np.int64)
+        if np.any(pos[cd] < 0) or hv.size == 0:
+            raise ValueError("the massless-contact ODE needs massless contact dofs "
+                             "(a redistributed mass) and dofs with mass")
+        cl = pos[cd]
+        K = sp.csr_matrix(p.K)
+        mfac = Factor.of(K[mv][:, mv])
+        Z, W = delassus(mfac, cl, mv.size)
+        keep = np.ones(p.nfree)
+        keep[mv] = 0.0
+        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+        Kmh.eliminate_zeros()
+        Mhh = sp.csr_matrix(p.M[hv][:, hv])
+        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
+                   mfac.arrays, hfac.arrays,
+                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
+                   np.ascontiguousarray(Z), tol)
+
+    def args(self) -> tuple:
+        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
+                self.diag_h, self.W, self.Z, self.tol)
 
 
 # ------------------------------------------------------- explicit central difference
@@ -544,7 +598,7 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
     return k, nsteps, min_gap, -1
 
 
-class CentralStepper(SparseStepper):
+class CentralStepper(KernelStepper):
     """`central_sparse` prepared: the diagonal mass and the initial half-step velocity."""
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -556,18 +610,12 @@ class CentralStepper(SparseStepper):
         super().__init__(p, dt)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         A = initial_acceleration(p)
+        self.kernel = _central_kernel
         self.state = (U, V + 0.5 * dt * A)  # (U^0, V^{1/2})
+        self.params = (self.dt,)
         self.operators = (m, *csr_arrays(p.K), np.asarray(p.F, float),
                           np.asarray(p.contact.dofs, np.int64),
                           np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float))
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _central_kernel(
-            *self.operators, *(a.copy() for a in self.state), self.dt, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def prepare_central(p: SparseProblem, dt: float) -> CentralStepper:
@@ -626,12 +674,7 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             pen = pen or gf[j] < 0.0
         if pen:
             lcp_solve(W, gf, mu, active, tol, was)
-            on = np.flatnonzero(mu)
-            for b in range(nm):
-                acc = 0.0
-                for j in on:
-                    acc += Z[b, j] * mu[j]
-                um[b] += acc
+            add_response(Z, mu, um)
             for j in range(nc):
                 if active[j]:
                     um[cl[j]] = -gap0[j]
@@ -668,57 +711,26 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
     return k, nsteps, min_gap, -1
 
 
-class QuasistaticStepper(SparseStepper):
+class QuasistaticStepper(KernelStepper):
     """`quasistatic_sparse` prepared: K_mm and M_hh factored, the Delassus matrix and the
     initial acceleration computed once."""
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float = 0.5) -> None:
         massless = p.massless
-        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
-        pos = np.full(p.nfree, -1)
-        pos[mv] = np.arange(mv.size)
-        cd = np.asarray(p.contact.dofs, np.int64)
-        if np.any(pos[cd] < 0):
+        if not np.all(massless[np.asarray(p.contact.dofs, np.int64)]):
             raise ValueError("the explicit quasi-static path needs massless contact dofs")
         super().__init__(p, dt)
-        cl = pos[cd]
-        K = sp.csr_matrix(p.K)
-        Kmm = K[mv][:, mv]
-        mfac = Factor.of(Kmm)
-        Z = np.empty((mv.size, cd.size))
-        e = np.zeros(mv.size)
-        for j, c in enumerate(cl):
-            e[c] = 1.0
-            Z[:, j] = mfac.solve(e)
-            e[c] = 0.0
-        W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
-        keep = np.ones(p.nfree)
-        keep[mv] = 0.0
-        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
-        Kmh.eliminate_zeros()
-        Mhh = sp.csr_matrix(p.M[hv][:, hv])
-        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
-        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
-        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        self.state = (U, V, initial_acceleration(p))
-        tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
-                                                                 initial=0.0)), 1e-300)
+        split = MasslessSplit.of(p)
+        self.kernel = _quasistatic_kernel
+        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy(),
+                      initial_acceleration(p))
         self.operators = (
-            *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
-            *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
-            Mhh.diagonal() if diag else np.zeros(0), cl, np.asarray(p.contact.gap0, float),
-            np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z))
-        self.gamma = float(gamma)
-        self.tol = tol
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _quasistatic_kernel(
-            *self.operators, *(a.copy() for a in self.state), self.dt, self.gamma,
-            int(nsteps), int(stride), float(self.problem.energy_offset), *out.arrays(),
-            stats, self.tol)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+            *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
+            *split.Kh, *split.Kmh, split.mfac, split.hfac, split.diag_h, split.cl,
+            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
+            split.W, split.Z)
+        self.params = (self.dt, float(gamma))
+        self.tail = (split.tol,)
 
 
 def prepare_quasistatic(p: SparseProblem, dt: float, gamma: float = 0.5

@@ -49,9 +49,7 @@ from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import (
-    SampleBuffers,
     impulse_update,
-    new_stats,
     smallest_gap,
     stats_update,
     write_sample,
@@ -60,12 +58,13 @@ from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     ContactLaw,
     Factor,
+    delassus,
     initial_acceleration,
     lcp_solve,
     lu_solve,
     penalty_solve,
 )
-from contact_bench.kernels.stepper import SparseStepper
+from contact_bench.kernels.stepper import KernelStepper
 
 #: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
 SMALL_DENSE = 64
@@ -189,7 +188,7 @@ def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:
     return sp.csr_matrix(p.K if law.K_extra is None else p.K + law.K_extra)
 
 
-class ExplicitLawStepper(SparseStepper):
+class ExplicitLawStepper(KernelStepper):
     """`explicit_law_sparse` prepared: K'_mm and M_hh factored, the massless elimination's
     matrices, the initial acceleration and sample 0's energy and stress computed once."""
 
@@ -230,11 +229,11 @@ class ExplicitLawStepper(SparseStepper):
         A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
         self.state = (U, V, A)
         yneg = np.minimum(0.0, Pm @ U + y0)
-        #: sample 0's energy and stress, with the law's terms
-        self.E0 = float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
-                        + 0.5 * float(law.ew) * np.sum(c * yneg * yneg))
-        self.stress0 = float(np.sum(np.asarray(law.sc, float) * yneg)
-                             / np.sum(p.contact.weights))
+        self.sample0 = {  # sample 0's energy and stress, with the law's terms
+            "energy": float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
+                            + 0.5 * float(law.ew) * np.sum(c * yneg * yneg)),
+            "stress": float(np.sum(np.asarray(law.sc, float) * yneg)
+                            / np.sum(p.contact.weights))}
         # the law's total force at t = 0 (in the initial acceleration): the impulse's start
         self.force0 = float(law.fscale) * float(np.sum(mu0))
         self.operators = (
@@ -244,18 +243,8 @@ class ExplicitLawStepper(SparseStepper):
             c, float(law.ew), np.asarray(law.sc, float), float(law.fscale), W,
             np.ascontiguousarray(Z), cd, np.asarray(p.contact.gap0, float),
             np.asarray(p.contact.weights, float))
-        self.gamma = gamma
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        out.energy[0] = self.E0
-        out.stress[0] = self.stress0
-        stats = new_stats(self.force0, out.size)
-        k, done, min_gap, blow = _explicit_law_kernel(
-            *self.operators, *(a.copy() for a in self.state), self.dt, self.gamma,
-            int(nsteps), int(stride), float(self.problem.energy_offset), *out.arrays(),
-            stats)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+        self.kernel = _explicit_law_kernel
+        self.params = (self.dt, gamma)
 
 
 def prepare_explicit_law(p: SparseProblem, dt: float, gamma: float, law: ContactLaw
@@ -433,7 +422,7 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
     return k, nsteps, min_gap, -1
 
 
-class TaylorFlanaganStepper(SparseStepper):
+class TaylorFlanaganStepper(KernelStepper):
     """`taylor_flanagan_sparse` prepared: M factored, the response Z = M^-1 C^T and the
     Delassus matrix W = C Z, the initial acceleration computed once."""
 
@@ -445,26 +434,14 @@ class TaylorFlanaganStepper(SparseStepper):
         cd = np.asarray(p.contact.dofs, np.int64)
         _check_response(n, cd.size)
         fac = Factor.of(p.M)
-        Z = np.empty((n, cd.size))
-        e = np.zeros(n)
-        for j, d in enumerate(cd):
-            e[d] = 1.0
-            Z[:, j] = fac.solve(e)
-            e[d] = 0.0
-        W = np.ascontiguousarray(0.5 * (Z[cd] + Z[cd].T))
+        Z, W = delassus(fac, cd, n)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        self.kernel = _tf_kernel
         self.state = (U, V, fac.solve(p.F - p.K @ U))
+        self.params = (self.dt,)
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
                           fac.arrays, cd, np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z))
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _tf_kernel(
-            *self.operators, *(a.copy() for a in self.state), self.dt, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:

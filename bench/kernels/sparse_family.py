@@ -38,8 +38,6 @@ Both accumulate the contact impulse and record it at each sample (the statistics
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -52,7 +50,6 @@ from contact_bench.kernels.recording import (
     CONTACT_IMPULSE,
     LAST_FORCE,
     SAMPLE_IMPULSE,
-    SampleBuffers,
     contact_extra,
     csr_energy,
     first_contact_impulse,
@@ -62,64 +59,14 @@ from contact_bench.kernels.recording import (
     stats_update,
     write_sample,
 )
-from contact_bench.kernels.sparse import Factor, lcp_solve, lu_solve
-from contact_bench.kernels.stepper import SparseStepper
-
-
-@dataclass
-class MasslessSplit:
-    """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
-    compiled kernels (module docstring)."""
-
-    hv: np.ndarray
-    mv: np.ndarray
-    cl: np.ndarray  # the contact dofs' positions in mv
-    Kh: tuple  # CSR rows K[hv] (all columns)
-    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
-    mfac: tuple  # K_mm factored
-    hfac: tuple  # M_hh factored (unless diagonal)
-    diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
-    W: np.ndarray  # C K_mm^-1 C^T
-    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
-    tol: float
-
-    @classmethod
-    def of(cls, p: SparseProblem) -> MasslessSplit:
-        massless = p.massless
-        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
-        pos = np.full(p.nfree, -1)
-        pos[mv] = np.arange(mv.size)
-        cd = np.asarray(p.contact.dofs, np.int64)
-        if np.any(pos[cd] < 0) or hv.size == 0:
-            raise ValueError("the massless-contact ODE needs massless contact dofs "
-                             "(a redistributed mass) and dofs with mass")
-        cl = pos[cd]
-        K = sp.csr_matrix(p.K)
-        mfac = Factor.of(K[mv][:, mv])
-        Z = np.empty((mv.size, cd.size))
-        e = np.zeros(mv.size)
-        for j, c in enumerate(cl):
-            e[c] = 1.0
-            Z[:, j] = mfac.solve(e)
-            e[c] = 0.0
-        W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
-        keep = np.ones(p.nfree)
-        keep[mv] = 0.0
-        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
-        Kmh.eliminate_zeros()
-        Mhh = sp.csr_matrix(p.M[hv][:, hv])
-        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
-        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
-        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
-                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
-        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
-                   mfac.arrays, hfac.arrays,
-                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
-                   np.ascontiguousarray(Z), tol)
-
-    def args(self) -> tuple:
-        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
-                self.diag_h, self.W, self.Z, self.tol)
+from contact_bench.kernels.sparse import (
+    Factor,
+    MasslessSplit,
+    add_response,
+    lcp_solve,
+    lu_solve,
+)
+from contact_bench.kernels.stepper import KernelStepper, SparseStepper
 
 
 @njit(cache=True)
@@ -140,12 +87,7 @@ def massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, activ
         pen = pen or gf[j] < 0.0
     if pen:
         lcp_solve(W, gf, mu, active, tol, warm)
-        on = np.flatnonzero(mu)
-        for b in range(nm):
-            acc = 0.0
-            for j in on:
-                acc += Z[b, j] * mu[j]
-            um[b] += acc
+        add_response(Z, mu, um)
         for j in range(nc):
             if active[j]:
                 um[cl[j]] = -gap0[j]  # on the obstacle: the gap is 0 exactly
@@ -265,25 +207,19 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
     return k, nsteps, min_gap, -1
 
 
-class VerletStepper(SparseStepper):
+class VerletStepper(KernelStepper):
     """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
     factored, the Delassus matrix) computed once."""
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
         self.split = MasslessSplit.of(p)
         super().__init__(p, dt)
+        self.kernel = _verlet_kernel
         self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
+        self.params = (self.dt,)
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
                           *self.split.args(), np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float))
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _verlet_kernel(
-            *self.operators, *(a.copy() for a in self.state), self.dt, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def prepare_verlet(p: SparseProblem, dt: float) -> VerletStepper:

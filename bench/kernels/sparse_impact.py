@@ -44,10 +44,8 @@ from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import (
     CONTACT_IMPULSE,
     LAST_FORCE,
-    SampleBuffers,
     csr_energy,
     impulse_update,
-    new_stats,
     smallest_gap,
     stats_update,
     write_sample,
@@ -55,34 +53,14 @@ from contact_bench.kernels.recording import (
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     Factor,
+    correct,
     delassus,
     delassus_only,
     initial_acceleration,
     lcp_solve,
     lu_solve,
 )
-from contact_bench.kernels.stepper import SparseStepper
-
-
-@njit(cache=True)
-def _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - compiled
-    """X += S^-1 C^T mu (with Z = S^-1 C^T if kept, else one more solve)."""
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
-    n = X.size
-    if keep_z:
-        on = np.flatnonzero(mu)
-        for i in range(n):
-            acc = 0.0
-            for j in on:
-                acc += Z[i, j] * mu[j]
-            X[i] += acc
-    else:
-        rhs[:] = 0.0
-        for j in range(cd.size):
-            rhs[cd[j]] = mu[j]
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
-        for i in range(n):
-            X[i] += w[i]
+from contact_bench.kernels.stepper import KernelStepper
 
 
 @njit(cache=True)
@@ -141,7 +119,7 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
                     mu[j] = -gf[j] * sdiag[cd[j]] if active[j] else 0.0
             else:
                 lcp_solve(W, gf, mu, active, tol, was)
-                _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+                correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j]:  # on the constraint exactly
                     X[cd[j]] = -gap0[j] - e * (gap0[j] + Um[cd[j]])
@@ -194,7 +172,7 @@ def _contact_operators(fac: Factor, cd: np.ndarray, n: int):
     return keep_z, np.ascontiguousarray(Z), W
 
 
-class PaoliSchatzmanStepper(SparseStepper):
+class PaoliSchatzmanStepper(KernelStepper):
     """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
     matrix and the state (U^{-1}, U^0) computed once."""
 
@@ -215,21 +193,14 @@ class PaoliSchatzmanStepper(SparseStepper):
             keep_z, Z, W = _contact_operators(fac, cd, n)
         U = p.U0.astype(float).copy()
         self.state = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
-        self.tol = 1e-13 * max(float(np.max(np.abs(U))),
-                               float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        self.kernel = _ps_kernel
+        self.tail = (1e-13 * max(float(np.max(np.abs(U))),
+                                 float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300),)
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
                           sd if diag else np.zeros(0), fac.arrays, cd,
                           np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float), W, Z, keep_z)
         self.params = (beta, e, dt)
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _ps_kernel(
-            *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats, self.tol)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def prepare_paoli_schatzman(p: SparseProblem, dt: float, e: float, beta: float
@@ -303,7 +274,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
             for a in range(m):
                 mu[idx[a]] = ms[a]
                 active[idx[a]] = acts[a]
-            _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j]:  # on the law exactly
                     X[cd[j]] = -e * V[cd[j]]
@@ -325,7 +296,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
     return k, nsteps, min_gap, -1
 
 
-class MoreauJeanStepper(SparseStepper):
+class MoreauJeanStepper(KernelStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
 
     def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
@@ -340,19 +311,12 @@ class MoreauJeanStepper(SparseStepper):
         self.state = (U, V)
         # a velocity-level tolerance: round-off of the larger of the data's speeds
         vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
-        self.tol = 1e-13 * vscale
+        self.kernel = _mj_kernel
+        self.tail = (1e-13 * vscale,)
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
                           fac.arrays, cd, np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float), W, Z, keep_z)
         self.params = (theta, e, dt)
-
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
-        stats = new_stats(samples=out.size)
-        k, done, min_gap, blow = _mj_kernel(
-            *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats, self.tol)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float
