@@ -2,7 +2,8 @@
 
 Layers, bottom to top: core < api < kernels, exact < harness < sweeps < output < cli. A
 module imports only its own layer or lower ones; kernels and exact do not import each
-other. No private (leading underscore) module or name is imported across subpackages.
+other. No private (leading underscore) module or name is imported across subpackages,
+and no module imports a private name of another module, in its own subpackage either.
 Plugins (`schemes/`, `cases/`) import only core, api, kernels and exact, never one another.
 
 The package installs as `contact_bench` only: a working directory holding folders named
@@ -134,6 +135,40 @@ def test_the_rules_catch_a_bad_import(tmp_path: Path, source: str, rule: str) ->
     if "schemes" in source:  # a scheme importing a scheme
         found = [v for v in _violations(name, path, modules) if "another plugin" in v]
     assert found, (source, _violations(name, path, modules))
+
+
+def _private_imports(name: str, path: Path, modules: dict[str, Path]) -> list[str]:
+    """`from contact_bench.X import _name` of a module other than this one: a private
+    name shared across modules (inside a subpackage too)."""
+    where = str(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
+    return [f"{where}:{line} imports {target}.{imported}"
+            for line, target, imported in _imports(name, path, modules)
+            if imported and _private(imported) and target != name]
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    """What one module shares with another is public: no `from contact_bench.X import
+    _name` anywhere in bench/, schemes/ or cases/ (within a subpackage too)."""
+    modules = _modules()
+    bad = [v for name, path in modules.items() for v in _private_imports(name, path, modules)]
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("source, caught", [
+    ("from contact_bench.kernels.sparse import _hidden", True),
+    ("from .sparse import _hidden", True),
+    ("from contact_bench.kernels.sparse import visible", False),
+    ("from contact_bench.kernels import __version__", False),
+])
+def test_the_private_import_rule_catches_a_private_name(tmp_path: Path, source: str,
+                                                       caught: bool) -> None:
+    """The checker itself, in a kernels module importing from its own subpackage."""
+    path = tmp_path / "probe.py"
+    path.write_text(source + "\n")
+    modules = _modules()
+    name = f"{PKG}.kernels.probe"
+    modules[name] = path
+    assert bool(_private_imports(name, path, modules)) == caught
 
 
 def test_a_plugin_importing_a_layer_above_kernels_is_caught(tmp_path: Path) -> None:

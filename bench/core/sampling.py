@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit, uint64
 
 from contact_bench.core.simd import vhsum, vload, vsplat
-from contact_bench.core.tridiag import QUAD_BLOCK, _snap
+from contact_bench.core.tridiag import QUAD_BLOCK, snap_row_sum
 
 BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
 
@@ -27,13 +27,13 @@ def row_sums(d, e):
     n = d.size
     r = np.empty(n)
     if n == 1:
-        r[0] = _snap(d[0], abs(d[0]))
+        r[0] = snap_row_sum(d[0], abs(d[0]))
     if n < 2:
         return r
-    r[0] = _snap(d[0] + e[0], abs(d[0]) + abs(e[0]))
+    r[0] = snap_row_sum(d[0] + e[0], abs(d[0]) + abs(e[0]))
     for i in range(1, n - 1):
-        r[i] = _snap((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
-    r[n - 1] = _snap(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
+        r[i] = snap_row_sum((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
+    r[n - 1] = snap_row_sum(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
     return r
 
 

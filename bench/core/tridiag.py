@@ -74,7 +74,7 @@ QUAD_BLOCK = 256
 
 
 @njit(cache=True, inline="always")
-def _snap(r, a):  # pragma: no cover - compiled
+def snap_row_sum(r, a):  # pragma: no cover - compiled
     """A row sum r, or 0 when it is at the rounding level of the row (|r| <= ROWSUM_RTOL a,
     a = the row's absolute sum)."""
     return r if abs(r) > ROWSUM_RTOL * a else 0.0
@@ -83,7 +83,7 @@ def _snap(r, a):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def _inner_term(d, e, x, i):  # pragma: no cover - compiled
     """Row i's term r_i x_i^2 - e_i (x_{i+1} - x_i)^2 for 0 < i < n - 1, branch-free."""
-    r = _snap((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
+    r = snap_row_sum((d[i] + e[i - 1]) + e[i], (abs(d[i]) + abs(e[i - 1])) + abs(e[i]))
     xi = x[i]
     dx = x[i + 1] - xi
     return r * xi * xi - e[i] * dx * dx
@@ -112,10 +112,10 @@ def tri_quad(d, e, x):
     if n == 0:
         return 0.0
     if n == 1:
-        return _snap(d[0], abs(d[0])) * x[0] * x[0]
+        return snap_row_sum(d[0], abs(d[0])) * x[0] * x[0]
     dx = x[1] - x[0]
-    total = (_snap(d[0] + e[0], abs(d[0]) + abs(e[0])) * x[0] * x[0] - e[0] * dx * dx
-             + _snap(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
+    total = (snap_row_sum(d[0] + e[0], abs(d[0]) + abs(e[0])) * x[0] * x[0] - e[0] * dx * dx
+             + snap_row_sum(d[n - 1] + e[n - 2], abs(d[n - 1]) + abs(e[n - 2]))
              * x[n - 1] * x[n - 1])
     i = 1
     while i < n - 1:

@@ -705,8 +705,8 @@ class CharacteristicsSolution:
         (sorted x: 8 points at a time, `_evaluation`)."""
         x, t = grid_points(x, t, u, ux, ut)
         # the checks and clipping of `_points`, from one pass over each array
-        xlo, xhi, ordered = _scan(x)
-        tlo, thi, _ = _scan(t)
+        xlo, xhi, ordered = scan_range(x)
+        tlo, thi, _ = scan_range(t)
         sx, st = _T_SLACK * self.L, _T_SLACK * self.T
         if not (xlo >= -sx and xhi <= self.L + sx and tlo >= -st and thi <= self.T + st):
             self._points(x, t)  # raises the ValueError that names the bad value
@@ -1067,7 +1067,7 @@ def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, 
 
 
 @njit(cache=True)
-def _scan(a):  # pragma: no cover - compiled
+def scan_range(a):  # pragma: no cover - compiled
     """(min, max, nondecreasing) of a 1-D array in one pass; min and max NaN if a holds
     a NaN (so that range checks fail)."""
     lo = np.inf

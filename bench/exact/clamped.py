@@ -18,7 +18,7 @@ from numba import njit
 
 from contact_bench.api.plugin import flat_points, grid_points
 from contact_bench.core.simd import vload, vselect_lt, vsplat, vstore
-from contact_bench.exact.characteristics import _scan
+from contact_bench.exact.characteristics import scan_range
 
 _GROUP = 32  # points of a group in `_run`
 
@@ -181,7 +181,7 @@ def _grid_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
     by point."""
     want_v = ut.size > 0
     n = x.size
-    ordered = _scan(x)[2]  # nondecreasing, no NaN (else point by point)
+    ordered = scan_range(x)[2]  # nondecreasing, no NaN (else point by point)
     for k in range(t.size):
         tk = t[k]
         if not ordered:

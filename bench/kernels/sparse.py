@@ -25,13 +25,17 @@ once outside the loop; the loops are numba kernels over CSR arrays.
   would penetrate is stopped where it was.
 
 Per step the kernels count the contact status switches (chatter), the smallest gap,
-the first contact's start and end and the peak total contact force (`contact_stats`).
+the first contact's start and end and the peak total contact force
+(`contact_bench.kernels.recording`).
+
+Each `x_sparse(p, dt, nsteps, stride, ...)` is `prepare_x(p, dt, ...).run(nsteps,
+stride)`: `prepare_x` does the set-up once (`contact_bench.kernels.stepper`), `run`
+steps from the initial state.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,7 +44,15 @@ from scipy.sparse.linalg import splu
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import (
+    csr_energy,
+    impulse_update,
+    smallest_gap,
+    stats_update,
+    write_sample,
+)
+from contact_bench.kernels.stepper import KernelStepper
 
 #: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
 KEEP_Z_ENTRIES = 10_000_000
@@ -49,16 +61,6 @@ LCP_MAX_PIVOTS = 50
 
 
 # ------------------------------------------------------------------------ CSR kernels
-
-
-@njit(cache=True)
-def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
-    """out = A x for A in CSR."""
-    for i in range(indptr.size - 1):
-        s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            s += data[k] * x[indices[k]]
-        out[i] = s
 
 
 @njit(cache=True)
@@ -80,6 +82,33 @@ def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: n
         work[i] = s / Ux[Up[i]]
     for i in range(n):  # x = Pc z
         out[i] = work[perm_c[i]]
+
+
+@njit(cache=True)
+def add_response(Z, mu, X):  # pragma: no cover - compiled
+    """X += Z mu over the nonzero entries of mu (the contact dofs that push; Z's rows
+    contiguous)."""
+    on = np.flatnonzero(mu)
+    for i in range(X.size):
+        acc = 0.0
+        for j in on:
+            acc += Z[i, j] * mu[j]
+        X[i] += acc
+
+
+@njit(cache=True)
+def correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - compiled
+    """X += S^-1 C^T mu: with Z = S^-1 C^T if kept (`keep_z`), else one more solve with
+    S's factor `fac` (rhs, w, work: scratch of X's size)."""
+    if keep_z:
+        add_response(Z, mu, X)
+    else:
+        rhs[:] = 0.0
+        for j in range(cd.size):
+            rhs[cd[j]] = mu[j]
+        lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, w, work)
+        for i in range(X.size):
+            X[i] += w[i]
 
 
 @dataclass
@@ -105,11 +134,6 @@ class Factor:
         out = np.empty(self.n)
         lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
         return out
-
-
-def csr_arrays(A: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    A = sp.csr_matrix(A)
-    return A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data.astype(float)
 
 
 # ------------------------------------------------------------------------------ LCP
@@ -212,135 +236,7 @@ def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
     return -1
 
 
-# -------------------------------------------------------------------- contact stats
-
-
-#: the slots of the per-step contact statistics array (`_new_stats`)
-STATS_FIELDS = ("chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
-                "contact_steps", "first_contact_peak", "contact_impulse", "_last_force",
-                "first_contact_impulse")
-
-
-@njit(cache=True)
-def _stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
-    """Update the per-step contact statistics (`_new_stats`) with the step's contact
-    forces lam (one per contact dof, >= 0; the force of step `step`, at t = step dt);
-    status (in/out) the previous contact status of each contact dof, updated."""
-    total = 0.0
-    anyc = False
-    for i in range(lam.size):
-        now = lam[i] > 0.0
-        if now != status[i]:
-            stats[0] += 1.0
-            status[i] = now
-        total += lam[i]
-        anyc = anyc or now
-    if anyc:
-        stats[4] += 1.0
-        if np.isnan(stats[1]):
-            stats[1] = step * dt
-        if np.isnan(stats[2]) and total > stats[5]:
-            stats[5] = total
-    elif not np.isnan(stats[1]) and np.isnan(stats[2]):
-        stats[2] = step * dt
-    if total > stats[3]:
-        stats[3] = total
-
-
-@njit(cache=True)
-def _impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
-    """Add the step's contact impulse to stats[6]: dt (gamma F_{n+1} + (1 - gamma) F_n),
-    F the total force sum(lam) (F_{n+1} this step's, F_n the previous step's, kept in
-    stats[7]); gamma the weight of the step's velocity update on its end force (Newmark
-    and explicit Newmark: their gamma; the kick-drift central difference, whose kick
-    carries the step's force whole: 1). Call it after the step's forces are final."""
-    total = 0.0
-    for i in range(lam.size):
-        total += lam[i]
-    if np.isnan(stats[6]):
-        stats[6] = 0.0
-    stats[6] += dt * (gamma * total + (1.0 - gamma) * stats[7])
-    stats[7] = total
-    if not np.isnan(stats[2]) and np.isnan(stats[8]):  # the first contact has ended
-        stats[8] = stats[6]
-
-
-@njit(cache=True)
-def _impulse_sample(stats, k):  # pragma: no cover - compiled
-    """Record the accumulated impulse (slot 6) as sample k's (slot 9 + k, `_new_stats`
-    with `samples`; nothing without that slot). Call it when sample k is written."""
-    if 9 + k < stats.size and not np.isnan(stats[6]):
-        stats[9 + k] = stats[6]
-
-
-@njit(cache=True)
-def _write_sample(k, t, U, V, gap0, idx, stress, e, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out, stats):  # pragma: no cover - compiled
-    """Write sample k of a sparse kernel: time t, U, V, the smallest gap of the contact
-    dofs idx, the stress, the energy e and the impulse so far (`_impulse_sample`).
-    True when the run has blown up (e not finite or above BLOWUP_FACTOR |E0|)."""
-    t_out[k] = t
-    U_out[k, :] = U
-    V_out[k, :] = V
-    g = np.inf
-    for j in range(idx.size):
-        g = min(g, gap0[j] + U[idx[j]])
-    cu_out[k] = g
-    s_out[k] = stress
-    E_out[k] = e
-    _impulse_sample(stats, k)
-    return not np.isfinite(e) or abs(e) > BLOWUP_FACTOR * max(abs(E0), 1e-300)
-
-
-def _new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
-    """The per-step contact statistics of a kernel, slots (`STATS_FIELDS`):
-    0 status switches of the contact dofs (chatter), 1 first contact start (the time of
-    the first step with a positive force), 2 first contact end (the first step after it
-    without), 3 peak total contact force over the run, 4 steps in contact, 5 peak total
-    force over the first contact, 6 the contact impulse accumulated with the velocity
-    update's weights (`_impulse_update`; NaN until a kernel calls it: a kernel that
-    does not keeps no impulse), 7 the previous step's total force (its start value
-    `force0`: the force at t = 0 the initial acceleration holds, 0 for exact contact),
-    8 the impulse up to the end of the first contact (slot 6 at the step that ends it,
-    which carries the (1 - gamma) share of its last force; NaN until then); then
-    `samples` slots, the impulse accumulated up to each sample (`_impulse_sample`; 0 at
-    sample 0), so that the momentum balance can be checked at every sample.
-    A kernel calls `_stats_update` each step, and `_impulse_update` if its velocity
-    update is a weighted sum of the end forces of the step."""
-    out = np.zeros(9 + int(samples))
-    out[:9] = [0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan]
-    return out
-
-
-def contact_extra(stats: np.ndarray, samples: int | None = None) -> dict[str, Any]:
-    """The per-step contact statistics of a run (`Trajectory.extra`); "contact_impulse"
-    and "first_contact_impulse" only from a kernel that accumulates them, and "impulse"
-    (the accumulated impulse at each of the first `samples` samples) only if its stats
-    recorded them."""
-    out: dict[str, Any] = {
-        "chatter": float(stats[0]), "first_contact_start": float(stats[1]),
-        "first_contact_end": float(stats[2]), "peak_contact_force": float(stats[3]),
-        "contact_steps": float(stats[4])}
-    if stats.size > 5:
-        out["first_contact_peak"] = float(stats[5])
-    if stats.size > 6 and not np.isnan(stats[6]):
-        out["contact_impulse"] = float(stats[6])
-        if samples is not None and stats.size >= 9 + samples:
-            out["impulse"] = np.array(stats[9:9 + samples])
-    if stats.size > 8 and not np.isnan(stats[8]):
-        out["first_contact_impulse"] = float(stats[8])
-    return out
-
-
 # -------------------------------------------------------------------------- Newmark
-
-
-@njit(cache=True)
-def _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - compiled
-    csr_matvec(Mp, Mi, Mx, V, w)
-    e = 0.5 * (V @ w)
-    csr_matvec(Kp, Ki, Kx, U, w)
-    return e + 0.5 * (U @ w) - F @ U + offset
 
 
 @njit(cache=True)
@@ -374,9 +270,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     was_in_contact = False
     cpen = kappa * bdt2
     E0 = E_out[0]
-    min_gap = np.inf
-    for i in range(nc):
-        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    min_gap = smallest_gap(gap0, U, cd)
     k = 1
     for step in range(1, nsteps + 1):
         csr_matvec(Mp, Mi, Mx, P, rhs)
@@ -398,20 +292,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 penalty_solve(W, gf, cpen, mu, active)
             else:
                 lcp_solve(W, gf, mu, active, tol, was_in_contact)
-            if keep_z:
-                on = np.flatnonzero(mu)
-                for i in range(n):  # X += Z mu over the nonzero mu (Z's rows contiguous)
-                    acc = 0.0
-                    for j in on:
-                        acc += Z[i, j] * mu[j]
-                    X[i] += acc
-            else:
-                rhs[:] = 0.0
-                for j in range(nc):
-                    rhs[cd[j]] = mu[j]
-                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
-                for i in range(n):
-                    X[i] += w[i]
+            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j] and not penalty:
                     X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
@@ -432,12 +313,11 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                 P[i] = k1 * d + (X[i] + Q[i])
                 Q[i] = k2 * d + Q[i]
             U[i] = X[i]
-        _stats_update(stats, status, lam, step, dt)
-        _impulse_update(stats, lam, dt, gamma)
-        for i in range(nc):
-            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, gamma)
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
         if step % stride == 0 or step == nsteps:
-            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
             if penalty:  # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2
                 csr_matvec(Pp, Pi, Px, U, y)
                 st = 0.0
@@ -446,7 +326,7 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
                     e += 0.5 * ew * kappa[i] * yi * yi
                     st += sc[i] * yi
             stress = st / area if penalty else -lam.sum() / area
-            blown = _write_sample(k, step * dt, U, V, gap0, cd, stress, e, E0,
+            blown = write_sample(k, step * dt, U, V, gap0, cd, stress, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -494,26 +374,6 @@ def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.nd
     return A
 
 
-def _buffers(p: SparseProblem, nsteps: int, stride: int) -> dict[str, np.ndarray]:
-    k = n_samples(nsteps, stride)
-    n = p.nfree
-    out = {"t": np.zeros(k), "U": np.zeros((k, n)), "V": np.zeros((k, n)), "cu": np.zeros(k),
-           "s": np.zeros(k), "E": np.zeros(k)}
-    out["U"][0], out["V"][0] = p.U0, p.V0
-    out["cu"][0] = float(np.min(p.gaps(p.U0))) if p.contact.size else np.inf
-    out["E"][0] = p.energy(p.U0, p.V0)
-    return out
-
-
-def _trajectory(out: dict, k: int, done: int, min_gap: float, blow: int, dt: float,
-                stats: np.ndarray) -> Trajectory:
-    return Trajectory(t=out["t"][:k], U=out["U"][:k], V=out["V"][:k], contact_u=out["cu"][:k],
-                      stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_gap),
-                      steps_done=int(done),
-                      blowup_time=None if blow < 0 else float(blow * dt),
-                      extra=contact_extra(stats, k))
-
-
 def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Z = S^-1 C^T (n x n_c) and W = C Z, by n_c solves."""
     Z = np.empty((n, cd.size))
@@ -526,73 +386,90 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
     return Z, np.ascontiguousarray(0.5 * (W + W.T))
 
 
-def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
-                   gamma: float, kappa: np.ndarray | None = None,
-                   law: ContactLaw | None = None, alpha: float = 0.0) -> Trajectory:
+class NewmarkStepper(KernelStepper):
+    """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
+    the initial acceleration and the predictors (P, Q) computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
+                 kappa: np.ndarray | None = None, law: ContactLaw | None = None,
+                 alpha: float = 0.0) -> None:
+        if not beta > 0.0:
+            raise ValueError("newmark_sparse needs beta > 0 (the explicit path is "
+                             "central_sparse)")
+        super().__init__(p, dt)
+        dt, beta, gamma = self.dt, float(beta), float(gamma)
+        n = p.nfree
+        cd = np.asarray(p.contact.dofs, np.int64)
+        C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, n))
+        if kappa is not None:
+            kappa = np.asarray(kappa, float)
+            law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+        K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
+        fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
+        keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
+        if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
+            Z = np.empty((n, cd.size))
+            Qc = sp.csc_matrix(law.Q.T)
+            for j in range(cd.size):
+                Z[:, j] = fac.solve(Qc[:, j].toarray().ravel())
+            W = np.ascontiguousarray(law.P @ Z)
+            Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
+            lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
+            fscale = float(law.fscale)
+        else:
+            Pm, y0 = C, np.asarray(p.contact.gap0, float)
+            lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
+            fscale = 1.0
+            if keep_z:
+                Z, W = delassus(fac, cd, n)
+            else:
+                W = delassus_only(fac, cd, n)
+                Z = np.zeros((1, 1))
+        if law is not None:  # the sampled energy at t = 0 with the law's terms
+            y = np.minimum(0.0, Pm @ p.U0 + y0)
+            self.sample0["energy"] = float(p.energy(p.U0, p.V0)
+                                           + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
+                                           + 0.5 * ew * np.sum(lk * y * y))
+        # the law's total force at t = 0 (in the initial acceleration): the impulse's start
+        self.force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
+                       if law is not None else 0.0)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        if law is not None:  # the full force at t = 0: K' and the law's, if active
+            r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
+            A = initial_acceleration(p, r)
+        else:
+            A = initial_acceleration(p)
+        # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
+        # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
+        self.state = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
+                      dt * V + dt * dt * (1.0 - gamma) * A)
+        tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
+                                                                 initial=0.0)), 1e-300)
+        self.operators = (*csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float),
+                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float), W, Z, keep_z, p.massless)
+        self.params = (beta, gamma, dt)
+        self.kernel = _newmark_kernel
+        self.tail = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
+
+
+def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
+                    kappa: np.ndarray | None = None, law: ContactLaw | None = None,
+                    alpha: float = 0.0) -> NewmarkStepper:
     """Newmark(beta > 0, gamma) with exact contact at t_{n+1} (module docstring), or
     a piecewise-linear `law` (`ContactLaw`: Nitsche), or penalty springs: `kappa` (one
     stiffness per contact dof) gives the force kappa_i max(0, -g_i) at t_{n+1}; the
     law's step is solved exactly (`penalty_solve`), its energy is sampled. `alpha` != 0:
     HHT-alpha, M A1 + (1 + alpha) K U1 - alpha K U0 = F + C^T lambda, S = M + (1 + alpha)
     beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's)."""
-    if not beta > 0.0:
-        raise ValueError("newmark_sparse needs beta > 0 (the explicit path is central_sparse)")
-    dt, beta, gamma = float(dt), float(beta), float(gamma)
-    n = p.nfree
-    cd = np.asarray(p.contact.dofs, np.int64)
-    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, n))
-    if kappa is not None:
-        kappa = np.asarray(kappa, float)
-        law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
-    K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
-    fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
-    keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
-    if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
-        Z = np.empty((n, cd.size))
-        Qc = sp.csc_matrix(law.Q.T)
-        for j in range(cd.size):
-            Z[:, j] = fac.solve(Qc[:, j].toarray().ravel())
-        W = np.ascontiguousarray(law.P @ Z)
-        Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
-        lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
-        fscale = float(law.fscale)
-    else:
-        Pm, y0 = C, np.asarray(p.contact.gap0, float)
-        lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
-        fscale = 1.0
-        if keep_z:
-            Z, W = delassus(fac, cd, n)
-        else:
-            W = delassus_only(fac, cd, n)
-            Z = np.zeros((1, 1))
-    out = _buffers(p, nsteps, stride)
-    if law is not None:  # the sampled energy with the law's terms
-        y = np.minimum(0.0, Pm @ p.U0 + y0)
-        out["E"][0] = float(p.energy(p.U0, p.V0) + 0.5 * p.U0 @ ((K - p.K) @ p.U0)
-                            + 0.5 * ew * np.sum(lk * y * y))
-    # the law's total force at t = 0 (in the initial acceleration): the impulse's start
-    force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
-              if law is not None else 0.0)
-    stats = _new_stats(force0, out["t"].size)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    if law is not None:  # the full force at t = 0: K' and the law's, if active
-        r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
-        A = initial_acceleration(p, r)
-    else:
-        A = initial_acceleration(p)
-    # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
-    # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
-    P = U + dt * V + (0.5 - beta) * dt * dt * A
-    Q = dt * V + dt * dt * (1.0 - gamma) * A
-    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
-                                                             initial=0.0)), 1e-300)
-    k, done, min_gap, blow = _newmark_kernel(
-        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
-        keep_z, p.massless, U, V, P, Q, beta, gamma, dt, int(nsteps), int(stride),
-        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats, tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return NewmarkStepper(p, dt, beta, gamma, kappa, law, alpha)
+
+
+def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: float,
+                   gamma: float, kappa: np.ndarray | None = None,
+                   law: ContactLaw | None = None, alpha: float = 0.0) -> Trajectory:
+    """`prepare_newmark(p, dt, ...).run(nsteps, stride)`."""
+    return prepare_newmark(p, dt, beta, gamma, kappa, law, alpha).run(nsteps, stride)
 
 
 def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
@@ -604,6 +481,59 @@ def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
         W[:, j] = fac.solve(e)[cd]
         e[d] = 0.0
     return np.ascontiguousarray(0.5 * (W + W.T))
+
+
+@dataclass
+class MasslessSplit:
+    """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
+    compiled kernels: the massless rows K_mm factored with the Delassus matrix of the
+    contact dofs among them, M_hh factored unless diagonal (`quasistatic_sparse`,
+    `contact_bench.kernels.sparse_family`). ValueError unless every contact dof is
+    massless and some dof has mass."""
+
+    hv: np.ndarray
+    mv: np.ndarray
+    cl: np.ndarray  # the contact dofs' positions in mv
+    Kh: tuple  # CSR rows K[hv] (all columns)
+    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
+    mfac: tuple  # K_mm factored
+    hfac: tuple  # M_hh factored (unless diagonal)
+    diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
+    W: np.ndarray  # C K_mm^-1 C^T
+    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
+    tol: float
+
+    @classmethod
+    def of(cls, p: SparseProblem) -> MasslessSplit:
+        massless = p.massless
+        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
+        pos = np.full(p.nfree, -1)
+        pos[mv] = np.arange(mv.size)
+        cd = np.asarray(p.contact.dofs, np.int64)
+        if np.any(pos[cd] < 0) or hv.size == 0:
+            raise ValueError("the massless-contact ODE needs massless contact dofs "
+                             "(a redistributed mass) and dofs with mass")
+        cl = pos[cd]
+        K = sp.csr_matrix(p.K)
+        mfac = Factor.of(K[mv][:, mv])
+        Z, W = delassus(mfac, cl, mv.size)
+        keep = np.ones(p.nfree)
+        keep[mv] = 0.0
+        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+        Kmh.eliminate_zeros()
+        Mhh = sp.csr_matrix(p.M[hv][:, hv])
+        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
+                   mfac.arrays, hfac.arrays,
+                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
+                   np.ascontiguousarray(Z), tol)
+
+    def args(self) -> tuple:
+        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
+                self.diag_h, self.W, self.Z, self.tol)
 
 
 # ------------------------------------------------------- explicit central difference
@@ -624,9 +554,7 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for i in range(nc):
-        min_gap = min(min_gap, gap0[i] + U[cd[i]])
+    min_gap = smallest_gap(gap0, U, cd)
     k = 1
     for step in range(1, nsteps + 1):
         if step > 1:  # kick and drift fused with the product K U: one pass
@@ -650,10 +578,9 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
                     Un[d] += dt * c[d] * lj
                     Vh[d] += c[d] * lj
         U, Un = Un, U
-        _stats_update(stats, status, lam, step, dt)
-        _impulse_update(stats, lam, dt, 1.0)
-        for i in range(nc):
-            min_gap = min(min_gap, gap0[i] + U[cd[i]])
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, 1.0)
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
         if step % stride == 0 or step == nsteps:
             csr_matvec(Kp, Ki, Kx, U, tmp)
             for i in range(n):
@@ -663,7 +590,7 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
                 e += 0.5 * m[i] * tmp[i] * tmp[i]
             csr_matvec(Kp, Ki, Kx, U, Un)
             e += 0.5 * (U @ Un)
-            blown = _write_sample(k, step * dt, U, tmp, gap0, cd, -lam.sum() / area, e, E0,
+            blown = write_sample(k, step * dt, U, tmp, gap0, cd, -lam.sum() / area, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -671,24 +598,35 @@ def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stri
     return k, nsteps, min_gap, -1
 
 
-def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+class CentralStepper(KernelStepper):
+    """`central_sparse` prepared: the diagonal mass and the initial half-step velocity."""
+
+    def __init__(self, p: SparseProblem, dt: float) -> None:
+        M = sp.csr_matrix(p.M)
+        m = np.asarray(M.diagonal(), float)
+        if M.nnz != np.count_nonzero(m) or not np.all(m > 0):
+            raise ValueError("central_sparse needs a diagonal mass with positive entries "
+                             "(lumped)")
+        super().__init__(p, dt)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        A = initial_acceleration(p)
+        self.kernel = _central_kernel
+        self.state = (U, V + 0.5 * dt * A)  # (U^0, V^{1/2})
+        self.params = (self.dt,)
+        self.operators = (m, *csr_arrays(p.K), np.asarray(p.F, float),
+                          np.asarray(p.contact.dofs, np.int64),
+                          np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float))
+
+
+def prepare_central(p: SparseProblem, dt: float) -> CentralStepper:
     """The explicit central difference with a diagonal mass and the Taylor-Flanagan
     contact force (module docstring). ValueError unless M is diagonal and positive."""
-    M = sp.csr_matrix(p.M)
-    m = np.asarray(M.diagonal(), float)
-    if M.nnz != np.count_nonzero(m) or not np.all(m > 0):
-        raise ValueError("central_sparse needs a diagonal mass with positive entries (lumped)")
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    A = initial_acceleration(p)
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    Vh = V + 0.5 * dt * A
-    k, done, min_gap, blow = _central_kernel(
-        m, *csr_arrays(p.K), np.asarray(p.F, float), np.asarray(p.contact.dofs, np.int64),
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, Vh,
-        float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
-        out["V"], out["cu"], out["s"], out["E"], stats)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return CentralStepper(p, dt)
+
+
+def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    """`prepare_central(p, dt).run(nsteps, stride)`."""
+    return prepare_central(p, dt).run(nsteps, stride)
 
 
 # ------------------------------------- explicit with massless (quasi-static) contact dofs
@@ -717,9 +655,8 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+    gdofs = mv[cl]  # the contact dofs in U
+    min_gap = smallest_gap(gap0, U, gdofs)
     was = False
     k = 1
     for step in range(1, nsteps + 1):
@@ -737,12 +674,7 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             pen = pen or gf[j] < 0.0
         if pen:
             lcp_solve(W, gf, mu, active, tol, was)
-            on = np.flatnonzero(mu)
-            for b in range(nm):
-                acc = 0.0
-                for j in on:
-                    acc += Z[b, j] * mu[j]
-                um[b] += acc
+            add_response(Z, mu, um)
             for j in range(nc):
                 if active[j]:
                     um[cl[j]] = -gap0[j]
@@ -766,13 +698,12 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
             i = hv[a]
             V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
             A[i] = ah[a]
-        _stats_update(stats, status, mu, step, dt)
-        _impulse_update(stats, mu, dt, gamma)
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+        stats_update(stats, status, mu, step, dt)
+        impulse_update(stats, mu, dt, gamma)
+        min_gap = smallest_gap(gap0, U, gdofs, min_gap)
         if step % stride == 0 or step == nsteps:
-            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = _write_sample(k, step * dt, U, V, gap0, mv[cl], -mu.sum() / area, e, E0,
+            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            blown = write_sample(k, step * dt, U, V, gap0, gdofs, -mu.sum() / area, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -780,50 +711,40 @@ def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, K
     return k, nsteps, min_gap, -1
 
 
-def quasistatic_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
-                       gamma: float = 0.5) -> Trajectory:
+class QuasistaticStepper(KernelStepper):
+    """`quasistatic_sparse` prepared: K_mm and M_hh factored, the Delassus matrix and the
+    initial acceleration computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float, gamma: float = 0.5) -> None:
+        massless = p.massless
+        if not np.all(massless[np.asarray(p.contact.dofs, np.int64)]):
+            raise ValueError("the explicit quasi-static path needs massless contact dofs")
+        super().__init__(p, dt)
+        split = MasslessSplit.of(p)
+        self.kernel = _quasistatic_kernel
+        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy(),
+                      initial_acceleration(p))
+        self.operators = (
+            *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
+            *split.Kh, *split.Kmh, split.mfac, split.hfac, split.diag_h, split.cl,
+            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
+            split.W, split.Z)
+        self.params = (self.dt, float(gamma))
+        self.tail = (split.tol,)
+
+
+def prepare_quasistatic(p: SparseProblem, dt: float, gamma: float = 0.5
+                        ) -> QuasistaticStepper:
     """Explicit Newmark (beta = 0, gamma; 1/2: central differences) with massless contact
     dofs (the seed's P_U^mod on many dofs): the dofs with mass advance explicitly (a
     solve with their mass block, factored once, unless it is diagonal), the massless
-    ones are quasi-static, solved
-    from their rows with K_mm factored once and exact contact through the Delassus
-    matrix C K_mm^-1 C^T. ValueError unless every contact dof is massless."""
-    massless = p.massless
-    hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
-    pos = np.full(p.nfree, -1)
-    pos[mv] = np.arange(mv.size)
-    cd = np.asarray(p.contact.dofs, np.int64)
-    if np.any(pos[cd] < 0):
-        raise ValueError("the explicit quasi-static path needs massless contact dofs")
-    cl = pos[cd]
-    K = sp.csr_matrix(p.K)
-    Kmm = K[mv][:, mv]
-    mfac = Factor.of(Kmm)
-    Z = np.empty((mv.size, cd.size))
-    e = np.zeros(mv.size)
-    for j, c in enumerate(cl):
-        e[c] = 1.0
-        Z[:, j] = mfac.solve(e)
-        e[c] = 0.0
-    W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
-    keep = np.ones(p.nfree)
-    keep[mv] = 0.0
-    Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
-    Kmh.eliminate_zeros()
-    Mhh = sp.csr_matrix(p.M[hv][:, hv])
-    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
-    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    A = initial_acceleration(p)
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
-                                                             initial=0.0)), 1e-300)
-    k, done, min_gap, blow = _quasistatic_kernel(
-        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
-        *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
-        Mhh.diagonal() if diag else np.zeros(0), cl, np.asarray(p.contact.gap0, float),
-        np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z), U, V, A,
-        float(dt), float(gamma), int(nsteps), int(stride), float(p.energy_offset), out["t"],
-        out["U"], out["V"], out["cu"], out["s"], out["E"], stats, tol)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    ones are quasi-static, solved from their rows with K_mm factored once and exact
+    contact through the Delassus matrix C K_mm^-1 C^T. ValueError unless every contact
+    dof is massless."""
+    return QuasistaticStepper(p, dt, gamma)
+
+
+def quasistatic_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
+                       gamma: float = 0.5) -> Trajectory:
+    """`prepare_quasistatic(p, dt, gamma).run(nsteps, stride)`."""
+    return prepare_quasistatic(p, dt, gamma).run(nsteps, stride)

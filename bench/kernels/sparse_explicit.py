@@ -47,23 +47,24 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import (
+    impulse_update,
+    smallest_gap,
+    stats_update,
+    write_sample,
+)
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     ContactLaw,
     Factor,
-    _buffers,
-    _impulse_update,
-    _new_stats,
-    _stats_update,
-    _trajectory,
-    _write_sample,
-    csr_arrays,
-    csr_matvec,
+    delassus,
     initial_acceleration,
     lcp_solve,
     lu_solve,
     penalty_solve,
 )
+from contact_bench.kernels.stepper import KernelStepper
 
 #: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
 SMALL_DENSE = 64
@@ -95,9 +96,7 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    min_gap = smallest_gap(gap0, U, cd)
     k = 1
     for step in range(1, nsteps + 1):
         for a in range(nh):
@@ -149,10 +148,9 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
             i = hv[a]
             V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
             A[i] = ah[a]
-        _stats_update(stats, status, lam, step, dt)
-        _impulse_update(stats, lam, dt, gamma)
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, gamma)
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
         if step % stride == 0 or step == nsteps:
             csr_matvec(Mp, Mi, Mx, V, w)
             e = 0.5 * (V @ w)
@@ -163,7 +161,7 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
                 yn = min(0.0, y[j])
                 e += 0.5 * ew * c[j] * yn * yn
                 st += sc[j] * yn
-            blown = _write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
+            blown = write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -190,61 +188,78 @@ def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:
     return sp.csr_matrix(p.K if law.K_extra is None else p.K + law.K_extra)
 
 
-def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, gamma: float,
-                        law: ContactLaw) -> Trajectory:
+class ExplicitLawStepper(KernelStepper):
+    """`explicit_law_sparse` prepared: K'_mm and M_hh factored, the massless elimination's
+    matrices, the initial acceleration and sample 0's energy and stress computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float, gamma: float, law: ContactLaw) -> None:
+        super().__init__(p, dt)
+        dt, gamma = self.dt, float(gamma)
+        n = p.nfree
+        K = _stiffness(p, law)
+        Pm, Qm = sp.csr_matrix(law.P), sp.csr_matrix(law.Q)
+        y0, c = np.asarray(law.y0, float), np.asarray(law.c, float)
+        massless = p.massless
+        hv = np.flatnonzero(~massless).astype(np.int64)
+        mv = np.flatnonzero(massless).astype(np.int64)
+        cd = np.asarray(p.contact.dofs, np.int64)
+        nc = cd.size
+        if mv.size:
+            _check_response(mv.size, nc)
+            Kmm = K[mv][:, mv]
+            mfac = Factor.of(Kmm)
+            Qmt = sp.csc_matrix(Qm[:, mv].T)
+            Z = np.empty((mv.size, nc))
+            for j in range(nc):
+                Z[:, j] = mfac.solve(Qmt[:, j].toarray().ravel())
+            W = np.ascontiguousarray(Pm[:, mv] @ Z)
+            keep = np.ones(n)
+            keep[mv] = 0.0
+            Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
+            Kmh.eliminate_zeros()
+        else:
+            mfac = Factor.of(sp.identity(1, format="csc"))
+            Z, W = np.zeros((0, nc)), np.zeros((nc, nc))
+            Kmh = sp.csr_matrix((0, n))
+        Mhh = sp.csr_matrix(p.M[hv][:, hv])
+        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
+        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
+        A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
+        self.state = (U, V, A)
+        yneg = np.minimum(0.0, Pm @ U + y0)
+        self.sample0 = {  # sample 0's energy and stress, with the law's terms
+            "energy": float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
+                            + 0.5 * float(law.ew) * np.sum(c * yneg * yneg)),
+            "stress": float(np.sum(np.asarray(law.sc, float) * yneg)
+                            / np.sum(p.contact.weights))}
+        # the law's total force at t = 0 (in the initial acceleration): the impulse's start
+        self.force0 = float(law.fscale) * float(np.sum(mu0))
+        self.operators = (
+            *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
+            *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
+            Mhh.diagonal() if diag else np.zeros(0), *csr_arrays(Pm), *csr_arrays(Qm.T), y0,
+            c, float(law.ew), np.asarray(law.sc, float), float(law.fscale), W,
+            np.ascontiguousarray(Z), cd, np.asarray(p.contact.gap0, float),
+            np.asarray(p.contact.weights, float))
+        self.kernel = _explicit_law_kernel
+        self.params = (self.dt, gamma)
+
+
+def prepare_explicit_law(p: SparseProblem, dt: float, gamma: float, law: ContactLaw
+                         ) -> ExplicitLawStepper:
     """Explicit Newmark (beta = 0, gamma) with the contact `law` at t_{n+1} (module
     docstring). The sampled energy is newmark_sparse's: 1/2 V.M.V + 1/2 U.K'.U - F.U +
     offset + ew sum_i c_i / 2 min(0, y_i)^2; the stress sum_i sc_i min(0, y_i) / area;
     the contact force of dof i (chatter, contact times, peak) fscale c_i max(0, -y_i)."""
-    dt, gamma = float(dt), float(gamma)
-    n = p.nfree
-    K = _stiffness(p, law)
-    Pm, Qm = sp.csr_matrix(law.P), sp.csr_matrix(law.Q)
-    y0, c = np.asarray(law.y0, float), np.asarray(law.c, float)
-    massless = p.massless
-    hv = np.flatnonzero(~massless).astype(np.int64)
-    mv = np.flatnonzero(massless).astype(np.int64)
-    cd = np.asarray(p.contact.dofs, np.int64)
-    nc = cd.size
-    if mv.size:
-        _check_response(mv.size, nc)
-        Kmm = K[mv][:, mv]
-        mfac = Factor.of(Kmm)
-        Qmt = sp.csc_matrix(Qm[:, mv].T)
-        Z = np.empty((mv.size, nc))
-        for j in range(nc):
-            Z[:, j] = mfac.solve(Qmt[:, j].toarray().ravel())
-        W = np.ascontiguousarray(Pm[:, mv] @ Z)
-        keep = np.ones(n)
-        keep[mv] = 0.0
-        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
-        Kmh.eliminate_zeros()
-    else:
-        mfac = Factor.of(sp.identity(1, format="csc"))
-        Z, W = np.zeros((0, nc)), np.zeros((nc, nc))
-        Kmh = sp.csr_matrix((0, n))
-    Mhh = sp.csr_matrix(p.M[hv][:, hv])
-    diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
-    hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
-    A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
-    out = _buffers(p, nsteps, stride)
-    yneg = np.minimum(0.0, Pm @ U + y0)
-    out["E"][0] = float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
-                        + 0.5 * float(law.ew) * np.sum(c * yneg * yneg))
-    out["s"][0] = float(np.sum(np.asarray(law.sc, float) * yneg) / np.sum(p.contact.weights))
-    # the law's total force at t = 0 (in the initial acceleration): the impulse's start
-    stats = _new_stats(float(law.fscale) * float(np.sum(mu0)), out["t"].size)
-    k, done, min_gap, blow = _explicit_law_kernel(
-        *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv, *csr_arrays(K[hv]),
-        *csr_arrays(Kmh), mfac.arrays, hfac.arrays, Mhh.diagonal() if diag else np.zeros(0),
-        *csr_arrays(Pm), *csr_arrays(Qm.T), y0, c, float(law.ew),
-        np.asarray(law.sc, float), float(law.fscale), W, np.ascontiguousarray(Z), cd,
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V, A,
-        dt, gamma, int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
-        out["V"], out["cu"], out["s"], out["E"], stats)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return ExplicitLawStepper(p, dt, gamma, law)
+
+
+def explicit_law_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, gamma: float,
+                        law: ContactLaw) -> Trajectory:
+    """`prepare_explicit_law(p, dt, gamma, law).run(nsteps, stride)`."""
+    return prepare_explicit_law(p, dt, gamma, law).run(nsteps, stride)
 
 
 def omega_max_squared(p: SparseProblem, law: ContactLaw | None = None,
@@ -331,9 +346,7 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    min_gap = smallest_gap(gap0, U, cd)
     k = 1
     for step in range(1, nsteps + 1):
         for i in range(n):  # drift and half kick
@@ -393,16 +406,15 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
         lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
         for i in range(n):
             V[i] += 0.5 * dt * A[i]
-        _stats_update(stats, status, lam, step, dt)
-        _impulse_update(stats, lam, dt, 1.0)  # the impulses dt lam, applied whole
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, 1.0)  # the impulses dt lam, applied whole
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
         if step % stride == 0 or step == nsteps:
             csr_matvec(Mp, Mi, Mx, V, w)
             e = 0.5 * (V @ w)
             csr_matvec(Kp, Ki, Kx, U, w)
             e += 0.5 * (U @ w) - F @ U + offset
-            blown = _write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
+            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -410,8 +422,29 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
     return k, nsteps, min_gap, -1
 
 
-def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
-                           stride: int) -> Trajectory:
+class TaylorFlanaganStepper(KernelStepper):
+    """`taylor_flanagan_sparse` prepared: M factored, the response Z = M^-1 C^T and the
+    Delassus matrix W = C Z, the initial acceleration computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float) -> None:
+        if np.any(p.massless):
+            raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
+        super().__init__(p, dt)
+        n = p.nfree
+        cd = np.asarray(p.contact.dofs, np.int64)
+        _check_response(n, cd.size)
+        fac = Factor.of(p.M)
+        Z, W = delassus(fac, cd, n)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        self.kernel = _tf_kernel
+        self.state = (U, V, fac.solve(p.F - p.K @ U))
+        self.params = (self.dt,)
+        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
+                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z))
+
+
+def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:
     """The Taylor-Flanagan central difference with any positive definite mass.
 
     The 1D algorithm (`schemes/taylor_flanagan.py`) on many contact dofs: after the drift
@@ -425,27 +458,10 @@ def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
     J (the set grows, at most n_c times). With one contact dof this is the 1D step; with
     a diagonal M, each dof's own stop (`central_sparse`). Then A = M^-1 (F - K U') (M
     factored once) and V = V' + dt/2 A. ValueError if a dof is massless."""
-    if np.any(p.massless):
-        raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
-    n = p.nfree
-    cd = np.asarray(p.contact.dofs, np.int64)
-    _check_response(n, cd.size)
-    fac = Factor.of(p.M)
-    Z = np.empty((n, cd.size))
-    e = np.zeros(n)
-    for j, d in enumerate(cd):
-        e[d] = 1.0
-        Z[:, j] = fac.solve(e)
-        e[d] = 0.0
-    W = np.ascontiguousarray(0.5 * (Z[cd] + Z[cd].T))
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    A = fac.solve(p.F - p.K @ U)
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    k, done, min_gap, blow = _tf_kernel(
-        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,
-        np.ascontiguousarray(Z), U, V, A, float(dt), int(nsteps), int(stride),
-        float(p.energy_offset), out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        stats)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return TaylorFlanaganStepper(p, dt)
+
+
+def taylor_flanagan_sparse(p: SparseProblem, dt: float, nsteps: int,
+                           stride: int) -> Trajectory:
+    """`prepare_taylor_flanagan(p, dt).run(nsteps, stride)`."""
+    return prepare_taylor_flanagan(p, dt).run(nsteps, stride)

@@ -38,86 +38,35 @@ Both accumulate the contact impulse and record it at each sample (the statistics
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
+from contact_bench.core.sampling import blown_up, n_samples
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import (
+    CONTACT_IMPULSE,
+    LAST_FORCE,
+    SAMPLE_IMPULSE,
+    contact_extra,
+    csr_energy,
+    first_contact_impulse,
+    impulse_update,
+    new_stats,
+    smallest_gap,
+    stats_update,
+    write_sample,
+)
 from contact_bench.kernels.sparse import (
     Factor,
-    _buffers,
-    _energy,
-    _impulse_update,
-    _new_stats,
-    _stats_update,
-    _trajectory,
-    _write_sample,
-    contact_extra,
-    csr_arrays,
-    csr_matvec,
+    MasslessSplit,
+    add_response,
     lcp_solve,
     lu_solve,
 )
-
-
-@dataclass
-class MasslessSplit:
-    """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
-    compiled kernels (module docstring)."""
-
-    hv: np.ndarray
-    mv: np.ndarray
-    cl: np.ndarray  # the contact dofs' positions in mv
-    Kh: tuple  # CSR rows K[hv] (all columns)
-    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
-    mfac: tuple  # K_mm factored
-    hfac: tuple  # M_hh factored (unless diagonal)
-    diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
-    W: np.ndarray  # C K_mm^-1 C^T
-    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
-    tol: float
-
-    @classmethod
-    def of(cls, p: SparseProblem) -> MasslessSplit:
-        massless = p.massless
-        hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
-        pos = np.full(p.nfree, -1)
-        pos[mv] = np.arange(mv.size)
-        cd = np.asarray(p.contact.dofs, np.int64)
-        if np.any(pos[cd] < 0) or hv.size == 0:
-            raise ValueError("the massless-contact ODE needs massless contact dofs "
-                             "(a redistributed mass) and dofs with mass")
-        cl = pos[cd]
-        K = sp.csr_matrix(p.K)
-        mfac = Factor.of(K[mv][:, mv])
-        Z = np.empty((mv.size, cd.size))
-        e = np.zeros(mv.size)
-        for j, c in enumerate(cl):
-            e[c] = 1.0
-            Z[:, j] = mfac.solve(e)
-            e[c] = 0.0
-        W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
-        keep = np.ones(p.nfree)
-        keep[mv] = 0.0
-        Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
-        Kmh.eliminate_zeros()
-        Mhh = sp.csr_matrix(p.M[hv][:, hv])
-        diag = Mhh.nnz == np.count_nonzero(Mhh.diagonal())
-        hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
-        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
-                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
-        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
-                   mfac.arrays, hfac.arrays,
-                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
-                   np.ascontiguousarray(Z), tol)
-
-    def args(self) -> tuple:
-        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
-                self.diag_h, self.W, self.Z, self.tol)
+from contact_bench.kernels.stepper import KernelStepper, SparseStepper
 
 
 @njit(cache=True)
@@ -138,12 +87,7 @@ def massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, activ
         pen = pen or gf[j] < 0.0
     if pen:
         lcp_solve(W, gf, mu, active, tol, warm)
-        on = np.flatnonzero(mu)
-        for b in range(nm):
-            acc = 0.0
-            for j in on:
-                acc += Z[b, j] * mu[j]
-            um[b] += acc
+        add_response(Z, mu, um)
         for j in range(nc):
             if active[j]:
                 um[cl[j]] = -gap0[j]  # on the obstacle: the gap is 0 exactly
@@ -227,11 +171,10 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
                          False, rm, um, wm, gf)
     heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
     massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
-    stats[7] = mu.sum()  # the force at t = 0 in A: the impulse's start
-    E0 = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+    stats[LAST_FORCE] = mu.sum()  # the force at t = 0 in A: the impulse's start
+    E0 = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+    gdofs = mv[cl]  # the contact dofs in U
+    min_gap = smallest_gap(gap0, U, gdofs)
     t_out[0] = 0.0
     U_out[0, :] = U
     V_out[0, :] = V
@@ -250,14 +193,13 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
         heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
         for a in range(nh):
             V[hv[a]] += h * A[a]
-        _stats_update(stats, status, mu, step, dt)
-        _impulse_update(stats, mu, dt, 0.5)
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[mv[cl[j]]])
+        stats_update(stats, status, mu, step, dt)
+        impulse_update(stats, mu, dt, 0.5)
+        min_gap = smallest_gap(gap0, U, gdofs, min_gap)
         if step % stride == 0 or step == nsteps:
             massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
-            e = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = _write_sample(k, step * dt, U, V, gap0, mv[cl], -mu.sum() / area, e, E0,
+            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            blown = write_sample(k, step * dt, U, V, gap0, gdofs, -mu.sum() / area, e, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -265,19 +207,30 @@ def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
     return k, nsteps, min_gap, -1
 
 
-def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+class VerletStepper(KernelStepper):
+    """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
+    factored, the Delassus matrix) computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float) -> None:
+        self.split = MasslessSplit.of(p)
+        super().__init__(p, dt)
+        self.kernel = _verlet_kernel
+        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
+        self.params = (self.dt,)
+        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
+                          *self.split.args(), np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float))
+
+
+def prepare_verlet(p: SparseProblem, dt: float) -> VerletStepper:
     """Velocity Verlet on the massless-contact ODE (module docstring). ValueError unless
     every contact dof is massless."""
-    split = MasslessSplit.of(p)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    k, done, min_gap, blow = _verlet_kernel(
-        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), *split.args(),
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), U, V,
-        float(dt), int(nsteps), int(stride), float(p.energy_offset), out["t"], out["U"],
-        out["V"], out["cu"], out["s"], out["E"], stats)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return VerletStepper(p, dt)
+
+
+def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Trajectory:
+    """`prepare_verlet(p, dt).run(nsteps, stride)`."""
+    return prepare_verlet(p, dt).run(nsteps, stride)
 
 
 def massless_ode_omega(p: SparseProblem) -> float:
@@ -363,72 +316,95 @@ def speed_scale(p: SparseProblem) -> float:
                  + np.sqrt(2.0 * g * float(np.max(np.abs(p.U0), initial=0.0))))
 
 
-def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
-                    rtol: float) -> Trajectory:
+class AdaptiveStepper(SparseStepper):
+    """`adaptive_sparse` prepared: the massless split (`MasslessSplit`) and the absolute
+    tolerances computed once; `run` integrates from t = 0 with fresh scratch arrays (the
+    LCP's warm start included), so that two runs take the same steps."""
+
+    def __init__(self, p: SparseProblem, dt: float, rtol: float) -> None:
+        self.split = MasslessSplit.of(p)
+        super().__init__(p, dt)
+        self.rtol = rtol
+        hv = self.split.hv
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        nh = hv.size
+        # the state (u_h, v_h, J): J' = the total contact force, integrated with the same
+        # stages and weights as v_h (J out of the error control: an infinite tolerance)
+        self.y0 = np.concatenate([U[hv], V[hv], [0.0]])
+        atol = np.full(2 * nh + 1, rtol * (float(np.max(np.abs(U))) + speed_scale(p) + 1e-300))
+        atol[-1] = np.inf
+        self.atol = atol
+        self.F = np.asarray(p.F, float)
+        self.gap0 = np.asarray(p.contact.gap0, float)
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
+
+        p, split, dt, rtol = self.problem, self.split, self.dt, self.rtol
+        hv, F, gap0 = split.hv, self.F, self.gap0
+        steps = np.arange(0, nsteps + 1, stride)
+        if steps[-1] != nsteps:
+            steps = np.append(steps, nsteps)
+        assert steps.size == n_samples(nsteps, stride)
+        t_eval = steps * dt
+        U = p.U0.astype(float).copy()
+        nc = p.contact.size
+        force = np.zeros(nc)  # the last evaluation's contact forces
+        args = (U, F, hv, split.mv, split.cl, *split.Kh, *split.Kmh, split.mfac, split.hfac,
+                split.diag_h, split.W, split.Z, split.tol, gap0, force,
+                np.zeros(nc, np.bool_))
+
+        def rhs(t: float, y: np.ndarray) -> np.ndarray:
+            return np.append(ode_rhs(y[:-1], *args), force.sum())
+
+        sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), self.y0.copy(), method="DOP853",
+                        t_eval=t_eval, rtol=rtol, atol=self.atol)
+        k = sol.t.size
+        impulse = np.array(sol.y[-1])
+        Us = np.zeros((k, p.nfree))
+        Vs = np.zeros((k, p.nfree))
+        lam = np.zeros((k, nc))
+        ode_samples(np.ascontiguousarray(sol.y[:-1]), F, hv, split.mv, split.cl, *split.Kh,
+                    *split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z,
+                    split.tol, gap0, Us, Vs, lam)
+        energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
+                  + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
+        gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)
+        area = float(np.sum(p.contact.weights))
+        stats = new_stats(samples=k)
+        stats[SAMPLE_IMPULSE:] = impulse
+        status = np.zeros(nc, bool)
+        for s in range(1, k):  # the contact statistics at the samples (not the inner steps)
+            stats_update(stats, status, lam[s], int(steps[s]), dt)
+            first_contact_impulse(stats, impulse[s])
+        blow = None
+        bad = [blown_up(e, energy[0]) for e in energy]
+        if any(bad):
+            first = int(np.argmax(bad))
+            blow, k = float(sol.t[first]), first + 1
+        elif sol.status != 0:
+            blow = float(sol.t[-1]) if k else 0.0
+        if k:
+            stats[CONTACT_IMPULSE] = impulse[k - 1]
+        extra = contact_extra(stats, k)
+        extra.update(nfev=int(sol.nfev), message=str(sol.message), rtol=rtol)
+        cu = gaps.min(axis=1)
+        return Trajectory(t=sol.t[:k], U=Us[:k], V=Vs[:k], contact_u=cu[:k],
+                          stress=-lam[:k].sum(axis=1) / area, energy=energy[:k],
+                          min_contact_u=float(cu[:k].min()) if k else 0.0,
+                          steps_done=int(steps[k - 1]) if k else 0, blowup_time=blow,
+                          extra=extra)
+
+
+def prepare_adaptive(p: SparseProblem, dt: float, rtol: float) -> AdaptiveStepper:
     """The massless-contact ODE by DOP853 with relative tolerance `rtol` and absolute
     tolerance rtol (max|U0| + `speed_scale`) on (u_h, v_h), with the contact impulse
     integrated along (module docstring); dt is the sampling interval only. The contact
     statistics are the samples'. ValueError unless every contact dof is massless."""
-    from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
+    return AdaptiveStepper(p, dt, rtol)
 
-    split = MasslessSplit.of(p)
-    hv = split.hv
-    F = np.asarray(p.F, float)
-    gap0 = np.asarray(p.contact.gap0, float)
-    steps = np.arange(0, nsteps + 1, stride)
-    if steps[-1] != nsteps:
-        steps = np.append(steps, nsteps)
-    assert steps.size == n_samples(nsteps, stride)
-    t_eval = steps * float(dt)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    nh = hv.size
-    # the state (u_h, v_h, J): J' = the total contact force, integrated with the same
-    # stages and weights as v_h (J out of the error control: an infinite tolerance)
-    y0 = np.concatenate([U[hv], V[hv], [0.0]])
-    atol = np.full(2 * nh + 1, rtol * (float(np.max(np.abs(U))) + speed_scale(p) + 1e-300))
-    atol[-1] = np.inf
-    nc = p.contact.size
-    force = np.zeros(nc)  # the last evaluation's contact forces
-    args = (U, F, hv, split.mv, split.cl, *split.Kh, *split.Kmh, split.mfac, split.hfac,
-            split.diag_h, split.W, split.Z, split.tol, gap0, force, np.zeros(nc, np.bool_))
 
-    def rhs(t: float, y: np.ndarray) -> np.ndarray:
-        return np.append(ode_rhs(y[:-1], *args), force.sum())
-
-    sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), y0, method="DOP853", t_eval=t_eval,
-                    rtol=rtol, atol=atol)
-    k = sol.t.size
-    impulse = np.array(sol.y[-1])
-    Us = np.zeros((k, p.nfree))
-    Vs = np.zeros((k, p.nfree))
-    lam = np.zeros((k, nc))
-    ode_samples(np.ascontiguousarray(sol.y[:-1]), F, hv, split.mv, split.cl, *split.Kh,
-                *split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z, split.tol,
-                gap0, Us, Vs, lam)
-    energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
-              + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
-    gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)
-    area = float(np.sum(p.contact.weights))
-    stats = _new_stats(samples=k)
-    stats[9:] = impulse
-    status = np.zeros(nc, bool)
-    for s in range(1, k):  # the contact statistics at the samples (not the inner steps)
-        _stats_update(stats, status, lam[s], int(steps[s]), float(dt))
-        if not np.isnan(stats[2]) and np.isnan(stats[8]):  # the first contact has ended
-            stats[8] = impulse[s]
-    blow = None
-    bad = ~np.isfinite(energy) | (np.abs(energy) > BLOWUP_FACTOR * max(abs(energy[0]), 1e-300))
-    if bad.any():
-        first = int(np.argmax(bad))
-        blow, k = float(sol.t[first]), first + 1
-    elif sol.status != 0:
-        blow = float(sol.t[-1]) if k else 0.0
-    if k:
-        stats[6] = impulse[k - 1]
-    extra = contact_extra(stats, k)
-    extra.update(nfev=int(sol.nfev), message=str(sol.message), rtol=rtol)
-    cu = gaps.min(axis=1)
-    return Trajectory(t=sol.t[:k], U=Us[:k], V=Vs[:k], contact_u=cu[:k],
-                      stress=-lam[:k].sum(axis=1) / area, energy=energy[:k],
-                      min_contact_u=float(cu[:k].min()) if k else 0.0,
-                      steps_done=int(steps[k - 1]) if k else 0, blowup_time=blow, extra=extra)
+def adaptive_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int,
+                    rtol: float) -> Trajectory:
+    """`prepare_adaptive(p, dt, rtol).run(nsteps, stride)`."""
+    return prepare_adaptive(p, dt, rtol).run(nsteps, stride)

@@ -40,45 +40,27 @@ from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import (
+    CONTACT_IMPULSE,
+    LAST_FORCE,
+    csr_energy,
+    impulse_update,
+    smallest_gap,
+    stats_update,
+    write_sample,
+)
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     Factor,
-    _buffers,
-    _energy,
-    _impulse_update,
-    _new_stats,
-    _stats_update,
-    _trajectory,
-    _write_sample,
-    csr_arrays,
-    csr_matvec,
+    correct,
     delassus,
     delassus_only,
     initial_acceleration,
     lcp_solve,
     lu_solve,
 )
-
-
-@njit(cache=True)
-def _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - compiled
-    """X += S^-1 C^T mu (with Z = S^-1 C^T if kept, else one more solve)."""
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
-    n = X.size
-    if keep_z:
-        on = np.flatnonzero(mu)
-        for i in range(n):
-            acc = 0.0
-            for j in on:
-                acc += Z[i, j] * mu[j]
-            X[i] += acc
-    else:
-        rhs[:] = 0.0
-        for j in range(cd.size):
-            rhs[cd[j]] = mu[j]
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
-        for i in range(n):
-            X[i] += w[i]
+from contact_bench.kernels.stepper import KernelStepper
 
 
 @njit(cache=True)
@@ -104,9 +86,7 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
     status = np.zeros(nc, np.bool_)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    min_gap = smallest_gap(gap0, U, cd)
     was = False
     k = 1
     for step in range(1, nsteps + 2):
@@ -139,7 +119,7 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
                     mu[j] = -gf[j] * sdiag[cd[j]] if active[j] else 0.0
             else:
                 lcp_solve(W, gf, mu, active, tol, was)
-                _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+                correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j]:  # on the constraint exactly
                     X[cd[j]] = -gap0[j] - e * (gap0[j] + Um[cd[j]])
@@ -149,21 +129,21 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
             lam[:] = 0.0
         was = pen
         lvl = step - 1  # level n = step - 1 is complete: its force is r^n
-        _stats_update(stats, status, lam, lvl, dt)
+        stats_update(stats, status, lam, lvl, dt)
         # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
         # level 0 by dt r^0 / 2 from the data V0 (sample 0) to the centred velocity
         if lvl == 0:
-            stats[7] = lam.sum()
-            stats[6] = 0.5 * dt * stats[7]
+            stats[LAST_FORCE] = lam.sum()
+            stats[CONTACT_IMPULSE] = 0.5 * dt * stats[LAST_FORCE]
         else:
-            _impulse_update(stats, lam, dt, 0.5)
+            impulse_update(stats, lam, dt, 0.5)
         if lvl == 0:
             s_out[0] = -lam.sum() / area
         elif lvl % stride == 0 or lvl == nsteps:
             for i in range(n):
                 tmp[i] = (X[i] - Um[i]) / (2.0 * dt)
-            en = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, tmp, offset, w)
-            blown = _write_sample(k, lvl * dt, U, tmp, gap0, cd, -lam.sum() / area, en, E0,
+            en = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, tmp, offset, w)
+            blown = write_sample(k, lvl * dt, U, tmp, gap0, cd, -lam.sum() / area, en, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -173,8 +153,7 @@ def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, k
         for i in range(n):
             Um[i] = U[i]
             U[i] = X[i]
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
     return k, nsteps, min_gap, -1
 
 
@@ -193,35 +172,48 @@ def _contact_operators(fac: Factor, cd: np.ndarray, n: int):
     return keep_z, np.ascontiguousarray(Z), W
 
 
-def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, e: float,
-                           beta: float) -> Trajectory:
+class PaoliSchatzmanStepper(KernelStepper):
+    """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
+    matrix and the state (U^{-1}, U^0) computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float, e: float, beta: float) -> None:
+        _refuse_massless(p, "restitution (Paoli-Schatzman)")
+        super().__init__(p, dt)
+        dt, e, beta = self.dt, float(e), float(beta)
+        n = p.nfree
+        cd = np.asarray(p.contact.dofs, np.int64)
+        S = sp.csr_matrix(p.M + (beta * dt * dt) * p.K)
+        sd = np.asarray(S.diagonal(), float)
+        diag = S.nnz == np.count_nonzero(sd)
+        if diag:  # no factor, no Delassus matrix: W = diag(1 / s) on the contact dofs
+            fac = Factor.of(sp.identity(1, format="csc"))
+            keep_z, Z, W = False, np.zeros((1, 1)), np.zeros((1, 1))
+        else:
+            fac = Factor.of(S)
+            keep_z, Z, W = _contact_operators(fac, cd, n)
+        U = p.U0.astype(float).copy()
+        self.state = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
+        self.kernel = _ps_kernel
+        self.tail = (1e-13 * max(float(np.max(np.abs(U))),
+                                 float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300),)
+        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
+                          sd if diag else np.zeros(0), fac.arrays, cd,
+                          np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float), W, Z, keep_z)
+        self.params = (beta, e, dt)
+
+
+def prepare_paoli_schatzman(p: SparseProblem, dt: float, e: float, beta: float
+                            ) -> PaoliSchatzmanStepper:
     """The Paoli-Schatzman scheme with restitution e and stiffness weight beta (module
     docstring). ValueError on a problem with massless dofs."""
-    _refuse_massless(p, "restitution (Paoli-Schatzman)")
-    dt, e, beta = float(dt), float(e), float(beta)
-    n = p.nfree
-    cd = np.asarray(p.contact.dofs, np.int64)
-    S = sp.csr_matrix(p.M + (beta * dt * dt) * p.K)
-    sd = np.asarray(S.diagonal(), float)
-    diag = S.nnz == np.count_nonzero(sd)
-    if diag:  # no factor, no Delassus matrix: W = diag(1 / s) on the contact dofs
-        fac = Factor.of(sp.identity(1, format="csc"))
-        keep_z, Z, W = False, np.zeros((1, 1)), np.zeros((1, 1))
-    else:
-        fac = Factor.of(S)
-        keep_z, Z, W = _contact_operators(fac, cd, n)
-    U = p.U0.astype(float).copy()
-    Um = U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p)
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
-                                                             initial=0.0)), 1e-300)
-    k, done, min_gap, blow = _ps_kernel(
-        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), sd if diag else np.zeros(0),
-        fac.arrays, cd, np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
-        W, Z, keep_z, Um, U, beta, e, dt, int(nsteps), int(stride), float(p.energy_offset),
-        out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"], stats, tol)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return PaoliSchatzmanStepper(p, dt, e, beta)
+
+
+def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, e: float,
+                           beta: float) -> Trajectory:
+    """`prepare_paoli_schatzman(p, dt, e, beta).run(nsteps, stride)`."""
+    return prepare_paoli_schatzman(p, dt, e, beta).run(nsteps, stride)
 
 
 @njit(cache=True)
@@ -246,9 +238,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
     idx = np.empty(nc, np.int64)
     area = weights.sum()
     E0 = E_out[0]
-    min_gap = np.inf
-    for j in range(nc):
-        min_gap = min(min_gap, gap0[j] + U[cd[j]])
+    min_gap = smallest_gap(gap0, U, cd)
     k = 1
     for step in range(1, nsteps + 1):
         # S X = M V + dt (F - K U) - c K V: the free velocity
@@ -284,7 +274,7 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
             for a in range(m):
                 mu[idx[a]] = ms[a]
                 active[idx[a]] = acts[a]
-            _correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
             for j in range(nc):
                 if active[j]:  # on the law exactly
                     X[cd[j]] = -e * V[cd[j]]
@@ -293,13 +283,12 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
         for i in range(n):
             U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
             V[i] = X[i]
-        _stats_update(stats, status, lam, step, dt)
-        _impulse_update(stats, lam, dt, 1.0)  # the impulse P = dt lam itself
-        for j in range(nc):
-            min_gap = min(min_gap, gap0[j] + U[cd[j]])
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, 1.0)  # the impulse P = dt lam itself
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
         if step % stride == 0 or step == nsteps:
-            en = _energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = _write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, en, E0,
+            en = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, en, E0,
                                   t_out, U_out, V_out, cu_out, s_out, E_out, stats)
             k += 1
             if blown:
@@ -307,27 +296,41 @@ def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, 
     return k, nsteps, min_gap, -1
 
 
-def moreau_jean_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, e: float,
-                       theta: float) -> Trajectory:
+class MoreauJeanStepper(KernelStepper):
+    """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
+
+    def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
+        _refuse_massless(p, "moreau_jean")
+        super().__init__(p, dt)
+        dt, e, theta = self.dt, float(e), float(theta)
+        n = p.nfree
+        cd = np.asarray(p.contact.dofs, np.int64)
+        fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
+        keep_z, Z, W = _contact_operators(fac, cd, n)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        self.state = (U, V)
+        # a velocity-level tolerance: round-off of the larger of the data's speeds
+        vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
+        self.kernel = _mj_kernel
+        self.tail = (1e-13 * vscale,)
+        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
+                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float), W, Z, keep_z)
+        self.params = (theta, e, dt)
+
+
+def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float
+                        ) -> MoreauJeanStepper:
     """Moreau-Jean with restitution e and the theta-method (module docstring).
     ValueError on a problem with massless dofs."""
-    _refuse_massless(p, "moreau_jean")
-    dt, e, theta = float(dt), float(e), float(theta)
-    n = p.nfree
-    cd = np.asarray(p.contact.dofs, np.int64)
-    fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
-    keep_z, Z, W = _contact_operators(fac, cd, n)
-    U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-    out = _buffers(p, nsteps, stride)
-    stats = _new_stats(samples=out["t"].size)
-    # a velocity-level tolerance: round-off of the larger of the data's speeds
-    vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
-    k, done, min_gap, blow = _mj_kernel(
-        *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), fac.arrays, cd,
-        np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z, keep_z,
-        U, V, theta, e, dt, int(nsteps), int(stride), float(p.energy_offset), out["t"],
-        out["U"], out["V"], out["cu"], out["s"], out["E"], stats, 1e-13 * vscale)
-    return _trajectory(out, k, done, min_gap, blow, dt, stats)
+    return MoreauJeanStepper(p, dt, e, theta)
 
 
-__all__ = ["moreau_jean_sparse", "paoli_schatzman_sparse"]
+def moreau_jean_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, e: float,
+                       theta: float) -> Trajectory:
+    """`prepare_moreau_jean(p, dt, e, theta).run(nsteps, stride)`."""
+    return prepare_moreau_jean(p, dt, e, theta).run(nsteps, stride)
+
+
+__all__ = ["MoreauJeanStepper", "PaoliSchatzmanStepper", "moreau_jean_sparse",
+           "paoli_schatzman_sparse", "prepare_moreau_jean", "prepare_paoli_schatzman"]

@@ -1,0 +1,66 @@
+"""Prepare once, step many: the common shape of the sparse schemes' steppers.
+
+A stepper's constructor does all the set-up of a scheme on a `SparseProblem` that does
+not depend on the number of steps (factorisations, Delassus matrices, contact laws,
+initial acceleration and predictors); `run(nsteps, stride)` copies the initial state,
+allocates the samples and statistics and calls the compiled kernel. A caller that
+times the stepping times `run` alone, and its set-up by timing the constructor. `run`
+starts from the same state every time, so two calls return the same trajectory.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from typing import Any
+
+from contact_bench.api.plugin import Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.kernels.recording import SampleBuffers, new_stats
+
+
+class SparseStepper(ABC):
+    """A scheme prepared on `problem` with step `dt`; `run` steps it from t = 0."""
+
+    def __init__(self, problem: SparseProblem, dt: float) -> None:
+        self.problem = problem
+        self.dt = float(dt)
+
+    @abstractmethod
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        """`nsteps` steps from the initial state, a sample every `stride` steps and at
+        the last one."""
+
+
+class KernelStepper(SparseStepper):
+    """A stepper whose `run` is one call of a compiled kernel with the sparse kernels'
+    argument layout:
+
+        kernel(*operators, *state, *params, nsteps, stride, energy offset,
+               t, U, V, gap, stress, energy, stats, *tail)
+            -> (samples written, steps done, smallest gap, blow-up step or -1)
+
+    `state` (the arrays the kernel advances in place) is copied at every run. A
+    subclass's constructor sets `kernel`, `operators`, `state`, `params`, `tail`, the
+    force at t = 0 `force0` (the statistics' start) and `sample0`, the entries of sample
+    0 it writes itself (e.g. {"energy": E0} with a contact law's energy)."""
+
+    def __init__(self, problem: SparseProblem, dt: float) -> None:
+        super().__init__(problem, dt)
+        self.kernel: Callable[..., tuple[int, int, float, int]]
+        self.operators: tuple[Any, ...] = ()
+        self.state: tuple[Any, ...] = ()
+        self.params: tuple[Any, ...] = ()
+        self.tail: tuple[Any, ...] = ()
+        self.force0 = 0.0
+        self.sample0: dict[str, float] = {}
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        out = SampleBuffers(self.problem, nsteps, stride)
+        for name, value in self.sample0.items():
+            getattr(out, name)[0] = value
+        stats = new_stats(self.force0, out.size)
+        k, done, min_gap, blow = self.kernel(
+            *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
+            int(stride), float(self.problem.energy_offset), *out.arrays(), stats, *self.tail)
+        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
