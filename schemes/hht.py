@@ -42,7 +42,7 @@ from contact_bench.kernels.common import (
     trajectory,
 )
 from contact_bench.kernels.hht import hht_kernel
-from contact_bench.kernels.sparse import newmark_sparse
+from contact_bench.kernels.sparse import prepare_newmark
 
 
 class HHT(Scheme):
@@ -83,8 +83,7 @@ class HHT(Scheme):
         semi = banded(problem)
         if semi is not None:
             return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
-        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta, self.gamma,
-                                                       alpha=float(self.alpha)))
+        return prepare_newmark(problem, dt, self.beta, self.gamma, alpha=float(self.alpha))
 
     def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
         """The bar's HHT step on the tridiagonal bands (`hht_kernel`)."""

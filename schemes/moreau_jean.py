@@ -39,7 +39,7 @@ from contact_bench.kernels.common import (
     velocity_scale,
 )
 from contact_bench.kernels.moreau_jean import moreau_jean_kernel
-from contact_bench.kernels.sparse_impact import moreau_jean_sparse
+from contact_bench.kernels.sparse_impact import prepare_moreau_jean
 
 MASSLESS_REASON = ("moreau_jean needs a contact node with mass: a velocity impact law "
                    "does not determine a massless node (use redistributed)")
@@ -77,8 +77,7 @@ class MoreauJean(MassiveContactNodeScheme):
         semi = banded(problem)
         if semi is not None:
             return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
-        return CallStepper(lambda n, s: moreau_jean_sparse(problem, dt, n, s, self.e,
-                                                           self.theta))
+        return prepare_moreau_jean(problem, dt, self.e, self.theta)
 
     def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
         """The bar's step on the tridiagonal bands (`moreau_jean_kernel`)."""

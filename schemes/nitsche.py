@@ -30,8 +30,8 @@ from contact_bench.api.problem import banded
 from contact_bench.kernels.boundary import bar_law, element_limit, energy_budget, run_boundary_law
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA
-from contact_bench.kernels.sparse import ContactLaw, newmark_sparse
-from contact_bench.kernels.sparse_explicit import explicit_law_sparse, stable_dt
+from contact_bench.kernels.sparse import ContactLaw, prepare_newmark
+from contact_bench.kernels.sparse_explicit import prepare_explicit_law, stable_dt
 
 
 class Nitsche(Scheme):
@@ -152,7 +152,5 @@ class Nitsche(Scheme):
             return CallStepper(lambda n, s: run_boundary_law(semi, dt, n, s, self.beta,
                                                              self.gamma, law))
         if self.beta == 0.0:
-            return CallStepper(lambda n, s: explicit_law_sparse(problem, dt, n, s, self.gamma,
-                                                                law))
-        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
-                                                       self.gamma, law=law))
+            return prepare_explicit_law(problem, dt, self.gamma, law)
+        return prepare_newmark(problem, dt, self.beta, self.gamma, law=law)

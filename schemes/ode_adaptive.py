@@ -35,7 +35,7 @@ from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
 from contact_bench.core.tridiag import factor_pt
 from contact_bench.kernels.common import velocity_scale
 from contact_bench.kernels.massless_ode import ode_rhs
-from contact_bench.kernels.sparse_family import adaptive_sparse
+from contact_bench.kernels.sparse_family import prepare_adaptive
 
 
 class OdeAdaptive(Scheme):
@@ -63,7 +63,7 @@ class OdeAdaptive(Scheme):
         semi = banded(problem)
         if semi is not None:
             return CallStepper(lambda n, s: self.run_bar(semi, dt, n, s))
-        return CallStepper(lambda n, s: adaptive_sparse(problem, dt, n, s, float(self.rtol)))
+        return prepare_adaptive(problem, dt, float(self.rtol))
 
     def run_bar(self, semi, dt: float, nsteps: int, stride: int) -> Trajectory:
         """The bar's ODE by DOP853 (`ode_rhs` on the tridiagonal bands)."""

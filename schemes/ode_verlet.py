@@ -39,7 +39,7 @@ from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.massless_ode import verlet_kernel, verlet_spike_kernel
 from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
 from contact_bench.kernels.newmark import kernel_form, newmark_limit
-from contact_bench.kernels.sparse_family import massless_ode_omega, verlet_sparse
+from contact_bench.kernels.sparse_family import massless_ode_omega, prepare_verlet
 
 
 class OdeVerlet(Scheme):
@@ -73,7 +73,7 @@ class OdeVerlet(Scheme):
         # their rows (`contact_bench.kernels.sparse_family.verlet_sparse`)
         semi = banded(problem)
         if semi is None:
-            return CallStepper(lambda n, s: verlet_sparse(problem, dt, n, s))
+            return prepare_verlet(problem, dt)
 
         def run(nsteps: int, stride: int) -> Trajectory:
             fast = kernel_form(semi.nfree, nsteps, serial_below=SERIAL_BELOW) == "spike"

@@ -22,7 +22,7 @@ from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepp
 from contact_bench.api.problem import banded
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import BETA, GAMMA, newmark_limit, run_newmark
-from contact_bench.kernels.sparse import newmark_sparse, quasistatic_sparse
+from contact_bench.kernels.sparse import prepare_newmark, prepare_quasistatic
 from contact_bench.kernels.sparse_family import massless_ode_omega
 
 
@@ -69,6 +69,5 @@ class Redistributed(Scheme):
         if semi is not None:
             return CallStepper(lambda n, s: run_newmark(semi, dt, n, s, self.beta, self.gamma))
         if self.beta == 0.0:
-            return CallStepper(lambda n, s: quasistatic_sparse(problem, dt, n, s, self.gamma))
-        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
-                                                       self.gamma))
+            return prepare_quasistatic(problem, dt, self.gamma)
+        return prepare_newmark(problem, dt, self.beta, self.gamma)

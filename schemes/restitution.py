@@ -48,7 +48,7 @@ from contact_bench.kernels.lumped import ps_lumped_kernel
 from contact_bench.kernels.newmark import newmark_limit
 from contact_bench.kernels.paoli_schatzman import ps_kernel
 from contact_bench.kernels.sparse_explicit import stable_dt
-from contact_bench.kernels.sparse_impact import paoli_schatzman_sparse
+from contact_bench.kernels.sparse_impact import prepare_paoli_schatzman
 
 MASSLESS_REASON = (
     "restitution (Paoli-Schatzman) needs a contact node with mass: with M00 = 0 the "
@@ -96,8 +96,7 @@ class Restitution(MassiveContactNodeScheme):
             self.check_massive(semi)
             return CallStepper(lambda n, s: run_paoli_schatzman(semi, dt, n, s, self.e,
                                                                 self.beta))
-        return CallStepper(lambda n, s: paoli_schatzman_sparse(problem, dt, n, s, self.e,
-                                                               self.beta))
+        return prepare_paoli_schatzman(problem, dt, self.e, self.beta)
 
 
 def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,

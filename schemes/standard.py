@@ -19,7 +19,7 @@ from contact_bench.api.plugin import CallStepper, Contact, Energy, Scheme, Stepp
 from contact_bench.api.problem import banded
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.newmark import GAMMA, newmark_limit, run_newmark
-from contact_bench.kernels.sparse import newmark_sparse
+from contact_bench.kernels.sparse import prepare_newmark
 
 
 class Standard(Scheme):
@@ -66,5 +66,4 @@ class Standard(Scheme):
         semi = banded(problem)
         if semi is not None:
             return CallStepper(lambda n, s: run_newmark(semi, dt, n, s, self.beta, self.gamma))
-        return CallStepper(lambda n, s: newmark_sparse(problem, dt, n, s, self.beta,
-                                                       self.gamma))
+        return prepare_newmark(problem, dt, self.beta, self.gamma)

@@ -50,8 +50,8 @@ from contact_bench.kernels.common import (
 from contact_bench.kernels.lumped import tf_lumped_kernel
 from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
 from contact_bench.kernels.newmark import kernel_form, newmark_limit
-from contact_bench.kernels.sparse import central_sparse
-from contact_bench.kernels.sparse_explicit import stable_dt, taylor_flanagan_sparse
+from contact_bench.kernels.sparse import prepare_central
+from contact_bench.kernels.sparse_explicit import prepare_taylor_flanagan, stable_dt
 from contact_bench.kernels.taylor_flanagan import taylor_flanagan_kernel, tf_spike_kernel
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
@@ -91,8 +91,8 @@ class TaylorFlanagan(MassiveContactNodeScheme):
         semi = banded(problem)
         if semi is None:
             if self.mass == "lumped":
-                return CallStepper(lambda n, s: central_sparse(problem, dt, n, s))
-            return CallStepper(lambda n, s: taylor_flanagan_sparse(problem, dt, n, s))
+                return prepare_central(problem, dt)
+            return prepare_taylor_flanagan(problem, dt)
         self.check_massive(semi)
 
         def run(nsteps: int, stride: int) -> Trajectory:

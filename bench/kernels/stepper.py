@@ -14,15 +14,19 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
 
-from contact_bench.api.plugin import Trajectory
+from contact_bench.api.plugin import Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.kernels.recording import SampleBuffers, new_stats
 
 
-class SparseStepper(ABC):
-    """A scheme prepared on `problem` with step `dt`; `run` steps it from t = 0."""
+class SparseStepper(Stepper, ABC):
+    """A scheme prepared on `problem` with step `dt`; `run` steps it from t = 0.
+
+    The compiled kernels step contact dof by contact dof: a problem whose gap operator
+    is general (a slanted or curved obstacle) is refused here in one line."""
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
+        problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
         self.problem = problem
         self.dt = float(dt)
 
