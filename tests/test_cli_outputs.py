@@ -57,10 +57,10 @@ def test_list_unknown_name_is_one_line(capsys):
 def test_run_progress_on_stderr_and_traceback(monkeypatch, capsys, tmp_path):
     from contact_bench.schemes.standard import Standard
 
-    def broken(self, semi, dt, nsteps, stride):  # noqa: ANN001, ANN202
+    def broken(self, problem, dt):  # noqa: ANN001, ANN202
         raise RuntimeError("deliberately broken")
 
-    monkeypatch.setattr(Standard, "integrate", broken)
+    monkeypatch.setattr(Standard, "prepare", broken)
     argv = ["run", "--case", "clamped_bar", "--scheme", "standard", "--scheme", "penalty",
             "--nx", "10", "--T", "0.5", "--out", str(tmp_path / "o")]
     assert main(argv) == 0  # stderr is not a terminal: no progress lines
@@ -106,10 +106,10 @@ def test_main_job_leaves_a_fresh_clone_clean(tmp_path):
 def test_sweep_traceback_of_error_rows(monkeypatch, capsys, tmp_path):
     from contact_bench.schemes.standard import Standard
 
-    def broken(self, semi, dt, nsteps, stride):  # noqa: ANN001, ANN202
+    def broken(self, problem, dt):  # noqa: ANN001, ANN202
         raise RuntimeError("deliberately broken in a sweep")
 
-    monkeypatch.setattr(Standard, "integrate", broken)
+    monkeypatch.setattr(Standard, "prepare", broken)
     argv = ["sweep", "--case", "clamped_bar", "--scheme", "standard", "--nx", "8", "--T", "0.5",
             "--repeats", "0", "-j", "1", "--no-cache", "--quiet", "--out", str(tmp_path)]
     assert main(argv) == 0

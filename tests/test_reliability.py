@@ -17,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from contact_bench.api import CallStepper
 from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_scheme, schemes
@@ -166,10 +167,13 @@ def test_allow_unstable_below_blow_up_marks_the_row():
 
 class _Boom(Standard):
     name = "boom"
-    summary = "test: raises inside integrate"
+    summary = "test: raises while it steps"
 
-    def integrate(self, semi, dt, nsteps, stride):
-        raise RuntimeError("kaboom\nsecond line")
+    def prepare(self, problem, dt):
+        def run(nsteps, stride):
+            raise RuntimeError("kaboom\nsecond line")
+
+        return CallStepper(run)
 
 
 def test_table_goes_on_after_unstable_and_error_rows(monkeypatch, capsys, tmp_path):
