@@ -495,22 +495,23 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
         stepper.run(1, 1)
         _warmed.add(key)
-    sparse_samples = plan.stride >= LONG_RUN_STRIDE
-    if not sparse_samples:
+    long_run = plan.stride >= LONG_RUN_STRIDE and _predicted_s(stepper, plan.steps) > (
+        STEP_BUDGET_S)
+    if not long_run:
         # the stepping alone first: its arrays are freed before the recorded run
         # allocates its samples, so a run's memory peak stays the recorded run's
         row["step_s"] = step_time(stepper.run, plan.steps, step_repeats)
     start = time.perf_counter()
     traj = stepper.run(plan.steps, plan.stride)
     row["run_s"] = row["wall_s"] = time.perf_counter() - start
-    if sparse_samples and traj.steps_done == plan.steps and row["run_s"] > STEP_BUDGET_S:
+    if long_run and traj.steps_done == plan.steps:
         # one long call sampling at most every LONG_RUN_STRIDE-th step: its recording is
         # a small part of it, and a second call for the stepping alone would double the
-        # run's time (`step_time`'s rule for a call over the budget)
+        # run's time (`step_time` too takes one call over the budget as the measurement)
         row["step_s"] = row["run_s"]
         notes.append(f"step_s is the recorded run's (one call over {STEP_BUDGET_S:g} s, "
                      f"a sample every {plan.stride} steps)")
-    elif sparse_samples or traj.steps_done < plan.steps:
+    elif long_run or traj.steps_done < plan.steps:
         # the stepping alone (a stopped run: the steps it made)
         row["step_s"] = step_time(stepper.run, traj.steps_done, step_repeats)
     del stepper  # its factors go before the norms and the reference run
@@ -560,6 +561,18 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 notes.append("errors against a numerical reference")
     row["notes"] = "; ".join(notes)
     return Run(row, traj, semi, norm_s)
+
+
+#: steps of the probe that predicts a run's time (`_predicted_s`)
+PROBE_STEPS = 20
+
+
+def _predicted_s(stepper: Stepper, steps: int) -> float:
+    """A run's stepping time predicted from a probe of at most `PROBE_STEPS` steps."""
+    probe = min(steps, PROBE_STEPS)
+    start = time.perf_counter()
+    stepper.run(probe, probe)
+    return (time.perf_counter() - start) * steps / probe
 
 
 def step_time(run: Callable[[int, int], Trajectory], steps: int,
