@@ -315,8 +315,8 @@ def bench_run(case, scheme_spec: str, nx: int, dt: float, T: float,
     traj = scheme.integrate(p, dt, nsteps, 1)
     wall = time.perf_counter() - start
     Mc = case.sparse_problem(nx, 1.0, "consistent").M
-    mass = p.extra["mass"]
-    ybar = (traj.U @ (Mc @ p.extra["vertical"])) / mass
+    mass = p.body_mass
+    ybar = (traj.U @ (Mc @ p.vertical)) / mass
     return {"E": traj.energy.tolist(), "Rc": (-traj.stress * p.contact.weights.sum()).tolist(),
             "ybar": ybar.tolist(), "mass": mass, "ndofs": p.nfree,
             "seconds_per_step": wall / nsteps}

@@ -37,8 +37,8 @@ def static_approach(problem, forces: np.ndarray) -> np.ndarray:
     consistent mass and its rigid modes the vertical translation only."""
     K = problem.K.tocsr()
     n = K.shape[0]
-    Me = problem.M @ problem.extra["vertical"]
-    m = float(problem.extra["vertical"] @ Me)
+    Me = problem.M @ problem.vertical
+    m = float(problem.vertical @ Me)
     dofs, z = problem.contact.dofs, problem.contact.gap0
     active = np.array([int(np.argmin(z))])
     out = []
@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
                 forces = h.peak_force * np.linspace(0.05, 1.3, 26)
                 p = case.sparse_problem(nx, 1.0, "consistent")
                 qtc, qfm = quasi_static_impact(forces, static_approach(p, forces),
-                                               p.extra["mass"], v)
+                                               p.body_mass, v)
                 c = [""] * 7  # the dynamic run's columns
                 if not args.quasi_static_only:
                     row = run_one(spec, args.scheme, nx=nx).row

@@ -83,7 +83,7 @@ class DiscDrop(BodyCase):
         dt = float(row["dt"])
         before = traj.t < self.impact_time - 1.5 * dt
         if before.any():
-            U = traj.U[before][:, problem.extra["vertical"] > 0]
+            U = traj.U[before][:, problem.vertical > 0]
             err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
             out["err_free_fall"] = float(err) / float(self.lift)
         nx, stride = int(row["nx"]), int(row["stride"])
@@ -176,8 +176,8 @@ class DiscDrop(BodyCase):
                              E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
-                             extra={"mass": float(np.sum(M @ np.tile([0.0, 1.0], n // 2))),
-                                    "vertical": np.tile([0.0, 1.0], n // 2)})
+                             vertical=np.tile([0.0, 1.0], n // 2),
+                             body_mass=float(np.sum(M @ np.tile([0.0, 1.0], n // 2))))
 
 
 #: numerical reference runs by (degree, lift, nx, dt, steps, stride)

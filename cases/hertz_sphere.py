@@ -156,8 +156,8 @@ class HertzSphere(BodyCase):
                              E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, body.hmin),
                              normal_stress=zone.stress(free),
-                             extra={"mass": mass,  # and the vertical translation:
-                                    "vertical": (np.arange(n)[free] % 2 == 1).astype(float)})
+                             vertical=(np.arange(n)[free] % 2 == 1).astype(float),
+                             body_mass=mass)
 
 
 @fe.BilinearForm

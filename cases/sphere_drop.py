@@ -70,7 +70,7 @@ class SphereDrop(BodyCase):
         before = traj.t < self.impact_time - 1.5 * float(row["dt"])
         if not before.any():
             return {}
-        U = traj.U[before][:, problem.extra["vertical"] > 0]
+        U = traj.U[before][:, problem.vertical > 0]
         err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
         return {"err_free_fall": float(err) / float(self.lift)}
 
@@ -114,5 +114,5 @@ class SphereDrop(BodyCase):
                              E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
                              normal_stress=zone.normal_stress,
-                             extra={"mass": float(np.sum(M @ vertical)), "vertical": vertical})
+                             vertical=vertical, body_mass=float(np.sum(M @ vertical)))
 

@@ -37,7 +37,7 @@ def test_problem_mass_load_contact_set(degree):
     case = make_case(f"disc_drop[degree={degree}]")
     p = case.sparse_problem(NX, 1.0, "consistent")
     p.check()
-    m = p.extra["mass"]
+    m = p.body_mass
     assert m == pytest.approx(math.pi * 20.0**2, rel=2e-3)  # P2 geometry of the circle
     assert -p.F[1::2].sum() == pytest.approx(m * 0.1, rel=1e-12) and not p.F[0::2].any()
     assert p.energy(p.U0, p.V0) == pytest.approx(case.exact_energy, rel=2e-3)
@@ -46,7 +46,7 @@ def test_problem_mass_load_contact_set(degree):
     assert np.all(p.contact.dofs % 2 == 1)  # vertical components
     pr = case.sparse_problem(NX, 1.0, "first_element_massless")
     assert np.all(pr.massless[p.contact.dofs]) and pr.massless.sum() == 2 * p.contact.size
-    assert pr.extra["mass"] == pytest.approx(m, rel=1e-12)
+    assert pr.body_mass == pytest.approx(m, rel=1e-12)
     pairs = mirror_pairs(np.asarray(case.body(NX).dof_coordinates))
     assert pairs.shape[0] == (p.nfree // 2 - np.sum(np.abs(
         np.asarray(case.body(NX).dof_coordinates)[0]) < 1e-9)) // 2
@@ -76,7 +76,7 @@ def test_free_fall_impulse_balance_symmetry(spec):
     assert traj.extra["first_contact_start"] == pytest.approx(case.impact_time, abs=2 * dt)
     # the impulse balance: change of momentum + m g t = the trapezoid impulse of the
     # contact resultant (Newmark's gamma = 1/2 velocity update), relative to m v_impact
-    m = p.extra["mass"]
+    m = p.body_mass
     mom = traj.V @ (p.M @ np.tile([0.0, 1.0], p.nfree // 2))
     R = -traj.stress * p.contact.weights.sum()
     impulse = dt * (np.cumsum(R) - 0.5 * R - 0.5 * R[0])

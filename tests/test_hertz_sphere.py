@@ -19,7 +19,7 @@ def test_axisymmetric_problem():
     p = case.sparse_problem(8, 1.0, "consistent")
     p.check()
     # the sphere's mass (P2 geometry of the circle) and its kinetic energy
-    assert p.extra["mass"] == pytest.approx(4.0 / 3.0 * math.pi, rel=1e-4)
+    assert p.body_mass == pytest.approx(4.0 / 3.0 * math.pi, rel=1e-4)
     assert p.energy(p.U0, p.V0) == pytest.approx(case.exact_energy, rel=1e-4)
     # the contact weights: the zone's spherical cap, of area 2 pi R z_top (Archimedes)
     assert p.contact.weights.sum() == pytest.approx(2 * math.pi * p.contact.gap0.max(),
@@ -36,7 +36,7 @@ def test_axisymmetric_problem():
     U = U[keep]
     strain = 0.5 * U @ (p.K @ U)
     assert strain == pytest.approx(0.5 * (9 * lam + 6 * mu) * 4.0 / 3.0 * math.pi, rel=1e-4)
-    Z = p.extra["vertical"]
+    Z = p.vertical
     assert np.max(np.abs(p.K @ Z)) < 1e-12 * abs(p.K).max()
 
 
@@ -58,9 +58,9 @@ def test_within_ten_percent_of_hertz_and_impulse_balance():
     # +10.8 % at nx 8; the sphere's own quasi-static answer is +11.5 % (hertz_gap.py)
     assert abs(R.max() / h.peak_force - 1) < 0.12
     # momentum: no load, so the change of vertical momentum is the contact impulse
-    mom = traj.V @ (p.M @ p.extra["vertical"])
+    mom = traj.V @ (p.M @ p.vertical)
     impulse = dt * (np.cumsum(R) - 0.5 * R - 0.5 * R[0])
-    assert np.max(np.abs(mom - mom[0] - impulse)) < 1e-8 * p.extra["mass"] * float(case.v)
+    assert np.max(np.abs(mom - mom[0] - impulse)) < 1e-8 * p.body_mass * float(case.v)
     assert np.max(np.abs(traj.energy / traj.energy[0] - 1)) < 1e-3
 
 
@@ -137,7 +137,7 @@ def test_quasi_static_sphere_tends_to_hertz_as_the_contact_shrinks():
         F = h.peak_force * np.linspace(0.05, 1.3, 14)
         d = mod.static_approach(p, F)
         assert np.all(np.diff(d) > 0)
-        tc, fm = mod.quasi_static_impact(F, d, p.extra["mass"], v)
+        tc, fm = mod.quasi_static_impact(F, d, p.body_mass, v)
         gaps.append((tc / h.contact_time - 1, fm / h.peak_force - 1))
     (tc1, f1), (tc2, f2) = gaps
     assert 0.0 < f2 < 0.08 and -0.08 < tc2 < 0.0  # +4.9 %, -4.4 % (hertz_gap.py)

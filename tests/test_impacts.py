@@ -18,7 +18,7 @@ def test_synthetic_two_impacts():
     # one dof of mass 2 moving vertically; contact area 1, force = -stress
     problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0,
                               contact=SimpleNamespace(weights=np.array([1.0])),
-                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+                              vertical=np.array([1.0]), body_mass=2.0)
     t = np.arange(10.0)
     v = np.array([-1, -1, -0.5, 0.8, 0.8, -0.8, 0.0, 0.4, 0.4, 0.4])
     stress = -np.array([0, 0, 1, 1, 0, 0, 2, 0, 0, 0.0])
@@ -64,7 +64,7 @@ def test_impulse_residual_of_a_balanced_and_a_broken_history():
     p = -1.0 * t + impulse
     problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0, F=np.array([-1.0]),
                               contact=SimpleNamespace(weights=np.array([1.0])),
-                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+                              vertical=np.array([1.0]), body_mass=2.0)
     traj = SimpleNamespace(t=t, V=(p / 2.0)[:, None], stress=-R, energy=np.ones(8))
     assert impulse_residual(problem, traj, dt) < 1e-15
     kicked = SimpleNamespace(t=t, V=((p + 0.1 * (t > 2)) / 2.0)[:, None], stress=-R,
@@ -80,7 +80,7 @@ def test_impulse_residual_of_strided_samples():
     dt = 0.5
     problem = SimpleNamespace(M=sp.identity(1, format="csr") * 2.0, F=np.array([-1.0]),
                               contact=SimpleNamespace(weights=np.array([1.0])),
-                              extra={"vertical": np.array([1.0]), "mass": 2.0})
+                              vertical=np.array([1.0]), body_mass=2.0)
     t = 3 * dt * np.arange(4)
     J = 4.5
     p = -1.0 * t + np.array([0.0, 1.0, 3.0, J])
@@ -134,7 +134,7 @@ def test_disc_drop_impulse_residual_at_every_stride(case, scheme):
     assert J == pytest.approx(strided.trajectory.extra["contact_impulse"], rel=1e-12)
     assert np.array_equal(strided.trajectory.extra["impulse"], tr.extra["impulse"][
         np.r_[np.arange(0, tr.t.size - 1, 7), tr.t.size - 1]])
-    vertical = p.extra["vertical"]
+    vertical = p.vertical
     mom = tr.V @ (p.M @ vertical)
     final = abs(mom[-1] - mom[0] - float(p.F @ vertical) * tr.t[-1] - J) / J
     assert every.row["impulse_residual"] < 1e-8 and strided.row["impulse_residual"] < 1e-8

@@ -16,7 +16,7 @@ def test_problem_and_refusals():
     p = case.sparse_problem(2, 1.0, "consistent")
     p.check()
     assert p.dim == 3 and np.all(p.contact.dofs % 3 == 2)
-    m = p.extra["mass"]
+    m = p.body_mass
     assert -p.F[2::3].sum() == pytest.approx(m * case.g, rel=1e-12)
     assert p.energy(p.U0, p.V0) == pytest.approx(m * case.g * float(case.lift), rel=1e-12)
     assert 0.6 * 4 / 3 * np.pi * case.R**3 < m < 4 / 3 * np.pi * case.R**3  # flat faces
@@ -37,7 +37,7 @@ def test_free_fall_and_impulse_balance():
     assert err / float(case.lift) < 1e-10
     R = -traj.stress * p.contact.weights.sum()
     assert R.max() > 0
-    mom = traj.V @ (p.M @ p.extra["vertical"])
+    mom = traj.V @ (p.M @ p.vertical)
     impulse = dt * (np.cumsum(R) - 0.5 * R - 0.5 * R[0])
-    residual = mom - mom[0] + p.extra["mass"] * case.g * traj.t - impulse
-    assert np.max(np.abs(residual)) < 1e-8 * p.extra["mass"] * case.g * case.impact_time
+    residual = mom - mom[0] + p.body_mass * case.g * traj.t - impulse
+    assert np.max(np.abs(residual)) < 1e-8 * p.body_mass * case.g * case.impact_time

@@ -121,6 +121,15 @@ class SparseProblem:
     #: the normal stress at each contact dof as a linear map of U (n_c x n, CSR;
     #: compression negative), for Nitsche; None: not given
     normal_stress: sp.csr_matrix | None = None
+    #: the rigid translation along the obstacle's normal, one value per free dof (1 on
+    #: the normal components): the body's momentum V.M.vertical and free fall read it
+    #: (impact by impact metrics, the momentum balance); None: the body has none (a
+    #: clamped one)
+    vertical: np.ndarray | None = None
+    #: the body's mass as that translation sees it (vertical . M . 1 over the whole
+    #: body), for the impact metrics; None with `vertical`
+    body_mass: float | None = None
+    #: anything else a scene wants to keep with its problem (read by that scene only)
     extra: dict[str, Any] = field(default_factory=dict)
     #: the bar's tridiagonal form of the same problem (`contact_bench.api.problem.
     #: BarProblem`), the fast backend of the 1D kernels; None for a 2D/3D body

@@ -5,8 +5,8 @@ trajectory's stress times the contact area). For each: its start and end sample 
 the energy at the first sample after it (relative to E0) and the rebound ratio, the
 vertical velocity of the centre of mass after it over the one before it (minus sign:
 a bounce that keeps the speed has ratio 1). The centre-of-mass velocity needs the
-problem's vertical translation (`extra["vertical"]`, the dofs moved by a unit vertical
-translation) and mass (`extra["mass"]`); a problem without them has no impact table.
+problem's vertical translation (`SparseProblem.vertical`, the dofs moved by a unit vertical
+translation) and mass (`SparseProblem.body_mass`); a problem without them has no impact table.
 The times are those of the samples: a stride above 1 blurs them by up to a stride.
 """
 
@@ -24,8 +24,8 @@ IMPACT_COLUMNS = ("impact", "start", "end", "energy_after", "rebound_ratio")
 
 def impact_table(problem: Any, traj: Any) -> pd.DataFrame | None:
     """One row per impact (module docstring), or None without a vertical translation."""
-    vertical = problem.extra.get("vertical") if hasattr(problem, "extra") else None
-    mass = problem.extra.get("mass") if hasattr(problem, "extra") else None
+    vertical = getattr(problem, "vertical", None)
+    mass = getattr(problem, "body_mass", None)
     if vertical is None or not mass or traj.stress.size < 2:
         return None
     import pandas as pd
@@ -62,7 +62,7 @@ def impulse_residual(problem: Any, traj: Any, dt: float) -> float | None:
     by the trapezoid rule (exact only for a velocity update that is the trapezoid, e.g.
     Newmark with gamma = 1/2), otherwise None. The same measure at any stride when the
     kernel records J at every sample."""
-    vertical = problem.extra.get("vertical") if hasattr(problem, "extra") else None
+    vertical = getattr(problem, "vertical", None)
     t = np.asarray(traj.t)
     if vertical is None or t.size < 2:
         return None
