@@ -177,9 +177,9 @@ def _check_response(rows: int, nc: int) -> None:
 
 
 def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
-    """Penalty springs kappa_i on the contact dofs as a `ContactLaw`."""
-    cd = np.asarray(p.contact.dofs, np.int64)
-    C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, p.nfree))
+    """Penalty springs kappa_i on the contact points' gaps as a `ContactLaw` (P = Q = G,
+    the gap operator)."""
+    C = p.contact.gap_operator(p.nfree)
     kappa = np.asarray(kappa, float)
     return ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
 
