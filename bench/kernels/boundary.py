@@ -64,12 +64,8 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset) + 0.5 * ew * c * neg * neg
     min_u0 = U[0]
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = sc * neg
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V, sc * neg, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     pw = p0 * w[0] + p1 * w[1] if beta > 0.0 else 0.0
     c2 = (0.5 - beta) * dt * dt

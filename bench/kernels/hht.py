@@ -28,12 +28,8 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
     min_u0 = U[0]
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = 0.0
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     c2 = (0.5 - beta) * dt * dt
     for step in range(1, nsteps + 1):

@@ -83,11 +83,8 @@ def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, of
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V0, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V0
-    cu_out[0] = U[0]
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V0, s_out[0], E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     for step in range(1, nsteps + 2):
         cd_stencil(c, F, Kd, Ke, Um, U, Up)
@@ -134,12 +131,8 @@ def tf_lumped_kernel(Md, Me, Kd, Ke, F, w0, U, V, A, dt, nsteps, stride, offset,
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = 0.0
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     Vh = V
     for i in range(n):

@@ -68,12 +68,8 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = -lam
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V, -lam, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     for step in range(1, nsteps + 1):
         for i in range(1, n):

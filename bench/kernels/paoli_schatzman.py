@@ -24,11 +24,8 @@ def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stri
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V0, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V0
-    cu_out[0] = U[0]
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V0, s_out[0], E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     for step in range(1, nsteps + 2):
         # S U^{n+1} = M (2 U^n - U^{n-1}) - dt^2 K ((1 - 2 beta) U^n + beta U^{n-1}) + dt^2 F

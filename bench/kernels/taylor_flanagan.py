@@ -25,12 +25,8 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = U[0]
-    s_out[0] = 0.0
-    E_out[0] = E0
+    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
+                  E_out)
     k = 1
     for step in range(1, nsteps + 1):
         for i in range(n):
