@@ -1,8 +1,9 @@
 """Stepping cost per dof-step of a few schemes on the clamped bar, for a quick before/after
 comparison of two checkouts (the pytest-benchmark suite is the tracked measurement).
 
-Each (scheme, n): one warm-up call (JIT compilation), then the minimum of 5 calls of
-`scheme.integrate` with samples at the first and last step only, at CFL 0.5.
+Each (scheme, n): the scheme's stepper prepared once (`scheme.prepare`, outside the
+timing), one warm-up call (JIT compilation), then the minimum of 5 calls of
+`stepper.run` with samples at the first and last step only, at CFL 0.5.
 
     python benchmarks/kernel_cost.py redistributed standard restitution nitsche
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 import sys
 import time
 
+from contact_bench.api import as_problem
 from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case, make_scheme
@@ -26,11 +28,12 @@ def main(specs: list[str]) -> None:
         for n, steps in SIZES:
             semi = discretise(case, mesh_nodes(1.0, n), scheme.mass_kind())
             dt = 0.5 * semi.hmin / semi.c_max
-            scheme.integrate(semi, dt, steps, steps)
+            stepper = scheme.prepare(as_problem(semi, scheme.mass_kind()), dt)
+            stepper.run(steps, steps)
             best = float("inf")
             for _ in range(5):
                 start = time.perf_counter()
-                scheme.integrate(semi, dt, steps, steps)
+                stepper.run(steps, steps)
                 best = min(best, time.perf_counter() - start)
             print(f"{spec:14s} n={n:6d} {best / (n * steps) * 1e9:6.3f} ns/dof-step")
 

@@ -4,8 +4,9 @@
 
 For each nx (clamped bar, dt = 0.5 h or 0.9 x a lower stability limit, nsteps =
 dof-steps / nfree, or T / dt with
-`--T`: the study's runs, their per-call set-up included) and each scheme it prints the
-minimum over `repeats` calls (after a warm-up call) of `scheme.integrate` with stride =
+`--T`: the study's runs; a bar's band factorisation is inside each call) and each
+scheme it prints the minimum over `repeats` calls (after a warm-up call) of the
+scheme's stepper, prepared once outside the timing (`stepper.run`), with stride =
 nsteps (stepping: two samples) and with stride 1 (every step recorded, as the error
 norms need), per dof-step; `rec` is their difference. `spec@serial` and `spec@spike`
 force one form of the Newmark kernels (`contact_bench.kernels.newmark.kernel_form`), or
@@ -27,6 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from contact_bench.api import as_problem  # noqa: E402
 from contact_bench.api.fem import mesh_nodes  # noqa: E402
 from contact_bench.api.problem import discretise  # noqa: E402
 from contact_bench.api.registry import make_case, make_scheme  # noqa: E402
@@ -55,10 +57,11 @@ def _runner(spec: str, nx: int, dof_steps: float = DOF_STEPS, T: float | None = 
     nsteps = (max(100, int(dof_steps / semi.nfree)) if T is None
               else max(1, math.ceil(T / dt - 1e-9)))
     scheme.integrate(semi, 1e-3 * semi.hmin / semi.c_max, 1, 1)
+    stepper = scheme.prepare(as_problem(semi, scheme.mass_kind()), dt)  # set-up, untimed
 
     def call(stride: int) -> int:
         if form is None:
-            traj = scheme.integrate(semi, dt, nsteps, stride)
+            traj = stepper.run(nsteps, stride)
         elif scheme.name == "ode_verlet":
             traj = ode_verlet.run_ode_verlet(semi, dt, nsteps, stride, form == "spike")
         elif scheme.name == "taylor_flanagan":

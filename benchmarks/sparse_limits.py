@@ -3,9 +3,10 @@ runs at 0.95 x and 1.05 x of it.
 
     python benchmarks/sparse_limits.py [--quick] [--coercivity]
 
-For each (scene, nx, T, scheme): `stability_limit(hmin, c_max)` (the 1D element formula
-the harness used for every form before `Scheme.sparse_stability_limit`), the declared
-sparse limit (`contact_bench.kernels.sparse_explicit.stable_dt`: ARPACK on the mesh),
+For each (scene, nx, T, scheme): `stability_limit(BarScale(hmin, c_max))` (the 1D
+element formula at the mesh's hmin, which the harness once used for every scene), the
+declared limit on the body's problem, `stability_limit(problem)`
+(`contact_bench.kernels.sparse_explicit.stable_dt`: ARPACK on the mesh),
 their ratio, and the status and energy drift of runs at 0.95 x and 1.05 x the declared
 limit (`contact_bench.harness.runner.run_one`). `--coercivity`: instead, the two
 smallest generalized eigenvalues of Nitsche's (K', M) (theta = 1, no contact active) on

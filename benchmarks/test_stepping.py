@@ -1,8 +1,10 @@
 """Stepping cost of every registered scheme, in ns per dof-step, and the speedup over scipy.
 
-Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped bar:
-assembly (`contact_bench.api.problem.discretise`) and JIT compilation (`scheme.warm_up`) happen
-before the timing, the stride is the whole run (two samples).
+Each benchmark times `scheme.integrate(semi, dt, nsteps, stride)` on the clamped bar
+(prepare + run; a bar's prepare makes little, its bands are factored inside the run):
+assembly (`contact_bench.api.problem.discretise`) and JIT compilation (a one-step
+`scheme.integrate` call) happen before the timing, the stride is the whole run (two
+samples).
 
 Every benchmark does a fixed unit of work, named in its id: the scene, n and the number
 of steps (`steps_for`: STEPS[n], scaled down for the few schemes listed in SLOW), e.g.

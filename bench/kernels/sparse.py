@@ -1,7 +1,8 @@
 """Stepping on the general sparse problem (`contact_bench.api.sparse.SparseProblem`).
 
-Shared by the schemes whose `forms` hold "sparse". Everything factorable is factored
-once outside the loop; the loops are numba kernels over CSR arrays.
+Shared by the schemes' 2D/3D paths (their `prepare` on a body's problem). Everything
+factorable is factored once, when the stepper is prepared, outside the loop; the loops
+are numba kernels over CSR arrays.
 
 * `Factor`: SuperLU of a symmetric positive definite S with a symmetric ordering and
   diagonal pivots (`SymmetricMode`), its L and U kept as CSR arrays so that a compiled

@@ -19,9 +19,9 @@ parameters, plus any spec given with --scheme):
   motion without contact (`contact_bench.sweeps.time_order`, outside the sweep and its
   cache) and shown next to its declared order (`Traits.order`).
 
-The sparse part (2D/3D scenes: every case whose `form` is "sparse", on the grids it
-declares in `Case.study`; every scheme whose `forms` hold "sparse", or, when a spec
-cannot run the scene and the scheme takes a lumped `mass`, its lumped variant):
+The sparse part (2D/3D scenes: every body scene, whose `form` is "sparse", on the grids
+it declares in `Case.study`; every scheme, or, when a spec cannot run the scene and the
+scheme takes a lumped `mass`, its lumped variant):
 
 - refine: each declared variant (`StudyGrid.specs`) at each declared nx, at the CFL of
   the scene's dt on the coarsest mesh (0.9 x the declared limit when that is smaller),
@@ -157,7 +157,8 @@ def _variants(case: Case, spec: str) -> str | None:
 
 def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> list[Task]:
     """The sparse part of the study for one scene (see the module docstring): its
-    declared variants (`Case.study`) x every spec whose scheme integrates sparse problems."""
+    declared variants (`Case.study`) x every spec (a 'not applicable' row where it cannot
+    run the scene)."""
     base = make_case(case_spec)
     grid = base.study
     if grid is None:

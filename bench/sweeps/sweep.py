@@ -10,11 +10,12 @@ them and returns one DataFrame:
    (`dask` = an address or "local"); each finished row is written to the cache at
    once, so an interrupted sweep continues where it stopped;
 3. then, with nothing else running, a *serial timing pass* in this process: for every
-   ok row of a timed task, two timings, each one warm-up call of `scheme.integrate`
-   (discarded; JIT compilation is done before it by `scheme.warm_up`), then `repeats`
-   timed calls with the garbage collector off: `time_s`, the run with the row's
-   recording (its stride), and `step_s`, the stepping alone (stride = steps: samples at
-   the first and the last step only). Each gives its minimum and, through
+   ok row of a timed task, the scheme's stepper prepared once (`scheme.prepare`, outside
+   the timings), a one-step run (JIT compilation) and one discarded warm-up call of
+   `stepper.run`, then two timings of `repeats` timed calls each with the garbage
+   collector off: `time_s`, the run with the row's recording (its stride), and
+   `step_s`, the stepping alone (stride = steps: samples at the first and the last step
+   only). Each gives its minimum and, through
    `timing_stats`, `<name>_median_s`, `<name>_iqr_s` (interquartile range),
    `<name>_repeats` and `<name>_noisy` (IQR above NOISY_SPREAD x the median: re-time
    it). Timings are cached too, keyed on the run and the CPU model; `retime` measures
@@ -348,7 +349,7 @@ def timing_stats(samples: Sequence[float], name: str = "time") -> dict[str, Any]
 
 def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
                    ) -> list[float]:
-    """`repeats` timed `scheme.integrate` calls after a discarded warm-up: their times,
+    """`repeats` timed calls of the prepared stepper after a discarded warm-up: their times,
     with the row's stride, or (`stepping`) with stride = steps (the stepping alone).
 
     A run whose calls exceed TIME_BUDGET_S in total stops after two calls (one when
