@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-#: the problem forms a scheme may integrate and a case may produce
+#: what a case's problem is built from (`Case.form`): the bar's banded form (its
+#: `BarProblem`) or a body's sparse assembly; every scheme receives the one problem form
 BANDED_1D = "banded1d"
 SPARSE = "sparse"
 FORMS = (BANDED_1D, SPARSE)

@@ -30,9 +30,8 @@ from contact_bench.api.plugin import (
     Contact,
     Energy,
     Scheme,
-    Semidiscrete,
+    Stepper,
     Traits,
-    Trajectory,
 )
 from contact_bench.api.registry import cases, schemes
 from contact_bench.core.errors import shown
@@ -77,11 +76,11 @@ class DemoFreeOnly(Scheme):
     name = "demo_free_only"
     summary = "demo: a scheme that cannot run clamped bars"
 
-    def traits(self) -> Traits:
+    def traits(self, problem=None) -> Traits:
         return Traits(implicit=True, massless_contact_node=False, contact=Contact.EXACT,
                       energy=Energy.MAY_GROW)
 
-    def integrate(self, semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajectory:
+    def prepare(self, problem, dt: float) -> Stepper:
         raise NotImplementedError("demo_free_only is a demo: it integrates nothing")
 
     def cannot_run(self, case: Case) -> str | None:
