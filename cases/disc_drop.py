@@ -216,7 +216,7 @@ def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
         for a, b, c in half:
             tris.append((node(*a), node(*b), node(*c)))
             tris.append((mirror(*a), mirror(*c), mirror(*b)))
-    return np.hstack(pts), np.array(tris, np.int64).T
+    return np.hstack(pts), np.ascontiguousarray(np.array(tris, np.int64).T)
 
 
 def mirror_pairs(P: np.ndarray) -> np.ndarray:

@@ -203,4 +203,4 @@ def ring_half_disc(n: int) -> tuple[np.ndarray, np.ndarray]:
                 i += 1
     p = np.hstack(pts)
     p[0, np.abs(p[0]) < 1e-14] = 0.0  # the axis exactly
-    return p, np.array(tris, np.int64).T
+    return p, np.ascontiguousarray(np.array(tris, np.int64).T)
