@@ -94,7 +94,7 @@ def test_every_scene_runs_on_a_graded_mesh():
         run = run_one(case, "redistributed", nx=16, dt=dt, T=T, grading=2.0)
         assert run.row["status"] == "ok", (name, run.row["notes"])
         assert run.row["grading"] == 2.0
-        x = run.semi.axis.x  # a bar's problem reads along its axis too
+        x = run.problem.axis.x  # a bar's problem reads along its axis too
         assert x[1] - x[0] == pytest.approx(case.size / 16**2)  # x_i = L (i / nx)^2
         errs = [run.row[c] for c in ("err_u_linf_l2", "err_v_l2_l2")]
         assert all(np.isfinite(errs)), (name, errs)
