@@ -17,9 +17,9 @@ import scipy.sparse as sp
 
 from contact_bench.api.fem import MASSLESS_KINDS, assemble, canonical_mass, mass_variant
 from contact_bench.api.plugin import Case, Semidiscrete
+from contact_bench.api.recorder import discrete_energy
 from contact_bench.api.sparse import AxisView, ContactSet, SparseProblem
 from contact_bench.core.errors import BenchError
-from contact_bench.core.sampling import energy_of
 
 
 def _number(case: Case, name: str, value: object, allowed: str, ok) -> None:
@@ -176,10 +176,7 @@ class BarProblem:
 
     def energy(self, U: np.ndarray, V: np.ndarray) -> float:
         """1/2 V.M.V + 1/2 U.K.U - F.U + energy_offset, as the 1D kernels sum it."""
-        s = self.banded
-        return float(energy_of(s.M.diag, s.M.off, s.K.diag, s.K.off, s.F,
-                               np.ascontiguousarray(U, float), np.ascontiguousarray(V, float),
-                               s.energy_offset))
+        return discrete_energy(self.banded, U, V)
 
     def gaps(self, U: np.ndarray) -> np.ndarray:
         """The gap of the contact node (u_0) of a state or of a stack of states."""

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from contact_bench.api.plugin import Semidiscrete, Trajectory
+from contact_bench.core.contact_stats import contact_extra, new_stats, stats_update
 from contact_bench.core.sampling import blown_up, energy_of, is_sample, n_samples
 
 
@@ -65,11 +66,8 @@ class TrajectoryRecorder:
         p = self.problem
         self.energy0 = p.energy(p.U0, p.V0) if energy0 is None else float(energy0)
         self.min_contact_u = self._gap(p.U0)
-        n_c = p.contact.size
-        self._status = np.zeros(n_c, bool)
-        self.stats: dict[str, float] = {
-            "chatter": 0.0, "first_contact_start": np.nan, "first_contact_end": np.nan,
-            "peak_contact_force": 0.0, "contact_steps": 0.0}
+        self._status = np.zeros(p.contact.size, np.bool_)
+        self.stats = new_stats()  # the compiled kernels' contact statistics
         self._forces_given = False
         self._write(0, p.U0, p.V0, 0.0, self.energy0)
 
@@ -90,22 +88,6 @@ class TrajectoryRecorder:
         self.contact_u[k], self.stress[k], self.energy[k] = self._gap(U), stress, energy
         self.samples += 1
 
-    def _contact(self, step: int, forces: np.ndarray) -> None:
-        """The contact statistics of the step's forces (one per contact point)."""
-        self._forces_given = True
-        now = np.asarray(forces, float) > 0.0
-        s = self.stats
-        s["chatter"] += float(np.count_nonzero(now != self._status))
-        self._status = now
-        total = float(np.sum(forces))
-        if now.any():
-            s["contact_steps"] += 1.0
-            if np.isnan(s["first_contact_start"]):
-                s["first_contact_start"] = step * self.dt
-        elif not np.isnan(s["first_contact_start"]) and np.isnan(s["first_contact_end"]):
-            s["first_contact_end"] = step * self.dt
-        s["peak_contact_force"] = max(s["peak_contact_force"], total)
-
     def record(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
                forces: np.ndarray | None = None, energy: float | None = None) -> bool:
         """After step `step` (1 ... nsteps): the new state, its contact stress (<= 0 in
@@ -114,8 +96,10 @@ class TrajectoryRecorder:
         only). Returns True when the run has blown up: stop stepping then."""
         self.steps_done = step
         self.min_contact_u = min(self.min_contact_u, self._gap(U))
-        if forces is not None:
-            self._contact(step, forces)
+        if forces is not None:  # the kernels' update of the contact statistics
+            self._forces_given = True
+            stats_update(self.stats, self._status, np.ascontiguousarray(forces, float), step,
+                         self.dt)
         if not is_sample(step, self.nsteps, self.stride):
             return False
         e = self.problem.energy(U, V) if energy is None else float(energy)
@@ -128,7 +112,7 @@ class TrajectoryRecorder:
     def trajectory(self, **extra: Any) -> Trajectory:
         """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics;
         the contact statistics when `record` was given the forces)."""
-        stats = dict(self.stats) if self._forces_given else {}
+        stats = contact_extra(self.stats) if self._forces_given else {}
         return self.from_kernel(self.samples, self.steps_done, self.min_contact_u,
                                 self.blowup_step, **stats, **extra)
 

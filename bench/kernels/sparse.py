@@ -45,14 +45,9 @@ from scipy.sparse.linalg import splu
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.contact_stats import impulse_update, stats_update
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import (
-    csr_energy,
-    impulse_update,
-    smallest_gap,
-    stats_update,
-    write_sample,
-)
+from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.stepper import KernelStepper
 
 #: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve

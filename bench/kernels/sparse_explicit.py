@@ -47,13 +47,9 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.contact_stats import impulse_update, stats_update
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import (
-    impulse_update,
-    smallest_gap,
-    stats_update,
-    write_sample,
-)
+from contact_bench.kernels.recording import smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     ContactLaw,

@@ -44,21 +44,19 @@ from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.sampling import blown_up, n_samples
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import (
+from contact_bench.core.contact_stats import (
     CONTACT_IMPULSE,
     LAST_FORCE,
     SAMPLE_IMPULSE,
     contact_extra,
-    csr_energy,
     first_contact_impulse,
     impulse_update,
     new_stats,
-    smallest_gap,
     stats_update,
-    write_sample,
 )
+from contact_bench.core.sampling import blown_up, n_samples
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
     Factor,
     MasslessSplit,

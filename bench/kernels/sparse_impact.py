@@ -40,16 +40,14 @@ from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import (
+from contact_bench.core.contact_stats import (
     CONTACT_IMPULSE,
     LAST_FORCE,
-    csr_energy,
     impulse_update,
-    smallest_gap,
     stats_update,
-    write_sample,
 )
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
     KEEP_Z_ENTRIES,
     Factor,

@@ -16,7 +16,8 @@ from typing import Any
 
 from contact_bench.api.plugin import Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.kernels.recording import SampleBuffers, new_stats
+from contact_bench.core.contact_stats import new_stats
+from contact_bench.kernels.recording import SampleBuffers
 
 
 class SparseStepper(Stepper, ABC):
