@@ -111,5 +111,4 @@ class Penalty(Scheme):
                                                              self.gamma, law))
         if self.beta == 0.0:
             return prepare_explicit_law(problem, dt, self.gamma, law)
-        return prepare_newmark(problem, dt, self.beta, self.gamma,
-                               kappa=self.spring_stiffnesses(problem))
+        return prepare_newmark(problem, dt, self.beta, self.gamma, law=law)
