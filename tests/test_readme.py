@@ -67,6 +67,22 @@ def test_readme_is_a_short_user_guide():
         assert (README.parent / link).is_file(), f"README links to missing {link}"
 
 
+def test_readme_scheme_table_lists_every_scheme_with_its_declared_class():
+    """The Schemes table names every built-in scheme once, and its `class` column is the
+    scheme's declared `Traits.family` (Doyen, Ern, Piperno's classification)."""
+    from contact_bench.api.registry import schemes
+
+    section = README.read_text(encoding="utf-8").split("## Schemes", 1)[1].split("\n## ", 1)[0]
+    rows = [line.split("|")[1:-1] for line in section.splitlines() if line.startswith("| `")]
+    header = [c.strip() for c in next(line for line in section.splitlines()
+                                      if line.startswith("| scheme")).split("|")[1:-1]]
+    col = header.index("class")
+    listed = {re.match(r" `(\w+)", r[0]).group(1): r[col].strip() for r in rows}
+    assert sorted(listed) == sorted(schemes().plugins), "README's scheme table is not the registry"
+    for name, family in listed.items():
+        assert family == make_scheme(name).traits().family, (name, family)
+
+
 @pytest.mark.parametrize("case", ["clamped_bar", "dropped_bar"])
 def test_readme_template_runs_and_matches_the_compiled_scheme(case: str, tmp_path: Path):
     cls, _ = load_template(tmp_path)

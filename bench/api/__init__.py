@@ -14,6 +14,7 @@ from contact_bench.api.plugin import (
     Contact,
     Energy,
     Exact,
+    Family,
     Scheme,
     Semidiscrete,
     Stepper,
@@ -37,7 +38,7 @@ from contact_bench.core.sampling import (
 
 __all__ = [
     "BLOWUP_FACTOR", "BarCase", "BarProblem", "BarScale", "BenchError", "BodyCase",
-    "CallStepper", "Case", "Contact", "Energy", "Exact", "Param", "Scheme",
+    "CallStepper", "Case", "Contact", "Energy", "Exact", "Family", "Param", "Scheme",
     "Semidiscrete", "Stepper", "Traits", "Trajectory", "TrajectoryRecorder", "as_problem",
     "banded", "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",

@@ -422,6 +422,32 @@ class Contact(StrEnum):
     RESTITUTION = "restitution O(e dt v)"  # a restitution law: penetration O(e dt v)
 
 
+class Family(StrEnum):
+    """The class a scheme belongs to in Doyen, Ern, Piperno (SIAM J. Sci. Comput. 33, 2011),
+    the classification the field's comparisons use.
+
+    A str enum: it prints, and compares equal to, its value ("exact", ...).
+    """
+
+    EXACT = "exact"  # the constraint on displacements at a time level (multiplier, projection)
+    PENALTY = "penalty"  # a contact force from the penetration (penalty, Nitsche)
+    VELOCITY = "velocity"  # the constraint or an impact law on velocities
+    MODIFIED_MASS = "modified mass"  # no inertia at the contact dofs (mass redistribution)
+
+
+def default_family(contact: Contact, massless_contact_node: bool) -> Family:
+    """The class read from the other traits when a scheme does not declare it: a massless
+    contact node is a modified mass; else penalty and Nitsche are penalised, velocity-level
+    and restitution laws velocity schemes, and exact contact exact."""
+    if massless_contact_node:
+        return Family.MODIFIED_MASS
+    if contact in (Contact.PENALTY, Contact.NITSCHE):
+        return Family.PENALTY
+    if contact in (Contact.VELOCITY_LEVEL, Contact.RESTITUTION):
+        return Family.VELOCITY
+    return Family.EXACT
+
+
 @dataclass(frozen=True)
 class Traits:
     """What a scheme declares about itself.
@@ -435,10 +461,13 @@ class Traits:
     contact: Contact
     energy: Energy
     order: int | None = None  # expected time order away from impacts
+    family: Family | None = None  # Doyen-Ern-Piperno's class; None: `default_family`
 
     def __post_init__(self) -> None:
-        for name, kind in (("contact", Contact), ("energy", Energy)):
+        for name, kind in (("contact", Contact), ("energy", Energy), ("family", Family)):
             value = getattr(self, name)
+            if value is None and name == "family":
+                value = default_family(self.contact, self.massless_contact_node)
             try:
                 object.__setattr__(self, name, kind(value))
             except ValueError:

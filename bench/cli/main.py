@@ -116,7 +116,7 @@ def _scheme_record(name: str, cls: type) -> dict:
     return {
         "kind": "scheme", "name": name, "summary": cls.summary, "implicit": bool(tr.implicit),
         "massless_contact_node": bool(tr.massless_contact_node), "contact": tr.contact,
-        "energy": tr.energy, "mass": sch.mass_kind(),
+        "family": tr.family, "energy": tr.energy, "mass": sch.mass_kind(),
         "cfl_limit": None if limit is None else float(limit), "order": tr.order,
         "cannot_run": [c for c, ccls in cases().plugins.items()
                        if sch.cannot_run(ccls())
@@ -175,7 +175,8 @@ def _list_text(records: list[dict]) -> str:
                         else f"dt <= {r['cfl_limit']:.3g} h/c")
                 order = "-" if r["order"] is None else str(r["order"])
                 out += _wrap(f"implicit={r['implicit']} massless_contact_node="
-                             f"{r['massless_contact_node']} contact={r['contact']}", 6)
+                             f"{r['massless_contact_node']} contact={r['contact']} "
+                             f"class={r['family']}", 6)
                 out += _wrap(f"energy={r['energy']} mass={r['mass']} stability_limit={stab} "
                              f"order={order}", 6)
                 if r["cannot_run"]:
