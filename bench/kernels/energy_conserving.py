@@ -26,9 +26,10 @@ W = C S^-1 C^T, with the linear complementarity solver of the Newmark stepper
   where a dof arrives (g0 > 0; a dof within the LCP's round-off tolerance of the
   obstacle counts as in contact: no update for a round-off loss); then a velocity
   update V1 += s M^-1 C^T lambda (an impulse along the step's contact force) restores
-  it: s is the root of smaller magnitude of 1/2 s^2 lambda.D_M.lambda + s lambda.(C V1)
-  = D, D_M = C M^-1 C^T (M factored once): the smallest such impulse, which tends to
-  0 with D (the other root reverses the contact dofs' velocity along lambda).
+  it: s is the root s >= 0 of 1/2 s^2 lambda.D_M.lambda + s lambda.(C V1) = D,
+  D_M = C M^-1 C^T (M factored once): the obstacle's impulse s lambda only pushes.
+  When the contact dofs already leave (lambda.(C V1) > 0) it is the small root; when
+  they still approach it is the one that turns their velocity along lambda around.
 
 Per step the statistics of `contact_bench.kernels.recording` (the LL impulse counted in
 the step's force: lambda + s lambda / dt).
@@ -145,9 +146,9 @@ def _midpoint_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, ke
                 a += 0.5 * lam[j] * y[cd[j]]
                 b += lam[j] * V[cd[j]]
             if a > 0.0:
-                # the root of smaller magnitude: the update tends to 0 with the loss
+                # the root s >= 0: the obstacle's impulse pushes (lambda >= 0)
                 root = np.sqrt(b * b + 4.0 * a * loss)
-                s = 2.0 * loss / (b + root) if b >= 0.0 else 2.0 * loss / (b - root)
+                s = 2.0 * loss / (b + root) if b > 0.0 else (root - b) / (2.0 * a)
                 for i in range(n):
                     V[i] += s * y[i]
                 for j in range(nc):
