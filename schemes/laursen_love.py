@@ -13,8 +13,8 @@ Reading chosen (the update's direction is not fixed by the energy balance alone)
 impulse along the step's own contact force lambda, weighted by M^-1, so that only the
 dofs that pushed are kicked and the kick is outward. GetFEM's minimal variant
 (tests/dynamic_friction.cc, scheme 7) reflects the mean normal velocity of the active
-dofs instead (v_N^{n+1} = -v_N^n, the contact on the midpoint displacement), which
-restores the energy only for a lumped mass. Exact contact at a time level: Doyen, Ern,
+dofs instead (v_N^{n+1} = -v_N^n, the contact on the midpoint displacement), which does
+not restore the energy exactly in general. Exact contact at a time level: Doyen, Ern,
 Piperno's exact class. Kernel: `contact_bench.kernels.energy_conserving`.
 Measurements: docs/schemes.md.
 """
