@@ -116,7 +116,7 @@ def test_newton_step_matches_scipy_root():
         g, phi = np.empty(nc), np.empty(nc)
         assert discrete_gradient_solve(gf, gn, k, W, a, g, phi) >= 0
 
-        def R(x):  # noqa: N802 - the residual's name
+        def R(x, gf=gf, gn=gn):  # noqa: N802 - the residual's name
             return x - gf + a * W @ np.array([secant_force(x[i], gn[i], k[i])[0]
                                               for i in range(nc)])
 

@@ -103,7 +103,10 @@ def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - comp
         for i in range(nc):
             for j in range(nc):
                 J[i, j] = a * W[i, j] * dphi[j] + (1.0 if i == j else 0.0)
-        delta = np.linalg.solve(J, -r)
+        if nc == 1:  # the bar: a division (a LAPACK call costs more than the step)
+            delta = -r / J[0, 0]
+        else:
+            delta = np.linalg.solve(J, -r)
         step = 0.0
         for i in range(nc):
             step = max(step, abs(delta[i]))
