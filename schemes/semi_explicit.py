@@ -3,27 +3,16 @@
 
 The modified mass takes the inertia off the contact dofs (the suite's redistributed
 masses, `variant`). The dofs with mass advance by the central difference, explicitly;
-the massless ones, the contact dofs among them, are then solved at t_{n+1} from their
-own rows with the contact enforced exactly,
+the massless ones are then solved at t_{n+1} from their own rows,
+K_mm U_m = F_m - K_mh U_h + C^T lambda, with the contact exact: a small complementarity
+problem on the contact dofs (Delassus matrix C K_mm^-1 C^T, computed once). The step
+limit is the central difference's on the mass with massless contact dofs.
 
-    M_hh (U_h^{n+1} - 2 U_h^n + U_h^{n-1}) / dt^2 = F_h - (K U^n)_h,
-    K_mm U_m^{n+1} = F_m - K_mh U_h^{n+1} + C^T lambda,
-    0 <= gap0 + C U^{n+1}  _|_  lambda >= 0,
-
-a small complementarity problem on the contact dofs (their Delassus matrix C K_mm^-1 C^T,
-computed once; `lcp_solve`). The step limit is the central difference's on the mass
-with massless contact dofs (the contact dofs eliminated statically): no contact stiffness
-enters it.
-
-Reading: the central difference is run in its Newmark(0, 1/2) form (same displacements;
-velocities V^{n+1} = V^n + dt/2 (A^n + A^{n+1}) on the dofs with mass, the backward
-difference on the massless ones), with the suite's redistributed masses: on the bar the
-paper's M^mod (`first_element_massless`, consistent elsewhere), on a body the
-Khenous-Laborde-Renard redistribution. The paper lumps the interior mass to avoid the
-mass solve; the suite has no lumped redistributed mass, so the interior mass is solved
-with its factor (once, outside the loop). Algebraically this is `redistributed[beta=0]`
-(the bar's banded kernel, a body's `prepare_quasistatic`); the scheme names the
-published method and its class. Details: docs/schemes.md.
+Reading: the central difference in its Newmark(0, 1/2) form (same displacements), on the
+suite's redistributed masses; the paper lumps the interior mass, the suite has no lumped
+redistributed mass, so the interior mass is solved with its factor. Algebraically this
+is `redistributed[beta=0]` (the bar's banded kernel, a body's `prepare_quasistatic`);
+the scheme names the published method and its class. Details: docs/schemes.md.
 """
 
 from __future__ import annotations
