@@ -141,3 +141,13 @@ def test_declared_classes():
     assert make_scheme("armero_petocz").traits().family == Family.PENALTY
     assert make_scheme("semi_explicit").traits().family == Family.MODIFIED_MASS
     assert make_scheme("semi_explicit").traits().implicit is False
+
+
+@pytest.mark.parametrize(("case", "nx", "T"), [("clamped_bar", 40, 3.0),
+                                               ("disc_drop[degree=1]", 3, 12.0)])
+def test_semi_explicit_is_redistributed_central_difference(case, nx, T):
+    """The reading documented in schemes/semi_explicit.py: the same trajectory as
+    redistributed[beta=0] (explicit Newmark, gamma 1/2) on the bar and on a body."""
+    a = run_one(case, "semi_explicit", nx=nx, T=T, step_repeats=1).trajectory
+    b = run_one(case, "redistributed[beta=0]", nx=nx, T=T, step_repeats=1).trajectory
+    assert np.array_equal(a.U, b.U) and np.array_equal(a.energy, b.energy)
