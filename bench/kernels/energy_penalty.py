@@ -1,0 +1,235 @@
+"""The energy-conserving penalty step (Armero and Petocz 1998) on the general problem.
+
+The implicit midpoint rule in first-order form, the penalty springs entering through the
+discrete gradient of their energy Phi(g) = kappa/2 min(0, g)^2 (one spring per contact
+dof, g_i = gap0_i + U[dof_i]):
+
+    M (V_{n+1} - V_n) / dt = F - K (U_n + U_{n+1}) / 2 + C^T f,
+    (U_{n+1} - U_n) / dt = (V_n + V_{n+1}) / 2,
+    f_i = -(Phi_i(g_{n+1,i}) - Phi_i(g_{n,i})) / (g_{n+1,i} - g_{n,i})   (>= 0),
+
+the quotient read as Phi_i' where the two gaps are equal. Dotting the first line with
+U_{n+1} - U_n gives E_{n+1} = E_n exactly for E = 1/2 V.M.V + 1/2 U.K.U - F.U +
+sum_i Phi_i(g_i): the scheme conserves that energy up to the round-off of the solves.
+
+Eliminating V_{n+1}: S U_{n+1} = M (U_n + dt V_n) + dt^2/2 F - dt^2/4 K U_n + dt^2/2
+C^T f with S = M + dt^2/4 K (factored once, `Factor`). With the contact-free solution
+X_f, the gaps solve the n_c x n_c system
+
+    R(g) = g - g_f - dt^2/2 W f(g) = 0,   W = C S^-1 C^T (computed once, no n x n_c
+    matrix kept: the correction S^-1 C^T f is a second solve),
+
+f_i depending on g_i alone. Each -f_i is the secant slope of the convex Phi_i between
+g_{n,i} and g_i, so it is nondecreasing and C^1 in g_i (piecewise: kappa/2 (g + g_n)
+when both gaps are negative, kappa/2 g^2 / (g - g_n) or -kappa/2 g_n^2 / (g - g_n)
+across the obstacle, 0 when both are positive): the Jacobian I + dt^2/2 W D (D >= 0
+diagonal) is invertible and Newton, with a backtracking line search on |R|, is run to
+round-off (`discrete_gradient_solve`). Without penetration at either end of the step f
+is 0 and the step is the trapezoidal Newmark step.
+
+The recorded energy is E above (the springs' at t_{n+1}); the stress sum_i kappa_i
+min(0, g_i) / (the zone's measure), as `penalty`; each contact dof's force (chatter,
+contact times, peak, impulse) is the step's f_i.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.contact_stats import impulse_update, stats_update
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.kernels.sparse import Factor, correct, delassus_only, lu_solve
+from contact_bench.kernels.stepper import KernelStepper
+
+#: Newton iterations of `discrete_gradient_solve` before it gives up
+NEWTON_MAX = 100
+
+
+@njit(cache=True)
+def secant_force(g, gn, k):  # pragma: no cover - compiled
+    """(phi, dphi/dg): phi = (Phi(g) - Phi(gn)) / (g - gn), Phi = k/2 min(0, .)^2 (the
+    discrete gradient, <= 0), and its derivative in g (>= 0)."""
+    if g >= 0.0 and gn >= 0.0:
+        return 0.0, 0.0
+    if g <= 0.0 and gn <= 0.0:
+        return 0.5 * k * (g + gn), 0.5 * k
+    d = g - gn
+    if gn > 0.0:  # g < 0 < gn
+        return 0.5 * k * g * g / d, 0.5 * k * g * (g - 2.0 * gn) / (d * d)
+    return -0.5 * k * gn * gn / d, 0.5 * k * gn * gn / (d * d)  # gn < 0 <= g
+
+
+@njit(cache=True)
+def _residual(g, gf, gn, k, W, a, phi, dphi, r):  # pragma: no cover - compiled
+    """r = g - gf + a W phi(g) (phi <= 0 the discrete gradient, a = dt^2/2); returns
+    max |r|."""
+    nc = g.size
+    for i in range(nc):
+        phi[i], dphi[i] = secant_force(g[i], gn[i], k[i])
+    worst = 0.0
+    for i in range(nc):
+        s = g[i] - gf[i]
+        for j in range(nc):
+            s += a * W[i, j] * phi[j]
+        r[i] = s
+        worst = max(worst, abs(s))
+    return worst
+
+
+@njit(cache=True)
+def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - compiled
+    """The gaps g at t_{n+1} solving g = gf - a W phi(g) (module docstring) by Newton
+    with backtracking on max |R|, from g = gf; phi is left at phi(g). Runs until the
+    step or the residual reaches round-off. Returns the iterations (-1: not converged)."""
+    nc = g.size
+    dphi = np.empty(nc)
+    r = np.empty(nc)
+    gt = np.empty(nc)
+    rt = np.empty(nc)
+    scale = 0.0
+    for i in range(nc):
+        g[i] = gf[i]
+        scale = max(scale, abs(gf[i]), abs(gn[i]))
+    tol = 4e-16 * max(scale, 1e-300)
+    res = _residual(g, gf, gn, k, W, a, phi, dphi, r)
+    J = np.empty((nc, nc))
+    for it in range(NEWTON_MAX):
+        if res <= tol:
+            return it
+        for i in range(nc):
+            for j in range(nc):
+                J[i, j] = a * W[i, j] * dphi[j] + (1.0 if i == j else 0.0)
+        if nc == 1:  # the bar: a division (a LAPACK call costs more than the step)
+            delta = -r / J[0, 0]
+        else:
+            delta = np.linalg.solve(J, -r)
+        step = 0.0
+        for i in range(nc):
+            step = max(step, abs(delta[i]))
+        t = 1.0
+        while True:  # backtrack until max |R| decreases (Newton's direction descends)
+            for i in range(nc):
+                gt[i] = g[i] + t * delta[i]
+            rest = _residual(gt, gf, gn, k, W, a, phi, dphi, rt)
+            if rest < res or t < 1e-6:
+                break
+            t *= 0.5
+        if not rest < res:  # no progress: round-off reached
+            _residual(g, gf, gn, k, W, a, phi, dphi, r)
+            return it if step <= 1e3 * tol else -1
+        g[:] = gt
+        r[:] = rt
+        res = rest
+        if t * step <= tol:
+            return it + 1
+    return -1
+
+
+@njit(cache=True)
+def _midpoint_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, kappa, W, U, V, dt,
+                     nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
+                     stats):  # pragma: no cover - compiled
+    """Advance (U, V) in place (module docstring); returns (samples, steps, min gap,
+    blow-up step or -1)."""
+    n = U.size
+    nc = cd.size
+    a = 0.5 * dt * dt
+    q = 0.25 * dt * dt
+    rhs = np.empty(n)
+    X = np.empty(n)
+    w = np.empty(n)
+    work = np.empty(n)
+    mv = np.empty(n)
+    ku = np.empty(n)
+    gf = np.empty(nc)
+    gn = np.empty(nc)
+    g = np.empty(nc)
+    phi = np.zeros(nc)
+    mu = np.empty(nc)
+    lam = np.zeros(nc)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = smallest_gap(gap0, U, cd)
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):
+            mv[i] = U[i] + dt * V[i]
+        csr_matvec(Mp, Mi, Mx, mv, rhs)
+        csr_matvec(Kp, Ki, Kx, U, ku)
+        for i in range(n):
+            rhs[i] += a * F[i] - q * ku[i]
+        lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, X, work)
+        pen = False
+        for j in range(nc):
+            gn[j] = gap0[j] + U[cd[j]]
+            gf[j] = gap0[j] + X[cd[j]]
+            pen = pen or gn[j] < 0.0 or gf[j] < 0.0
+        if pen:
+            if discrete_gradient_solve(gf, gn, kappa, W, a, g, phi) < 0:
+                return k, step, min_gap, step  # no converged step: stop as blown up
+            for j in range(nc):
+                mu[j] = -a * phi[j]
+                lam[j] = -phi[j]
+            correct(fac, cd, W, False, mu, X, rhs, w, work)
+        else:
+            lam[:] = 0.0
+        for i in range(n):
+            V[i] = 2.0 * (X[i] - U[i]) / dt - V[i]
+            U[i] = X[i]
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, 1.0)  # the step's force acts over the whole step
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
+        if step % stride == 0 or step == nsteps:
+            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            st = 0.0
+            for j in range(nc):
+                y = min(0.0, gap0[j] + U[cd[j]])
+                e += 0.5 * kappa[j] * y * y
+                st += kappa[j] * y
+            blown = write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
+                                 t_out, U_out, V_out, cu_out, s_out, E_out, stats)
+            k += 1
+            if blown:
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+class MidpointPenaltyStepper(KernelStepper):
+    """`prepare_midpoint_penalty` prepared: S = M + dt^2/4 K factored, W = C S^-1 C^T
+    (n_c solves, only its n_c x n_c values kept), sample 0's energy and stress."""
+
+    def __init__(self, p: SparseProblem, dt: float, kappa: np.ndarray) -> None:
+        super().__init__(p, dt)
+        dt = self.dt
+        n = p.nfree
+        cd = np.asarray(p.contact.dofs, np.int64)
+        kappa = np.asarray(kappa, float)
+        if kappa.shape != cd.shape or not np.all(kappa > 0.0):
+            raise ValueError("the midpoint penalty needs one positive stiffness per contact dof")
+        S = sp.csr_matrix(p.M + 0.25 * dt * dt * p.K)
+        fac = Factor.of(S)
+        W = delassus_only(fac, cd, n)
+        gap0 = np.asarray(p.contact.gap0, float)
+        weights = np.asarray(p.contact.weights, float)
+        U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        y = np.minimum(0.0, gap0 + U[cd])
+        self.sample0 = {"energy": float(p.energy(U, V) + 0.5 * np.sum(kappa * y * y)),
+                        "stress": float(np.sum(kappa * y) / np.sum(weights))}
+        self.force0 = float(np.sum(kappa * np.maximum(0.0, -(gap0 + U[cd]))))
+        self.kernel = _midpoint_kernel
+        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
+                          fac.arrays, cd, gap0, weights, kappa, W)
+        self.state = (U, V)
+        self.params = (dt,)
+
+
+def prepare_midpoint_penalty(p: SparseProblem, dt: float, kappa: np.ndarray
+                             ) -> MidpointPenaltyStepper:
+    """The energy-conserving midpoint step with penalty springs `kappa` (one per contact
+    dof) through the discrete gradient of their energy (module docstring)."""
+    return MidpointPenaltyStepper(p, dt, kappa)
