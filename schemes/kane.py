@@ -1,0 +1,55 @@
+"""Kane, Repetto, Ortiz, Marsden (1999): the trapezoidal rule (Newmark beta = 1/4,
+gamma = 1/2) for the internal and external forces, the contact force fully implicit at
+t_{n+1}.
+
+One step (h = dt, a_el = M^-1 (F - K U) the elastic acceleration):
+
+    U^{n+1} = U^n + h V^n + h^2/4 (a_el^n + a_el^{n+1}) + h^2/2 M^-1 C^T lambda^{n+1}
+    V^{n+1} = V^n + h/2 (a_el^n + a_el^{n+1}) + h M^-1 C^T lambda^{n+1}
+    0 <= lambda^{n+1} _|_ gap0 + C U^{n+1} >= 0
+
+so V^{n+1} = 2 (U^{n+1} - U^n) / h - V^n, and the contact force never enters the next
+step's predictor (in `standard` it does, through the acceleration). The step is the
+displacement system S U^{n+1} = M (U^n + h V^n) - h^2/4 K U^n + h^2/2 F + C^T mu, S = M +
+h^2/4 K, with exact contact on the Delassus matrix, lambda = 2 mu / h^2
+(`contact_bench.kernels.kane`, on the bar's CSR matrices as on a body's).
+
+Energy: the trapezoidal rule conserves 1/2 V.M.V + 1/2 U.K.U - F.U without contact;
+the contact force adds lambda^{n+1}.(C U^{n+1} - C U^n) = -lambda^{n+1}.(gap0 + C U^n)
+<= 0 per step: the scheme never gains energy (dissipative at impacts). Away from impacts
+it is the trapezoidal rule: second order.
+
+Reading: Kane et al. write the scheme for Newmark's (beta, gamma) with the contact
+force's weight moved to t_{n+1}; the comparisons (Deuflhard-Krause-Ertel 2008,
+Doyen-Ern-Piperno 2011) use beta = 1/4, gamma = 1/2, the case implemented here.
+Doyen-Ern-Piperno class it with exact enforcement.
+"""
+
+from __future__ import annotations
+
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Contact, Energy, Family, Scheme, Stepper, Traits
+from contact_bench.api.problem import as_problem
+from contact_bench.kernels.kane import prepare_kane
+
+
+class Kane(Scheme):
+    name = "kane"
+    summary = "trapezoidal rule, contact force fully implicit at t_{n+1} (Kane et al. 1999)"
+    params = {
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem; mass on every dof)",
+                      choices=("consistent", "lumped")),
+    }
+
+    def mass_kind(self) -> str:
+        return self.mass
+
+    def traits(self, problem=None) -> Traits:
+        return Traits(implicit=True, massless_contact_node=False, contact=Contact.EXACT,
+                      energy=Energy.DISSIPATED, order=2, family=Family.EXACT)
+
+    def stability_limit(self, problem) -> float | None:
+        return None  # the trapezoidal rule: unconditionally stable
+
+    def prepare(self, problem, dt: float) -> Stepper:
+        return prepare_kane(as_problem(problem, self.mass), dt, "none")
