@@ -33,8 +33,8 @@ from __future__ import annotations
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Contact, Energy, Family, Scheme, Stepper, Traits
-from contact_bench.api.problem import as_problem
-from contact_bench.kernels.kane import prepare_kane
+from contact_bench.api.problem import as_problem, banded
+from contact_bench.kernels.kane import prepare_kane, prepare_kane_banded
 
 
 class ContactStabilized(Scheme):
@@ -62,4 +62,7 @@ class ContactStabilized(Scheme):
 
     def prepare(self, problem, dt: float) -> Stepper:
         predictor = "projected_klapproth" if self.velocity == "klapproth" else "projected"
+        semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one
+        if semi is not None:
+            return prepare_kane_banded(semi, dt, predictor)
         return prepare_kane(as_problem(problem, self.mass), dt, predictor)

@@ -12,7 +12,7 @@ so V^{n+1} = 2 (U^{n+1} - U^n) / h - V^n, and the contact force never enters the
 step's predictor (in `standard` it does, through the acceleration). The step is the
 displacement system S U^{n+1} = M (U^n + h V^n) - h^2/4 K U^n + h^2/2 F + C^T mu, S = M +
 h^2/4 K, with exact contact on the Delassus matrix, lambda = 2 mu / h^2
-(`contact_bench.kernels.kane`, on the bar's CSR matrices as on a body's).
+(`contact_bench.kernels.kane`: the bar's tridiagonal kernel, a body's sparse one).
 
 Energy: the trapezoidal rule conserves 1/2 V.M.V + 1/2 U.K.U - F.U without contact;
 the contact force adds lambda^{n+1}.(C U^{n+1} - C U^n) = -lambda^{n+1}.(gap0 + C U^n)
@@ -29,8 +29,8 @@ from __future__ import annotations
 
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import Contact, Energy, Family, Scheme, Stepper, Traits
-from contact_bench.api.problem import as_problem
-from contact_bench.kernels.kane import prepare_kane
+from contact_bench.api.problem import as_problem, banded
+from contact_bench.kernels.kane import prepare_kane, prepare_kane_banded
 
 
 class Kane(Scheme):
@@ -52,4 +52,7 @@ class Kane(Scheme):
         return None  # the trapezoidal rule: unconditionally stable
 
     def prepare(self, problem, dt: float) -> Stepper:
+        semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one
+        if semi is not None:
+            return prepare_kane_banded(semi, dt, "none")
         return prepare_kane(as_problem(problem, self.mass), dt, "none")

@@ -155,3 +155,22 @@ def test_each_compiled_step_is_the_scipy_step(spec: str, predictor: str) -> None
         np.testing.assert_allclose(tr.U[n + 1], U, rtol=0, atol=1e-12 * scale, err_msg=str(n))
         np.testing.assert_allclose(tr.V[n + 1], V, rtol=0, atol=1e-12 * scale / dt,
                                    err_msg=str(n))
+
+
+@pytest.mark.parametrize("predictor", ["none", "projected", "projected_klapproth"])
+@pytest.mark.parametrize("scene", ["clamped_bar", "dropped_bar"])
+def test_the_bar_kernel_is_the_sparse_step(scene: str, predictor: str) -> None:
+    """The bar's tridiagonal kernel and the sparse kernel on the bar's CSR matrices take
+    the same steps (round-off)."""
+    from contact_bench.api.problem import as_problem, banded
+    from contact_bench.kernels.kane import prepare_kane, prepare_kane_banded
+
+    p = as_problem(problem_for(make_case(scene), make_scheme("kane"), 20), "consistent")
+    dt, nsteps = 0.01, 300
+    a = prepare_kane_banded(banded(p), dt, predictor).run(nsteps, 1)
+    b = prepare_kane(p, dt, predictor).run(nsteps, 1)
+    assert np.min(a.stress) < 0.0  # the runs hold contact
+    scale = np.max(np.abs(b.U))
+    np.testing.assert_allclose(a.U, b.U, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(a.stress, b.stress, rtol=1e-7, atol=1e-9 * np.max(np.abs(b.stress)))
+    np.testing.assert_allclose(a.energy, b.energy, rtol=1e-10)

@@ -1,8 +1,8 @@
 """The trapezoidal rule for the internal forces with the contact force fully implicit at
 t_{n+1} (Kane, Repetto, Ortiz, Marsden 1999), with or without the contact-stabilizing
 predictor of Deuflhard, Krause, Ertel (2008): the step of `schemes/kane.py` and
-`schemes/contact_stabilized.py`, on the general sparse problem (a bar's CSR matrices
-too).
+`schemes/contact_stabilized.py`, on the general sparse problem and on the bar's
+tridiagonal form.
 
 One step from (U^n, V^n), h = dt, S = M + h^2/4 K (factored once, as `standard`'s S with
 beta = 1/4):
@@ -27,6 +27,10 @@ contact force into the next step). No initial acceleration is needed.
 The sampled force (stress, contact statistics) is the one the velocity update feels,
 applied whole at the step's end (impulse weight 1): 2 mu / h^2, plus mu_p / h^2 of the
 predictor with Klapproth's velocity.
+
+The bar's tridiagonal form (`prepare_kane_banded`) takes the same step in node order:
+S and M factored once (LAPACK dpttrf), their responses to a unit force at the contact
+node, S^-1 e0 and M^-1 e0, make both projections one scaled vector each.
 """
 
 from __future__ import annotations
@@ -35,8 +39,12 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from contact_bench.api.plugin import Semidiscrete, Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.contact_stats import impulse_update, stats_update
+from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
+from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
@@ -188,3 +196,102 @@ def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneSt
     "projected_klapproth" (their predictor with Klapproth's velocity update).
     ValueError when a dof has no mass."""
     return KaneStepper(p, dt, predictor)
+
+
+# ------------------------------------------------------------------ the bar, banded
+
+
+@njit(cache=True)
+def _kane_banded_kernel(Md, Me, Kd, Ke, F, df, ef, wS, wM, U, V, dt, predictor, nsteps,
+                        stride, offset, t_out, U_out, V_out, cu_out, s_out,
+                        E_out):  # pragma: no cover - compiled
+    """`_kane_kernel`'s step on the tridiagonal bar, node 0 on the obstacle at 0: wS =
+    S^-1 e0, wM = M^-1 e0. Returns (samples, steps, min u0, blow-up step or -1)."""
+    n = U.size
+    c = 0.25 * dt * dt
+    idt = 1.0 / dt
+    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)
+    Ut = np.empty(n)
+    X = np.empty(n)
+    tmp = np.empty(n)
+    E0 = E_out[0]
+    min_u0 = U[0]
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):
+            Ut[i] = U[i] + dt * V[i]
+        mup = 0.0
+        if predictor > 0 and Ut[0] < 0.0:
+            mup = -Ut[0] / wM[0]
+            for i in range(n):
+                Ut[i] += mup * wM[i]
+            Ut[0] = 0.0
+        tri_matvec(Md, Me, Ut, X)
+        tri_matvec(Kd, Ke, U, tmp)
+        for i in range(n):
+            X[i] += c * (2.0 * F[i] - tmp[i])
+        pt_solve(df, ef, X)
+        mu = 0.0
+        if X[0] < 0.0:
+            mu = -X[0] / wS[0]
+            for i in range(n):
+                X[i] += mu * wS[i]
+            X[0] = 0.0
+        lam = 2.0 * mu * idt * idt
+        if predictor == 2:
+            lam += mup * idt * idt
+        for i in range(n):
+            base = (Ut[i] - U[i]) * idt if predictor == 2 else V[i]
+            V[i] = base + 2.0 * (X[i] - Ut[i]) * idt
+            U[i] = X[i]
+        min_u0 = min(min_u0, U[0])
+        if step % stride == 0 or step == nsteps:
+            energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
+            record_sample(k, step * dt, U, V, -lam, energy, t_out, U_out, V_out, cu_out,
+                          s_out, E_out)
+            k += 1
+            if blown_up(energy, E0):
+                return k, step, min_u0, step
+    return k, nsteps, min_u0, -1
+
+
+class BandedKaneStepper(Stepper):
+    """Kane's step on the bar's tridiagonal form, prepared: S = M + dt^2/4 K and M
+    factored, S^-1 e0 and M^-1 e0 computed once."""
+
+    def __init__(self, semi: Semidiscrete, dt: float, predictor: str = "none") -> None:
+        if predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {tuple(PREDICTORS)}, got {predictor!r}")
+        if semi.massless:
+            raise ValueError("Kane's step needs a contact node with mass")
+        self.semi, self.dt, self.predictor = semi, float(dt), PREDICTORS[predictor]
+        M, K, c = semi.M, semi.K, 0.25 * self.dt * self.dt
+        self.df, self.ef = factor_pt(M.diag + c * K.diag, M.off + c * K.off)
+        self.wS = np.zeros(semi.nfree)
+        self.wS[0] = 1.0
+        pt_solve(self.df, self.ef, self.wS)
+        self.wM = np.zeros(semi.nfree)
+        self.wM[0] = 1.0
+        dfm, efm = factor_pt(M.diag, M.off)
+        pt_solve(dfm, efm, self.wM)
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        semi = self.semi
+        M, K = semi.M, semi.K
+        out = allocate(semi, nsteps, stride)
+        U, V = semi.U0.astype(float).copy(), semi.V0.astype(float).copy()
+        out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
+        out["E"][0] = energy_rows(row_sums(M.diag, M.off), M.off, row_sums(K.diag, K.off),
+                                  K.off, semi.F, U, V, semi.energy_offset)
+        k, done, min_u0, blow = _kane_banded_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, self.df, self.ef, self.wS, self.wM, U, V,
+            self.dt, self.predictor, int(nsteps), int(stride), float(semi.energy_offset),
+            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+        return trajectory(out, k, done, min_u0, blow, self.dt)
+
+
+def prepare_kane_banded(semi: Semidiscrete, dt: float, predictor: str = "none"
+                        ) -> BandedKaneStepper:
+    """`prepare_kane` on the bar's tridiagonal form (module docstring). ValueError with
+    a massless contact node."""
+    return BandedKaneStepper(semi, dt, predictor)
