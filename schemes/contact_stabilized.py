@@ -1,32 +1,19 @@
-"""The contact-stabilized Newmark method (Deuflhard, Krause, Ertel 2008), with
-Klapproth's velocity update as a variant: Kane's step (`schemes/kane.py`) preceded by a
-predictor that projects the free displacement U^n + h V^n onto the admissible set in the
-mass norm.
+"""The contact-stabilized Newmark method (Deuflhard, Krause, Ertel 2008): Kane's step
+(`schemes/kane.py`) after a predictor that projects U^n + h V^n onto the admissible set
+in the mass norm (h = dt, S = M + h^2/4 K):
 
-One step (h = dt, S = M + h^2/4 K):
-
-    U~      = argmin { |U - U^n - h V^n|_M : gap0 + C U >= 0 }          (predictor)
+    U~      = argmin { |U - U^n - h V^n|_M : gap0 + C U >= 0 }
     U^{n+1} = argmin { 1/2 U.S.U - U.(M U~ - h^2/4 K U^n + h^2/2 F) : gap0 + C U >= 0 }
     V^{n+1} = B + 2 / h (U^{n+1} - U~)
 
-with B = V^n (`velocity=dke`: Deuflhard-Krause-Ertel, and Utopia's
-ContactStabilizedNewmark) or B = (U~ - U^n) / h (`velocity=klapproth`: the velocity the
-predictor left, Klapproth, Schiela, Deuflhard 2010). Both minimisations are linear
-complementarity problems on the contact dofs (Delassus matrices C M^-1 C^T and C S^-1
-C^T, `contact_bench.kernels.kane`); a lumped mass makes the predictor a clamp of each
-contact dof. The predictor takes away the momentum that would carry the contact dofs
-into the obstacle before the elastic step: the contact stress no longer oscillates.
-
-Energy (1/2 V.M.V + 1/2 U.K.U - F.U): with Klapproth's velocity the step is Kane's
-from (U^n, (U~ - U^n) / h), and |U~ - U^n|_M <= h |V^n|_M (a projection onto a convex set
-holding U^n), so the energy never grows. With the original velocity the predictor's
-momentum loss stays in V: not claimed (measured, docs/schemes.md). Away from contact the
-predictor is idle and the step is the trapezoidal rule: second order.
-
-Readings (the papers leave them open): the contact force reported (stress, contact
-statistics) is the one the velocity update feels, over the whole step; the predictor is
-the projection of U^n + h V^n (no acceleration term), as in DKE's and Utopia's.
-Doyen-Ern-Piperno class the scheme with exact enforcement.
+B = (U~ - U^n) / h with `velocity=klapproth` (Klapproth, Schiela, Deuflhard's improved
+variant, the default: the step is Kane's from a velocity of no larger M-norm, so the
+energy never grows), B = V^n with `velocity=dke` (the 2008 paper; Utopia's
+ContactStabilizedNewmark): no sign for its energy balance, declared "may grow" (no
+growth measured). Both problems are LCPs on the Delassus matrices C M^-1 C^T and C S^-1
+C^T (`contact_bench.kernels.kane`). Readings (docs/schemes.md): no acceleration term in
+the predictor, as in the paper and Utopia; the reported contact force is the one the
+velocity update feels over the step. Order 2 away from contact; class: exact.
 """
 
 from __future__ import annotations

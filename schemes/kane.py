@@ -1,28 +1,20 @@
 """Kane, Repetto, Ortiz, Marsden (1999): the trapezoidal rule (Newmark beta = 1/4,
 gamma = 1/2) for the internal and external forces, the contact force fully implicit at
-t_{n+1}.
-
-One step (h = dt, a_el = M^-1 (F - K U) the elastic acceleration):
+t_{n+1}. With h = dt and a_el = M^-1 (F - K U) the elastic acceleration:
 
     U^{n+1} = U^n + h V^n + h^2/4 (a_el^n + a_el^{n+1}) + h^2/2 M^-1 C^T lambda^{n+1}
-    V^{n+1} = V^n + h/2 (a_el^n + a_el^{n+1}) + h M^-1 C^T lambda^{n+1}
-    0 <= lambda^{n+1} _|_ gap0 + C U^{n+1} >= 0
+    V^{n+1} = 2 (U^{n+1} - U^n) / h - V^n,  0 <= lambda^{n+1} _|_ gap0 + C U^{n+1} >= 0
 
-so V^{n+1} = 2 (U^{n+1} - U^n) / h - V^n, and the contact force never enters the next
-step's predictor (in `standard` it does, through the acceleration). The step is the
-displacement system S U^{n+1} = M (U^n + h V^n) - h^2/4 K U^n + h^2/2 F + C^T mu, S = M +
-h^2/4 K, with exact contact on the Delassus matrix, lambda = 2 mu / h^2
-(`contact_bench.kernels.kane`: the bar's tridiagonal kernel, a body's sparse one).
+The contact force acts over its own step only: it never enters the next predictor (in
+`standard` it does, through the acceleration). One solve with S = M + h^2/4 K and exact
+contact on the Delassus matrix per step, lambda = 2 mu / h^2 (`contact_bench.kernels.
+kane`: the bar's tridiagonal kernel, a body's sparse one).
 
-Energy: the trapezoidal rule conserves 1/2 V.M.V + 1/2 U.K.U - F.U without contact;
-the contact force adds lambda^{n+1}.(C U^{n+1} - C U^n) = -lambda^{n+1}.(gap0 + C U^n)
-<= 0 per step: the scheme never gains energy (dissipative at impacts). Away from impacts
-it is the trapezoidal rule: second order.
-
-Reading: Kane et al. write the scheme for Newmark's (beta, gamma) with the contact
-force's weight moved to t_{n+1}; the comparisons (Deuflhard-Krause-Ertel 2008,
-Doyen-Ern-Piperno 2011) use beta = 1/4, gamma = 1/2, the case implemented here.
-Doyen-Ern-Piperno class it with exact enforcement.
+Energy: the contact force adds -lambda^{n+1}.(gap0 + C U^n) <= 0 per step to the
+trapezoidal rule's balance: it never gains energy. Order 2 away from impacts. Reading:
+Kane et al. move the contact force's weight to t_{n+1} for any Newmark (beta, gamma);
+the comparisons (Deuflhard-Krause-Ertel 2008, Doyen-Ern-Piperno 2011, who class it with
+exact enforcement) use beta = 1/4, gamma = 1/2, implemented here (docs/schemes.md).
 """
 
 from __future__ import annotations
