@@ -1,0 +1,297 @@
+"""The trapezoidal rule for the internal forces with the contact force fully implicit at
+t_{n+1} (Kane, Repetto, Ortiz, Marsden 1999), with or without the contact-stabilizing
+predictor of Deuflhard, Krause, Ertel (2008): the step of `schemes/kane.py` and
+`schemes/contact_stabilized.py`, on the general sparse problem and on the bar's
+tridiagonal form.
+
+One step from (U^n, V^n), h = dt, S = M + h^2/4 K (factored once, as `standard`'s S with
+beta = 1/4):
+
+1. the predictor U~ = U^n + h V^n; with the contact-stabilizing predictor, U~ is
+   replaced by its projection onto the admissible set in the mass norm,
+   argmin_{gap0 + C U >= 0} |U - U^n - h V^n|_M: U~ + M^-1 C^T mu_p with the linear
+   complementarity problem of the Delassus matrix C M^-1 C^T (M factored once; a
+   lumped M makes it one clamp per contact dof);
+2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu, exact contact at t_{n+1}
+   through the Delassus matrix C S^-1 C^T (`contact_bench.kernels.sparse`: `lcp_solve`,
+   `correct`); the obstacle's force lambda = 2 mu / h^2, applied over the whole step
+   (backward Euler for the contact force, the trapezoidal rule for the others);
+3. V^{n+1} = B + 2 / h (U^{n+1} - U~) with B = V^n (Kane; Deuflhard-Krause-Ertel) or
+   B = (U~ - U^n) / h (Klapproth's variant: the velocity the predictor left).
+
+Without a projection, U~ = U^n + h V^n and step 3 is V^{n+1} = 2 (U^{n+1} - U^n) / h -
+V^n: Kane's scheme, U^{n+1} = U^n + h V^n + h^2/4 (a_el^n + a_el^{n+1}) + h^2/2 M^-1
+C^T lambda with a_el = M^-1 (F - K U) (the elastic acceleration, never carrying the
+contact force into the next step). No initial acceleration is needed.
+
+The sampled force (stress, contact statistics) is the one the velocity update feels,
+applied whole at the step's end (impulse weight 1): 2 mu / h^2, plus mu_p / h^2 of the
+predictor with Klapproth's velocity.
+
+The bar's tridiagonal form (`prepare_kane_banded`) takes the same step in node order:
+S and M factored once (LAPACK dpttrf), their responses to a unit force at the contact
+node, S^-1 e0 and M^-1 e0, make both projections one scaled vector each.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+
+from contact_bench.api.plugin import Semidiscrete, Stepper, Trajectory
+from contact_bench.api.sparse import SparseProblem
+from contact_bench.core.contact_stats import impulse_update, stats_update
+from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
+from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.kernels.sparse import (
+    KEEP_Z_ENTRIES,
+    Factor,
+    correct,
+    delassus,
+    delassus_only,
+    lcp_solve,
+    lu_solve,
+)
+from contact_bench.kernels.stepper import KernelStepper
+
+#: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
+PREDICTORS = {"none": 0, "projected": 1, "projected_klapproth": 2}
+
+
+@njit(cache=True)
+def _kane_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
+                 mfac, WM, ZM, keep_zm, U, V, dt, predictor, nsteps, stride, offset,
+                 t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
+    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    n = U.size
+    nc = cd.size
+    c = 0.25 * dt * dt
+    idt2 = 1.0 / (dt * dt)
+    Ut = np.empty(n)
+    X = np.empty(n)
+    rhs = np.empty(n)
+    w = np.empty(n)
+    work = np.empty(n)
+    gf = np.empty(nc)
+    mu = np.zeros(nc)
+    mup = np.zeros(nc)
+    lam = np.zeros(nc)
+    active = np.zeros(nc, np.bool_)
+    activep = np.zeros(nc, np.bool_)
+    status = np.zeros(nc, np.bool_)
+    area = weights.sum()
+    E0 = E_out[0]
+    min_gap = smallest_gap(gap0, U, cd)
+    was = False
+    was_p = False
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):  # 1. the predictor U^n + h V^n ...
+            Ut[i] = U[i] + dt * V[i]
+        mup[:] = 0.0
+        if predictor > 0:  # ... projected onto the admissible set in the M norm
+            pen = False
+            for j in range(nc):
+                gf[j] = gap0[j] + Ut[cd[j]]
+                pen = pen or gf[j] < 0.0
+            if pen:
+                lcp_solve(WM, gf, mup, activep, tol, was_p)
+                correct(mfac, cd, ZM, keep_zm, mup, Ut, rhs, w, work)
+                for j in range(nc):
+                    if activep[j]:
+                        Ut[cd[j]] = -gap0[j]
+            was_p = pen
+        # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu
+        csr_matvec(Mp, Mi, Mx, Ut, rhs)
+        csr_matvec(Kp, Ki, Kx, U, w)
+        for i in range(n):
+            rhs[i] += c * (2.0 * F[i] - w[i])
+        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
+        pen = False
+        for j in range(nc):
+            gf[j] = gap0[j] + X[cd[j]]
+            pen = pen or gf[j] < 0.0
+        if pen:
+            lcp_solve(W, gf, mu, active, tol, was)
+            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+            for j in range(nc):
+                if active[j]:
+                    X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
+        else:
+            mu[:] = 0.0
+        was = pen
+        for j in range(nc):
+            lam[j] = 2.0 * mu[j] * idt2
+            if predictor == 2:
+                lam[j] += mup[j] * idt2
+        # 3. V^{n+1} = B + 2 / h (U^{n+1} - U~)
+        for i in range(n):
+            base = (Ut[i] - U[i]) / dt if predictor == 2 else V[i]
+            V[i] = base + 2.0 * (X[i] - Ut[i]) / dt
+            U[i] = X[i]
+        stats_update(stats, status, lam, step, dt)
+        impulse_update(stats, lam, dt, 1.0)
+        min_gap = smallest_gap(gap0, U, cd, min_gap)
+        if step % stride == 0 or step == nsteps:
+            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
+            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
+                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
+            k += 1
+            if blown:
+                return k, step, min_gap, step
+    return k, nsteps, min_gap, -1
+
+
+def _contact_operators(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray,
+                                                                      bool]:
+    """(Z, W, keep_z) of a factored operator: the Delassus matrix W = C S^-1 C^T and the
+    response Z = S^-1 C^T when it fits in `KEEP_Z_ENTRIES` (else a placeholder: the
+    correction is a second solve)."""
+    if n * cd.size <= KEEP_Z_ENTRIES:
+        Z, W = delassus(fac, cd, n)
+        return Z, W, True
+    return np.zeros((1, 1)), delassus_only(fac, cd, n), False
+
+
+class KaneStepper(KernelStepper):
+    """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
+    matrix and, with a projected predictor, M factored with C M^-1 C^T."""
+
+    def __init__(self, p: SparseProblem, dt: float, predictor: str = "none") -> None:
+        if predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {tuple(PREDICTORS)}, got {predictor!r}")
+        super().__init__(p, dt)
+        n, h = p.nfree, self.dt
+        if np.any(p.massless):
+            raise ValueError("Kane's step needs mass on every dof (the predictor projects "
+                             "in the mass norm)")
+        cd = np.asarray(p.contact.dofs, np.int64)
+        M, K = sp.csr_matrix(p.M), sp.csr_matrix(p.K)
+        fac = Factor.of(M + (0.25 * h * h) * K)
+        Z, W, keep_z = _contact_operators(fac, cd, n)
+        if PREDICTORS[predictor]:
+            mfac = Factor.of(M)
+            ZM, WM, keep_zm = _contact_operators(mfac, cd, n)
+        else:  # no projection: placeholders the kernel never reads
+            mfac, ZM, WM, keep_zm = fac, np.zeros((1, 1)), np.zeros((1, 1)), True
+        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        self.kernel = _kane_kernel
+        self.operators = (*csr_arrays(M), *csr_arrays(K), np.asarray(p.F, float),
+                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                          np.asarray(p.contact.weights, float), W, Z, keep_z,
+                          mfac.arrays, WM, ZM, keep_zm)
+        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
+        self.params = (h, PREDICTORS[predictor])
+        self.tail = (tol,)
+
+
+def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneStepper:
+    """Kane's step on `p` with step `dt` (module docstring); `predictor` one of
+    `PREDICTORS`: "none" (Kane et al.), "projected" (Deuflhard-Krause-Ertel),
+    "projected_klapproth" (their predictor with Klapproth's velocity update).
+    ValueError when a dof has no mass."""
+    return KaneStepper(p, dt, predictor)
+
+
+# ------------------------------------------------------------------ the bar, banded
+
+
+@njit(cache=True)
+def _kane_banded_kernel(Md, Me, Kd, Ke, F, df, ef, wS, wM, U, V, dt, predictor, nsteps,
+                        stride, offset, t_out, U_out, V_out, cu_out, s_out,
+                        E_out):  # pragma: no cover - compiled
+    """`_kane_kernel`'s step on the tridiagonal bar, node 0 on the obstacle at 0: wS =
+    S^-1 e0, wM = M^-1 e0. Returns (samples, steps, min u0, blow-up step or -1)."""
+    n = U.size
+    c = 0.25 * dt * dt
+    idt = 1.0 / dt
+    rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)
+    Ut = np.empty(n)
+    X = np.empty(n)
+    tmp = np.empty(n)
+    E0 = E_out[0]
+    min_u0 = U[0]
+    k = 1
+    for step in range(1, nsteps + 1):
+        for i in range(n):
+            Ut[i] = U[i] + dt * V[i]
+        mup = 0.0
+        if predictor > 0 and Ut[0] < 0.0:
+            mup = -Ut[0] / wM[0]
+            for i in range(n):
+                Ut[i] += mup * wM[i]
+            Ut[0] = 0.0
+        tri_matvec(Md, Me, Ut, X)
+        tri_matvec(Kd, Ke, U, tmp)
+        for i in range(n):
+            X[i] += c * (2.0 * F[i] - tmp[i])
+        pt_solve(df, ef, X)
+        mu = 0.0
+        if X[0] < 0.0:
+            mu = -X[0] / wS[0]
+            for i in range(n):
+                X[i] += mu * wS[i]
+            X[0] = 0.0
+        lam = 2.0 * mu * idt * idt
+        if predictor == 2:
+            lam += mup * idt * idt
+        for i in range(n):
+            base = (Ut[i] - U[i]) * idt if predictor == 2 else V[i]
+            V[i] = base + 2.0 * (X[i] - Ut[i]) * idt
+            U[i] = X[i]
+        min_u0 = min(min_u0, U[0])
+        if step % stride == 0 or step == nsteps:
+            energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
+            record_sample(k, step * dt, U, V, -lam, energy, t_out, U_out, V_out, cu_out,
+                          s_out, E_out)
+            k += 1
+            if blown_up(energy, E0):
+                return k, step, min_u0, step
+    return k, nsteps, min_u0, -1
+
+
+class BandedKaneStepper(Stepper):
+    """Kane's step on the bar's tridiagonal form, prepared: S = M + dt^2/4 K and M
+    factored, S^-1 e0 and M^-1 e0 computed once."""
+
+    def __init__(self, semi: Semidiscrete, dt: float, predictor: str = "none") -> None:
+        if predictor not in PREDICTORS:
+            raise ValueError(f"predictor must be one of {tuple(PREDICTORS)}, got {predictor!r}")
+        if semi.massless:
+            raise ValueError("Kane's step needs a contact node with mass")
+        self.semi, self.dt, self.predictor = semi, float(dt), PREDICTORS[predictor]
+        M, K, c = semi.M, semi.K, 0.25 * self.dt * self.dt
+        self.df, self.ef = factor_pt(M.diag + c * K.diag, M.off + c * K.off)
+        self.wS = np.zeros(semi.nfree)
+        self.wS[0] = 1.0
+        pt_solve(self.df, self.ef, self.wS)
+        self.wM = np.zeros(semi.nfree)
+        self.wM[0] = 1.0
+        dfm, efm = factor_pt(M.diag, M.off)
+        pt_solve(dfm, efm, self.wM)
+
+    def run(self, nsteps: int, stride: int) -> Trajectory:
+        semi = self.semi
+        M, K = semi.M, semi.K
+        out = allocate(semi, nsteps, stride)
+        U, V = semi.U0.astype(float).copy(), semi.V0.astype(float).copy()
+        out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
+        out["E"][0] = energy_rows(row_sums(M.diag, M.off), M.off, row_sums(K.diag, K.off),
+                                  K.off, semi.F, U, V, semi.energy_offset)
+        k, done, min_u0, blow = _kane_banded_kernel(
+            M.diag, M.off, K.diag, K.off, semi.F, self.df, self.ef, self.wS, self.wM, U, V,
+            self.dt, self.predictor, int(nsteps), int(stride), float(semi.energy_offset),
+            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+        return trajectory(out, k, done, min_u0, blow, self.dt)
+
+
+def prepare_kane_banded(semi: Semidiscrete, dt: float, predictor: str = "none"
+                        ) -> BandedKaneStepper:
+    """`prepare_kane` on the bar's tridiagonal form (module docstring). ValueError with
+    a massless contact node."""
+    return BandedKaneStepper(semi, dt, predictor)

@@ -1,0 +1,55 @@
+"""The contact-stabilized Newmark method (Deuflhard, Krause, Ertel 2008): Kane's step
+(`schemes/kane.py`) after a predictor that projects U^n + h V^n onto the admissible set
+in the mass norm (h = dt, S = M + h^2/4 K):
+
+    U~      = argmin { |U - U^n - h V^n|_M : gap0 + C U >= 0 }
+    U^{n+1} = argmin { 1/2 U.S.U - U.(M U~ - h^2/4 K U^n + h^2/2 F) : gap0 + C U >= 0 }
+    V^{n+1} = B + 2 / h (U^{n+1} - U~)
+
+B = (U~ - U^n) / h with `velocity=klapproth` (Klapproth, Schiela, Deuflhard's improved
+variant, the default: the step is Kane's from a velocity of no larger M-norm, so the
+energy never grows), B = V^n with `velocity=dke` (the 2008 paper; Utopia's
+ContactStabilizedNewmark): no sign for its energy balance, declared "may grow" (no
+growth measured). Both problems are LCPs on the Delassus matrices C M^-1 C^T and C S^-1
+C^T (`contact_bench.kernels.kane`). Readings (docs/schemes.md): no acceleration term in
+the predictor, as in the paper and Utopia; the reported contact force is the one the
+velocity update feels over the step. Order 2 away from contact; class: exact.
+"""
+
+from __future__ import annotations
+
+from contact_bench.api.params import Param
+from contact_bench.api.plugin import Contact, Energy, Family, Scheme, Stepper, Traits
+from contact_bench.api.problem import as_problem, banded
+from contact_bench.kernels.kane import prepare_kane, prepare_kane_banded
+
+
+class ContactStabilized(Scheme):
+    name = "contact_stabilized"
+    summary = ("contact-stabilized Newmark: Kane's step after an M-projected predictor "
+               "(Deuflhard, Krause, Ertel 2008)")
+    params = {
+        "velocity": Param("klapproth", "velocity update: dke (V^n + 2/h (U - U~)) or "
+                          "klapproth ((U~ - U^n)/h + 2/h (U - U~))",
+                          choices=("klapproth", "dke")),
+        "mass": Param("consistent", "mass matrix (contact_bench.api.fem; mass on every dof)",
+                      choices=("consistent", "lumped")),
+    }
+
+    def mass_kind(self) -> str:
+        return self.mass
+
+    def traits(self, problem=None) -> Traits:
+        energy = Energy.DISSIPATED if self.velocity == "klapproth" else Energy.MAY_GROW
+        return Traits(implicit=True, massless_contact_node=False, contact=Contact.EXACT,
+                      energy=energy, order=2, family=Family.EXACT)
+
+    def stability_limit(self, problem) -> float | None:
+        return None  # the trapezoidal rule: unconditionally stable
+
+    def prepare(self, problem, dt: float) -> Stepper:
+        predictor = "projected_klapproth" if self.velocity == "klapproth" else "projected"
+        semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one
+        if semi is not None:
+            return prepare_kane_banded(semi, dt, predictor)
+        return prepare_kane(as_problem(problem, self.mass), dt, predictor)
