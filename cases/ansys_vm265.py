@@ -1,31 +1,17 @@
 """Ansys Mechanical APDL verification case VM265, "Elastic Rod Impacting a Rigid Wall"
-(reference: Carpenter, Taylor and Katona 1991, Lagrange constraints for transient finite
-element surface contact), in its own units (inch, lbf, second).
+(reference: Carpenter, Taylor and Katona 1991), in its units (inch, lbf, second).
 
-Published data (read: the VM265 page of the Ansys 2024 R2 verification manual): a
-prismatic rod L = 10 in, section A = 1 in^2, E = 3.0e7 psi, nu = 0.3, density printed
-"0.73 lbf sec2/in4", initial gap g = 0.01 in, initial velocity 202.2 (printed "in/sec2":
-a velocity, in/s) on every node; 20 equal SHELL181 elements, every dof but the axial one
-constrained; HHT without damping, uniform step 0.2226e-5 s; impact and release times,
-the contact node's displacement and contact force, the centre of mass's velocity
-compared with the reference. The page's first target: impact at 0.00005 s.
-
-The density's units: 0.73 lbf s^2/in^4 cannot be meant. Steel is 7.3e-4 lbf s^2/in^4
-(7800 kg/m^3 / 1.0687e7); with it c = sqrt(E / rho) = 202,721 in/s, the published step is
-0.9 h / c (h = 0.5 in) and the rod leaves at 1.48e-4 s; with 0.73 the wave speed would be
-6,410 in/s and the contact would last 3.1e-3 s, 15 steps' worth of the published run
-only at 1,400 steps. This scene uses rho = 7.3e-4 (`RHO`).
-
-Reference (derived, 1D, as the Carpenter et al. rod): impact at g / v0 = 4.946e-5 s
-(printed 0.00005: the published value is rounded, 1.1 % above), contact for 2 L / c =
-9.866e-5 s, release at 1.481e-4 s, force rho c v0 A = 29,922 lbf during contact, the rod
-leaving at +202.2 in/s. The remaining targets of the page's table could not be read
-(only the first row is in the stored copy): they are derived here, and marked so.
-
-Where the published model differs from the 1D reference: with nu = 0.3 and the lateral
-displacement constrained, a plane-stress shell's axial modulus is E / (1 - nu^2), so its
-wave runs 4.8 % faster and its contact is 4.6 % shorter (1.436e-4 s release): `wave=shell`
-is that model (derived, not checked against Ansys's numbers).
+Published (read, VM265 page): rod L = 10 in, A = 1 in^2, E = 3.0e7 psi, nu = 0.3, density
+printed "0.73 lbf sec2/in4", gap 0.01 in, v0 = 202.2 in/s (printed "in/sec2"); 20
+elements, HHT without damping, dt = 0.2226e-5 s; first target: impact at 0.00005 s.
+Density: 0.73 cannot be meant; steel is 7.3e-4 lbf s^2/in^4, with which the published dt
+is 0.9 h / c (c = 202,721 in/s); with 0.73 the contact would last 3.1e-3 s. `RHO` is
+7.3e-4. Reference (derived, 1D as the rod of Carpenter et al.): impact at g / v0 =
+4.946e-5 s (the printed 0.00005 is rounded, 1.1 % high), contact 2 L / c = 9.866e-5 s,
+release 1.481e-4 s, force rho c v0 A = 29,922 lbf, rebound +202.2 in/s; the page's
+other targets could not be read and are derived, marked so. `wave=shell`: the published
+model's constrained plane-stress shell has modulus E / (1 - nu^2), 4.8 % faster waves
+(derived, not checked against Ansys). Details: docs/production-cases.md.
 """
 
 from __future__ import annotations

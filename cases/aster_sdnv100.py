@@ -1,32 +1,17 @@
 """code_aster's SDNV100 (validation manual V5.03.100, "Impact of a beam on a rigid
-wall"): a steel bar of square section hits a rigid wall at 100 m/s.
+wall"): a steel bar 20 cm long, 2 cm square, E = 2e11 Pa, nu = 0.3, rho = 8000 kg/m^3,
+hits a rigid wall after a 2 mm gap at 100 m/s (frictionless; published: a quarter of the
+bar in HEXA8, lateral faces free).
 
-Published data (read: the V5.03.100 text, problem and reference-solution sections):
-length L = 20 cm, square section of side a = 2 cm (S = a^2), E = 2e11 Pa, nu = 0.3, rho =
-8000 kg/m^3, every node initially at U0 = 2 mm from the wall with speed -100 m/s (the
-wall normal z), frictionless; code_aster meshes a quarter of the bar (symmetry planes x = 0
-and y = 0, the outer lateral faces free) with HEXA8 (modelling F: 21 HEXA8, 88 nodes) and
-a penalised contact (E_N = 1e14 Pa). Its reference solution (Gibert 1988) is the 1D wave
-solution with the P-wave speed c_p = sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu))) =
-5801 m/s: impact at tau0 = U0 / V0 = 2e-5 s, a shock of duration 2 L / c_p = 6.895e-5 s
-("any shock duration"), and (derived from the same 1D solution) the contact force
-rho c_p V0 S = 1.856e6 N on the whole section, the bar leaving at +100 m/s.
-
-This scene is that reference model: the 1D bar with E_1D = rho c_p^2 (the P-wave
-modulus), exact by characteristics. `embedded_bar[of=aster_sdnv100,dim=3,sides=sliding,
-nu=0.3]` is the 3D hexahedral bar whose lateral faces slide: its Young modulus is then
-exactly the published 2e11 and the 1D solution is exact for it too.
-
-Where the published reference is approximate: the published bar's lateral faces are
-free, and then c_p is the speed of the wave front only; a slender bar's long waves run
-at c_0 = sqrt(E / rho) = 5000 m/s (Pochhammer-Chree), 16 % slower, so 2 L / c_0 = 8.0e-5 s
-and rho c_0 V0 S = 1.6e6 N. `wave=bar` is that 1D model. How far the 3D bar with free
-faces is from each: benchmarks/lateral_effects.py (results/references/lateral_effects.md).
-
-Published tolerances: none found in the text read; the comparison (`PUBLISHED`) uses 1 %
-on every value (ours: a run locates a switch within dt / 2, 0.25 % of tau0 at the
-default dt = 1e-7 s and nx = 200, c_p dt / h = 0.58). Error columns err_published_<q>
-(`quantity_errors`).
+The published reference (read, sec. 2.1) is the 1D wave solution with the P-wave speed
+c_p = sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu))) = 5801 m/s: impact at U0 / V0 = 2e-5 s,
+a shock of 2 L / c_p = 6.895e-5 s; derived from it, the force rho c_p V0 S = 1.856e6 N
+and the rebound at 100 m/s. This scene is that model (E_1D = rho c_p^2), exact by
+characteristics; `embedded_bar[of=aster_sdnv100,dim=3,sides=sliding,nu=0.3]` is the 3D
+hexahedral bar for which it is exact. `wave=bar` is the slender bar's c_0 = sqrt(E /
+rho) = 5000 m/s: the published bar has free lateral faces and moves at c_0, its contact
+15 % longer than published (benchmarks/lateral_effects.py; docs/production-cases.md).
+Tolerances: none found in the text read; ours, 1 % (`PUBLISHED`); err_published_<q>.
 """
 
 from __future__ import annotations

@@ -11,7 +11,9 @@ Exact references: the free fall u = (0, lift - g t^2 / 2) until t = sqrt(2 lift 
 (err_free_fall); E0 = m g lift; the impulse balance; the x -> -x symmetry (the symmetry
 defect column). No closed form after the impact: the numerical reference is
 `reference_scheme` on twice the rings with dt / 2 (err_u_numerical at the shared
-vertices, err_contact_force_numerical). A scheme's 1D mass variant maps to its 2D kind:
+vertices, err_contact_force_numerical); for degree 1, lift 5, the converged reference of
+results/references/disc_drop.json (err_contact_duration, err_force_history, ...;
+docs/production-cases.md). A scheme's 1D mass variant maps to its 2D kind:
 consistent and lumped as named (lumped refused for P2), the redistributed ones to the
 Khenous-Laborde-Renard redistribution.
 """
