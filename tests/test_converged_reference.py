@@ -59,10 +59,12 @@ def test_disc_drop_errors_against_it_decrease_under_refinement():
     for col in ("err_contact_duration", "err_force_history"):
         errs = [r[col] for r in rows]
         assert errs[0] > errs[1] > errs[2], (col, errs)
-    # the study's finest mesh (nx 20) is further from the reference than its own error
+    # the reference's own estimated error against the runs' (docs/production-cases.md:
+    # 3x below nx 20's on the duration, not yet the 10x an nx 80 level would give; the
+    # force history's only below nx 5's)
     fh, dur = ART["force_history"], ART["scalars"]["contact_duration"]
-    assert rows[2]["err_force_history"] > 3 * fh["error"]
     assert rows[2]["err_contact_duration"] * dur["value"] > 3 * dur["error"]
+    assert rows[0]["err_force_history"] > 2 * fh["error"]
 
 
 def test_disc_drop_rows_carry_the_converged_columns():
