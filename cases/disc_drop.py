@@ -11,7 +11,9 @@ Exact references: the free fall u = (0, lift - g t^2 / 2) until t = sqrt(2 lift 
 (err_free_fall); E0 = m g lift; the impulse balance; the x -> -x symmetry (the symmetry
 defect column). No closed form after the impact: the numerical reference is
 `reference_scheme` on twice the rings with dt / 2 (err_u_numerical at the shared
-vertices, err_contact_force_numerical). A scheme's 1D mass variant maps to its 2D kind:
+vertices, err_contact_force_numerical); for degree 1, lift 5, the converged reference of
+results/references/disc_drop.json (err_contact_duration, err_force_history, ...;
+docs/production-cases.md). A scheme's 1D mass variant maps to its 2D kind:
 consistent and lumped as named (lumped refused for P2), the redistributed ones to the
 Khenous-Laborde-Renard redistribution.
 """
@@ -30,6 +32,7 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.registry import make_scheme
 from contact_bench.api.sparse import SparseProblem
+from contact_bench.exact import converged
 
 
 class DiscDrop(BodyCase):
@@ -65,7 +68,8 @@ class DiscDrop(BodyCase):
         """E0 = m g lift of the continuous disc (the mesh's m differs by its geometry)."""
         return math.pi * self.R**2 * self.rho * self.g * float(self.lift)
 
-    quantities = frozenset({"free_fall", "u_numerical", "contact_force_numerical"})
+    quantities = frozenset({"free_fall", "u_numerical", "contact_force_numerical",
+                            *converged.QUANTITIES})
     study = StudyGrid(specs=("disc_drop[degree=1]", "disc_drop[degree=1,lift=20]"),
                       nx=(3, 4, 5), T=30.0, small="disc_drop[degree=1,lift=0.5]",
                       small_nx=(2, 3), small_T=5.0)
@@ -78,7 +82,11 @@ class DiscDrop(BodyCase):
         numerical reference (`reference_scheme` at 2 nx, dt / 2, sampled at the run's
         times): err_u_numerical, the largest error of u at the mesh's vertices (shared by
         both meshes) over the largest |u_ref|, and err_contact_force_numerical, the
-        l2 error over the samples of the total contact force over its l2 norm."""
+        l2 error over the samples of the total contact force over its l2 norm. Against the
+        converged reference of results/references/disc_drop.json when it is this
+        variant's (`contact_bench.exact.converged.errors`): err_contact_start, _end,
+        _duration, err_peak_force, err_contact_impulse, err_rebound_velocity,
+        err_vibration_energy and err_force_history."""
         out: dict[str, float] = {}
         dt = float(row["dt"])
         before = traj.t < self.impact_time - 1.5 * dt
@@ -86,6 +94,9 @@ class DiscDrop(BodyCase):
             U = traj.U[before][:, problem.vertical > 0]
             err = np.max(np.abs(U - self.free_fall(traj.t[before])[:, None]))
             out["err_free_fall"] = float(err) / float(self.lift)
+        stored = converged.load(self.name)  # the converged reference, when it is this one's
+        if stored is not None and stored["case"] == self.spec:
+            out.update(converged.errors(stored, problem, traj, dt))
         nx, stride = int(row["nx"]), int(row["stride"])
         if traj.t.size < 2 or problem.U0.size != self.body(nx).ndofs:
             return out
