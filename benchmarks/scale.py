@@ -15,11 +15,12 @@ contact nodes) and, on P1 only (a P2 mass has negative row sums),
 that and the scene's dt).
 
 Each configuration runs in a fresh process (`--one`, `measure`): JIT compilation on the
-scene's smallest mesh first (outside), then, from the resident set size of that moment
-(`base`), the problem built and the stepper prepared (`setup_s`), one warm-up call,
-`repeats` timed calls of `stepper.run(steps, steps)` (the stepping alone: samples at
-the first and the last step), `step_s` = median call / steps. Memory: the process's
-peak resident set size (`peak_MiB`, Linux VmHWM, reset at `base` through
+scene's smallest mesh its scheme runs first (outside, `warm_up`), then, from the
+resident set size of that moment (`base`), the problem built and the stepper prepared
+(`setup_s`), one warm-up call, `repeats` timed calls of `stepper.run(steps, steps)`
+(the stepping alone: samples at the first and the last step), `step_s` = median call /
+steps. Memory: the process's peak resident set size (`peak_MiB`, Linux VmHWM, reset at
+`base` through
 /proc/self/clear_refs) and what the run added to it (`growth_MiB` = peak - base:
 problem, factors, operators and run; the interpreter and libraries excluded).
 
@@ -76,11 +77,12 @@ def steps_for(kind: str, dofs: int) -> int:
     return max(5, min(200, round(2e6 / dofs)))
 
 
-def configs(max_dofs: float = float("inf")) -> list[dict[str, Any]]:
-    """Every (size, scheme) up to max_dofs, with its id `label-nxN-dofsD-kind-stepsS`."""
+def configs(max_dofs: float = float("inf"), labels: Any = None) -> list[dict[str, Any]]:
+    """Every (size, scheme) up to max_dofs (of the scenes `labels`, default all), with its
+    id `label-nxN-dofsD-kind-stepsS`."""
     out = []
     for label, scene, nx, dofs in SIZES:
-        if dofs > max_dofs:
+        if dofs > max_dofs or (labels and label not in labels):
             continue
         for kind in KINDS[label]:
             scheme = SCHEMES[kind]
@@ -91,8 +93,19 @@ def configs(max_dofs: float = float("inf")) -> list[dict[str, Any]]:
     return out
 
 
-def smallest_nx(label: str) -> int:
-    return min(nx for lab, _, nx, _ in SIZES if lab == label)
+def warm_up(cfg: dict[str, Any]) -> None:
+    """Compile the configuration's kernels (JIT outside the measure) on the scene's
+    smallest mesh that its scheme runs, up to the configuration's own."""
+    meshes = sorted(nx for lab, _, nx, _ in SIZES if lab == cfg["label"] and nx <= cfg["nx"])
+    for i, nx in enumerate(meshes):
+        try:
+            stepper, _, _ = build(cfg, nx)
+        except Exception:  # a mesh refused (e.g. a mass not SPD): the next one
+            if i == len(meshes) - 1:
+                raise
+            continue
+        stepper.run(2, 2)
+        return
 
 
 # ------------------------------------------------------------------ memory
@@ -146,9 +159,7 @@ def measure(cfg: dict[str, Any], repeats: int = 3) -> dict[str, Any]:
     row: dict[str, Any] = {k: cfg[k] for k in ("id", "label", "scene", "nx", "kind",
                                                "scheme", "steps")}
     try:
-        warm, _, _ = build(cfg, smallest_nx(cfg["label"]))  # JIT outside
-        warm.run(2, 2)
-        del warm
+        warm_up(cfg)  # JIT outside
         base = reset_peak()
         start = time.perf_counter()
         stepper, dofs, dt = build(cfg)
@@ -222,10 +233,10 @@ def report(rows: list[dict[str, Any]], command: str, max_dofs: float) -> str:
         table["step_ms"] = 1e3 * table.pop("step_s")
         table = table[[c for c in (*cols[:7], "step_ms", *cols[8:]) if c in table]]
     fit = exponents(df)
-    full = max_dofs >= max(d for *_, d in SIZES)
+    full = max_dofs >= max(d for *_, d in SIZES) and set(df["label"]) == set(KINDS)
     scope = ("every size" if full else
-             f"the sizes up to {max_dofs:g} dofs only (a partial run: the full one is "
-             "`python benchmarks/scale.py`)")
+             f"the sizes up to {max_dofs:g} dofs of {', '.join(dict.fromkeys(df['label']))} "
+             "only (a partial run: the full one is `python benchmarks/scale.py`)")
     prov = provenance(["(benchmarks/scale.py)"]).split("; ", 1)[1]
     return "\n".join([
         "# Scale: step time and memory against dofs", "",
@@ -247,6 +258,8 @@ def main(argv: list[str]) -> int:
     p.add_argument("--out", default=str(OUT), help="the report (default results/scale.md)")
     p.add_argument("--same-process", action="store_true",
                    help="every size in this process (quick check; memory then less clean)")
+    p.add_argument("--scene", action="append", choices=list(KINDS),
+                   help="only these scenes (repeatable; default: all)")
     p.add_argument("--one", help=argparse.SUPPRESS)  # a fresh process's configuration
     args = p.parse_args(argv)
     if args.repeats < 1:
@@ -257,7 +270,7 @@ def main(argv: list[str]) -> int:
     if args.one:
         print(json.dumps(measure(json.loads(args.one), args.repeats)))
         return 0
-    todo = configs(args.max_dofs)
+    todo = configs(args.max_dofs, args.scene)
     if not todo:
         p.error(f"--max-dofs {args.max_dofs:g}: no size is that small (the smallest has "
                 f"{min(d for *_, d in SIZES)} dofs)")
