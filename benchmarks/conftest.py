@@ -14,3 +14,8 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def pytest_addoption(parser) -> None:  # noqa: ANN001 - pytest's Parser
+    parser.addoption("--scale-max-dofs", type=float, default=None,
+                     help="test_scale.py: the sizes up to this many dofs only (default: all)")

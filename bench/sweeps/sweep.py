@@ -8,8 +8,11 @@ them and returns one DataFrame:
    from it (`from_cache` = True);
 2. the others run in parallel, in local processes (`jobs`) or on Dask distributed
    (`dask` = an address or "local"); each finished row is written to the cache at
-   once, so an interrupted sweep continues where it stopped;
-3. then, with nothing else running, a *serial timing pass* in this process: for every
+   once, so an interrupted sweep continues where it stopped. On Dask, a run whose
+   worker fails (a worker process that died, `KilledWorker`) is an 'error' row saying
+   so, not cached (the next sweep runs it again), and the other runs go on;
+3. then, with no run going on, a *timing pass*, serial in this process (on Dask: each
+   run on a worker of the cluster, one per worker thread at a time): for every
    ok row of a timed task, the scheme's stepper prepared once (`scheme.prepare`, outside
    the timings), a one-step run (JIT compilation) and one discarded warm-up call of
    `stepper.run`, then two timings of `repeats` timed calls each with the garbage
@@ -38,6 +41,7 @@ energy drift bound), a stability class and the environment (`contact_bench.harne
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import gc
 import io
@@ -47,7 +51,7 @@ import multiprocessing as mp
 import signal
 import time
 import traceback
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -431,10 +435,12 @@ def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict
 DASK_TIMEOUT = "5s"
 
 
-def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
-              done: Callable[[str, dict], None]) -> None:
+@contextlib.contextmanager
+def dask_client(address: str, jobs: int = 2) -> Iterator[Any]:
+    """A Dask distributed client on the scheduler at `address`, or on a LocalCluster of
+    `jobs` worker processes of one thread each (`address` = "local"), closed on exit."""
     try:
-        from distributed import Client, LocalCluster, as_completed
+        from distributed import Client, LocalCluster
     except ImportError:
         raise BenchError("--dask needs dask distributed: "
                          "pip install 'contact-bench[dask]'") from None
@@ -448,14 +454,51 @@ def _run_dask(todo: list[tuple[str, dict]], address: str, jobs: int,
     else:
         client = Client(address, timeout=DASK_TIMEOUT)
     try:
-        futures = {client.submit(execute_task, task, key=f"run-{key}", pure=False): key
-                   for key, task in todo}
-        for fut in as_completed(list(futures)):
-            done(futures[fut], fut.result())
+        yield client
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def lost_row(task: dict[str, Any], exc: BaseException) -> dict[str, Any]:
+    """The 'error' row of a run whose worker failed (a worker process that died, a task
+    the cluster could not run): the run's inputs, status 'error' and the reason."""
+    row: dict[str, Any] = dict.fromkeys(COLUMNS)
+    row.update({k: task.get(k) for k in ("case", "scheme", "nx", "dt", "cfl", "T", "stride",
+                                         "grading")})
+    for kind, make in (("case", make_case), ("scheme", make_scheme)):
+        try:
+            row[f"{kind}_name"] = make(row[kind]).name
+        except Exception:  # noqa: BLE001, S110 - the row keeps its spec only
+            pass
+    row.update(status="error", notes=f"worker failed: {_one_line(exc)}",
+               run_date=f"{_dt.datetime.now(_dt.UTC):%Y-%m-%dT%H:%M:%SZ}")
+    return row
+
+
+def _run_dask(todo: list[tuple[str, dict]], client: Any,
+              done: Callable[[str, dict], None], lost: Callable[[str, dict], None]) -> None:
+    """Each run on a worker of the cluster; a run whose worker fails is `lost` (an error
+    row, not cached: the next sweep runs it again) and the others go on."""
+    from distributed import as_completed
+
+    tasks = dict(todo)
+    futures = {client.submit(execute_task, task, key=f"run-{key}", pure=False): key
+               for key, task in todo}
+    for fut in as_completed(list(futures)):
+        key = futures[fut]
+        try:
+            row = fut.result()
+        except Exception as exc:  # noqa: BLE001 - a lost worker is a row, not a stop
+            lost(key, lost_row(tasks[key], exc))
+            continue
+        done(key, row)
+
+
+def _time_on_worker(row: dict[str, Any], repeats: int) -> list[list[float]]:
+    """`time_run` on a Dask worker (module level: the worker imports it by name)."""
+    return time_run(row, repeats)
 
 
 # ----------------------------------------------------------------------- driver
@@ -526,17 +569,21 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
         rows[key] = dict(row, from_cache=False)
         bar.update(1)
 
-    try:
-        if dask:
-            _run_dask(todo, dask, max(1, jobs), done)
-        elif jobs > 1 and len(todo) > 1:
-            _run_pool(todo, min(jobs, len(todo)), done)
-        else:
-            _run_serial(todo, done)
-    finally:
-        bar.close()
+    def lost(key: str, row: dict[str, Any]) -> None:  # a failed worker: not cached
+        rows[key] = dict(row, key=key, code_hash=meta[key]["code"], from_cache=False)
+        bar.update(1)
 
-    timed = _timing_pass(order, meta, rows, cache, repeats, quiet, retime)
+    with dask_client(dask, max(1, jobs)) if dask else contextlib.nullcontext() as client:
+        try:
+            if client is not None:
+                _run_dask(todo, client, done, lost)
+            elif jobs > 1 and len(todo) > 1:
+                _run_pool(todo, min(jobs, len(todo)), done)
+            else:
+                _run_serial(todo, done)
+        finally:
+            bar.close()
+        timed = _timing_pass(order, meta, rows, cache, repeats, quiet, retime, client)
     tracebacks: dict[str, str] = {}
     for key in order:
         rows[key].update(group=meta[key]["group"], key=key, code_hash=meta[key]["code"])
@@ -599,12 +646,16 @@ def _check_timing_row(row: dict[str, Any]) -> str | None:
 
 
 def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
-                 cache: Cache, repeats: int, quiet: bool, retime: bool = False) -> int:
-    """Serial timings in this process, after all parallel work is over (see module doc)."""
+                 cache: Cache, repeats: int, quiet: bool, retime: bool = False,
+                 client: Any = None) -> int:
+    """The timings, after all the runs are over (see module doc): serial in this process,
+    or (a Dask `client`) each run timed on a worker of the cluster, one run per worker
+    thread at a time; the timing cache is then keyed on the workers' CPU models."""
     if repeats <= 0:
         return 0
     wanted = [k for k in order if meta[k]["timed"] and rows[k].get("status") == "ok"]
-    machine = cpu_model()
+    machine = (cpu_model() if client is None
+               else "; ".join(sorted(set(client.run(cpu_model).values()))))
     todo = []
     for key in wanted:
         tkey = run_key({"run": key, "cpu": machine, "repeats": repeats,
@@ -615,16 +666,18 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
             rows[key].update(timing_stats(hit["step_times"], "step"))
         else:
             todo.append((key, tkey))
-    bar = _progress(len(todo), 0, "timing (serial)", quiet or not todo)
+    where = "serial" if client is None else "on the workers"
+    bar = _progress(len(todo), 0, f"timing ({where})", quiet or not todo)
     try:
-        for key, tkey in todo:
-            try:
-                times, step_times = time_run(rows[key], repeats)
-            except Exception as exc:  # noqa: BLE001 - a failing timing is a note, not a crash
+        for (key, tkey), measured in zip(todo, _timings(todo, rows, repeats, client),
+                                         strict=False):
+            if isinstance(measured, BaseException):  # a failing timing is a note, not a crash
                 rows[key]["notes"] = "; ".join(
-                    n for n in (rows[key].get("notes"), f"timing failed: {_one_line(exc)}") if n)
+                    n for n in (rows[key].get("notes"), f"timing failed: {_one_line(measured)}")
+                    if n)
                 bar.update(1)
                 continue
+            times, step_times = measured
             rows[key].update(timing_stats(times))
             rows[key].update(timing_stats(step_times, "step"))
             cache.put(tkey, {"times": times, "step_times": step_times})
@@ -632,6 +685,25 @@ def _timing_pass(order: list[str], meta: dict[str, dict], rows: dict[str, dict],
     finally:
         bar.close()
     return len(todo)
+
+
+def _timings(todo: list[tuple[str, str]], rows: dict[str, dict], repeats: int,
+             client: Any) -> Iterator[Any]:
+    """Each run's (times, step_times), or the exception its timing raised, in todo's order."""
+    if client is None:
+        for key, _ in todo:
+            try:
+                yield time_run(rows[key], repeats)
+            except Exception as exc:  # noqa: BLE001
+                yield exc
+        return
+    futures = [client.submit(_time_on_worker, rows[key], repeats, key=f"time-{key}",
+                             pure=False) for key, _ in todo]
+    for fut in futures:
+        try:
+            yield fut.result()
+        except Exception as exc:  # noqa: BLE001 - a lost worker: the run has no timing
+            yield exc
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
