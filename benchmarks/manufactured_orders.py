@@ -7,7 +7,7 @@ log(e_coarse / e_fine) / log(2) between successive grids (nx doubles). Schemes w
 stepper does not add a time-dependent load are listed as not applicable.
 
     python benchmarks/manufactured_orders.py [--out results/manufactured_orders.md]
-        [--nx2 4 8 16 32] [--nx3 2 4 8] [--cfl 0.5] [--schemes a b ...]
+        [--nx2 4 8 16 32 64] [--nx3 4 8 16] [--cfl 0.5] [--schemes a b ...]
 """
 
 from __future__ import annotations
@@ -63,8 +63,8 @@ def measure(dim: int, nxs: list[int], cfl: float, names: list[str]) -> pd.DataFr
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="results/manufactured_orders.md")
-    ap.add_argument("--nx2", type=int, nargs="+", default=[4, 8, 16, 32])
-    ap.add_argument("--nx3", type=int, nargs="+", default=[2, 4, 8])
+    ap.add_argument("--nx2", type=int, nargs="+", default=[4, 8, 16, 32, 64])
+    ap.add_argument("--nx3", type=int, nargs="+", default=[4, 8, 16])
     ap.add_argument("--cfl", type=float, default=0.5)
     ap.add_argument("--schemes", nargs="+", default=None)
     args = ap.parse_args(argv)
