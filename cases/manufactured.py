@@ -40,7 +40,7 @@ class ManufacturedContact(BodyCase):
     time_load = True
     quantities = frozenset({"u", "gap", "contact_force"})
     study = StudyGrid(specs=("manufactured[dim=2]",), nx=(4, 8, 16), T=None,
-                      small="manufactured", small_nx=(2, 3), small_T=0.1)
+                      small="manufactured", small_nx=(2, 3), small_T=1.0)
 
     @property
     def size(self) -> float:
