@@ -78,6 +78,9 @@ class HHT(Scheme):
         return (massless_drift_bound(semi, dt)
                 if self.mass in MASSLESS_KINDS and semi is not None else None)
 
+    def adds_time_load(self) -> bool:
+        return True  # the sparse Newmark stepper adds it
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: `contact_bench.kernels.sparse.newmark_sparse` with alpha
         semi = banded(problem)

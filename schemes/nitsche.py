@@ -142,6 +142,9 @@ class Nitsche(Scheme):
                           y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
                           K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
 
+    def adds_time_load(self) -> bool:
+        return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the first element's boundary kernel; a body: implicit Newmark with
         # the law solved exactly at t_{n+1}, explicit: the law at U_{n+1}

@@ -61,6 +61,9 @@ class Redistributed(Scheme):
     def newmark_parameters(self) -> tuple[float, float] | None:
         return self.beta, self.gamma
 
+    def adds_time_load(self) -> bool:
+        return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the banded Newmark kernel; a body: the same Newmark step, exact contact
         # on every contact dof through the Delassus matrix, or (beta = 0) the massless

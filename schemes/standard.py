@@ -60,6 +60,9 @@ class Standard(Scheme):
             return "the explicit (beta = 0) step has no sparse path yet"
         return None
 
+    def adds_time_load(self) -> bool:
+        return True  # the sparse Newmark stepper adds it
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the banded Newmark kernel; a body: the same step, exact contact on
         # every contact dof through the Delassus matrix (`contact_bench.kernels.sparse`)

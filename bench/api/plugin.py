@@ -329,8 +329,17 @@ class BodyCase(Case):
     contact_label = "smallest gap"
     force_label = "contact stress (total force / zone measure)"
 
+    #: its problem carries a time-dependent load (`contact_bench.api.sparse.TimeLoad`)
+    time_load: ClassVar[bool] = False
+
     def declarations(self) -> dict[str, Any]:
         return {"size": self.size}
+
+    def cannot_run(self, scheme: Scheme) -> str | None:
+        if self.time_load and not scheme.adds_time_load():
+            return ("the scene has a time-dependent load, which this scheme's stepper "
+                    "does not add (Scheme.adds_time_load)")
+        return None
 
 
 # --------------------------------------------------------------------------- schemes
@@ -538,6 +547,12 @@ class Scheme(Plugin):
     def cannot_run(self, case: Case) -> str | None:
         """A reason why the scheme cannot run this scene, or None."""
         return None
+
+    def adds_time_load(self) -> bool:
+        """Whether its stepper on a body adds a time-dependent load (`contact_bench.api.
+        sparse.SparseProblem.load`): a scene with one (`BodyCase.time_load`) is not
+        applicable to the others. Default: False."""
+        return False
 
     def penetration_bound(self, problem: Any, dt: float) -> float:
         """Largest penetration max_t -u(0, t) the scheme admits on the bar (exact

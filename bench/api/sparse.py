@@ -76,6 +76,29 @@ class ContactSet:
 
 
 @dataclass(frozen=True)
+class TimeLoad:
+    """A load that varies in time, added to the problem's constant F: F(t) = B v(t) with
+    v_j(t) = density(X[0, j], X[1, j], X[2, j], t, codes[j]): a closed form evaluated at m
+    points (quadrature points of the volume and of loaded faces, padded to 3
+    coordinates), B (n x m, CSR) the quadrature weights times the shape functions.
+    `density` is a numba cfunc float64(float64, float64, float64, float64, int64), so a
+    compiled kernel calls it every step (memory: B and the points, not n x steps)."""
+
+    B: sp.csr_matrix
+    points: np.ndarray  # (3, m)
+    codes: np.ndarray  # (m,) int64
+    density: Any
+
+    def at(self, t: float) -> np.ndarray:
+        """B v(t) (python calls of the density: for set-up, not for stepping)."""
+        f = self.density
+        X = self.points
+        v = np.array([f(X[0, j], X[1, j], X[2, j], float(t), int(c))
+                      for j, c in enumerate(self.codes)])
+        return np.asarray(self.B @ v)
+
+
+@dataclass(frozen=True)
 class AxisView:
     """How a 1D reference reads a sparse run: the free dofs carrying u(x) along an axis
     (in x order) and the 1D mesh x they sit on (with the clamped far node, if any, whose
@@ -130,6 +153,9 @@ class SparseProblem:
     #: the body's mass as that translation sees it (vertical . M . 1 over the whole
     #: body), for the impact metrics; None with `vertical`
     body_mass: float | None = None
+    #: a time-dependent load added to F (`TimeLoad`); None: the load is F. Kernels that
+    #: cannot add it refuse the problem (`contact_bench.kernels.stepper`)
+    load: TimeLoad | None = None
     #: anything else a scene wants to keep with its problem (read by that scene only)
     extra: dict[str, Any] = field(default_factory=dict)
     #: the bar's tridiagonal form of the same problem (`contact_bench.api.problem.

@@ -239,7 +239,8 @@ def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
 def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
                     massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
                     t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
-                    kappa, Pp, Pi, Px, y0, ew, sc, fscale, alpha):  # pragma: no cover
+                    kappa, Pp, Pi, Px, y0, ew, sc, fscale, alpha,
+                    load, Bp, Bi, Bx, BX, bcodes):  # pragma: no cover
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -267,16 +268,30 @@ def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, kee
     cpen = kappa * bdt2
     E0 = E_out[0]
     min_gap = smallest_gap(gap0, U, cd)
+    # a time-dependent load (`TimeLoad`; None: F alone) at the equation's time
+    # t_{n+1} + alpha dt: Fn = F + B v(t)
+    if load is None:
+        Fn = F
+    else:
+        Fn = F.copy()
+    vals = np.empty(bcodes.size)
     k = 1
     for step in range(1, nsteps + 1):
+        if load is not None:
+            tl = (step + alpha) * dt
+            for j in range(bcodes.size):
+                vals[j] = load(BX[0, j], BX[1, j], BX[2, j], tl, bcodes[j])
+            csr_matvec(Bp, Bi, Bx, vals, Fn)
+            for i in range(n):
+                Fn[i] += F[i]
         csr_matvec(Mp, Mi, Mx, P, rhs)
         if alpha != 0.0:  # HHT: + alpha beta dt^2 K U^n
             csr_matvec(Kp, Ki, Kx, U, w)
             for i in range(n):
-                rhs[i] += bdt2 * (F[i] + alpha * w[i])
+                rhs[i] += bdt2 * (Fn[i] + alpha * w[i])
         else:
             for i in range(n):
-                rhs[i] += bdt2 * F[i]
+                rhs[i] += bdt2 * Fn[i]
         lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
         pen = False
         csr_matvec(Pp, Pi, Px, X, gf)
@@ -386,6 +401,8 @@ class NewmarkStepper(KernelStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
 
+    adds_time_load = True
+
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
                  kappa: np.ndarray | None = None, law: ContactLaw | None = None,
                  alpha: float = 0.0) -> None:
@@ -430,11 +447,12 @@ class NewmarkStepper(KernelStepper):
         self.force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
                        if law is not None else 0.0)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
+        F0 = p.F if p.load is None else p.F + p.load.at(0.0)
         if law is not None:  # the full force at t = 0: K' and the law's, if active
-            r = p.F - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
+            r = F0 - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
             A = initial_acceleration(p, r)
         else:
-            A = initial_acceleration(p)
+            A = initial_acceleration(p, F0 - K @ U)
         # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
         # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
         self.state = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
@@ -446,7 +464,12 @@ class NewmarkStepper(KernelStepper):
                           np.asarray(p.contact.weights, float), W, Z, keep_z, p.massless)
         self.params = (beta, gamma, dt)
         self.kernel = _newmark_kernel
-        self.tail = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha))
+        ld = p.load
+        self.tail = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha),
+                     *((None, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                        np.zeros((3, 0)), np.zeros(0, np.int64)) if ld is None else
+                       (ld.density, *csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
+                        np.asarray(ld.codes, np.int64))))
 
 
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,

@@ -24,10 +24,18 @@ class SparseStepper(Stepper, ABC):
     """A scheme prepared on `problem` with step `dt`; `run` steps it from t = 0.
 
     The compiled kernels step contact dof by contact dof: a problem whose gap operator
-    is general (a slanted or curved obstacle) is refused here in one line."""
+    is general (a slanted or curved obstacle) is refused here in one line, and so is a
+    time-dependent load (`SparseProblem.load`) unless the stepper adds it
+    (`adds_time_load`)."""
+
+    #: the kernel adds `SparseProblem.load` at each step's time level
+    adds_time_load: bool = False
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
         problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
+        if getattr(problem, "load", None) is not None and not self.adds_time_load:
+            raise ValueError(f"the compiled {type(self).__name__} does not add a "
+                             "time-dependent load (SparseProblem.load)")
         self.problem = problem
         self.dt = float(dt)
 

@@ -1,0 +1,74 @@
+"""A time-dependent load (SparseProblem.load) is added by the sparse Newmark stepper and
+refused by the others; the redistributed scheme converges on the manufactured solution
+with a moving contact zone (cases/manufactured.py) at P1 in 2D."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.sparse.linalg import spsolve
+
+from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.api.sparse import ContactSet
+from contact_bench.harness.runner import run_one
+from contact_bench.kernels.sparse import prepare_central, prepare_newmark
+
+
+def test_the_newmark_stepper_adds_the_load_at_each_step() -> None:
+    """Without contact (the obstacle moved away), the compiled stepper's first steps equal
+    plain Newmark written out with scipy: M A_{n+1} + K U_{n+1} = F(t_{n+1})."""
+    p = make_case("manufactured").sparse_problem(2, 1.0, "consistent")
+    far = ContactSet(dofs=p.contact.dofs, gap0=np.full(p.contact.size, 10.0),
+                     weights=p.contact.weights)
+    p = replace(p, contact=far)
+    dt, beta, gamma, steps = 0.05, 0.25, 0.5, 3
+    run = prepare_newmark(p, dt, beta, gamma).run(steps, 1)
+    M, K = p.M.tocsc(), p.K.tocsc()
+    U, V = p.U0.copy(), p.V0.copy()
+    A = spsolve(M, p.load.at(0.0) - K @ U)
+    S = (M + beta * dt * dt * K).tocsc()
+    for n in range(1, steps + 1):
+        P = U + dt * V + (0.5 - beta) * dt * dt * A
+        U = spsolve(S, M @ P + beta * dt * dt * p.load.at(n * dt))
+        A1 = (U - P) / (beta * dt * dt)
+        V = V + dt * ((1 - gamma) * A + gamma * A1)
+        A = A1
+        assert np.allclose(run.U[n], U, rtol=0, atol=1e-12 * np.abs(U).max())
+    # and the load matters: a constant load F(0) gives another answer
+    frozen = replace(p, load=None, F=p.load.at(0.0))
+    other = prepare_newmark(frozen, dt, beta, gamma).run(steps, 1)
+    assert np.abs(other.U[-1] - U).max() > 1e-6
+
+
+def test_a_stepper_without_the_load_refuses_it() -> None:
+    p = make_case("manufactured").sparse_problem(2, 1.0, "lumped")
+    with pytest.raises(ValueError, match="time-dependent load"):
+        prepare_central(p, 0.001)
+
+
+def test_schemes_whose_stepper_does_not_add_the_load_are_not_applicable() -> None:
+    case = make_case("manufactured")
+    runs = {name: case.cannot_run(make_scheme(name)) is None for name in schemes().names()}
+    for name in ("standard", "redistributed", "penalty", "nitsche", "hht"):
+        assert runs[name], name
+    assert not runs["moreau_jean"]
+    assert case.cannot_run(make_scheme("redistributed[beta=0]")) is not None
+
+
+def test_redistributed_converges_on_the_manufactured_solution() -> None:
+    """Space-time refinement at fixed CFL 0.5 on P1 triangles (2D), T = 1/2: the
+    displacement error's least-squares order over nx = 4, 8, 16 is at least 1.3
+    (results/manufactured_orders.md: benchmarks/manufactured_orders.py, to nx = 32)."""
+    nxs = (4, 8, 16)
+    errs = []
+    for nx in nxs:
+        row = run_one("manufactured", "redistributed", nx=nx,
+                      dt=0.5 / (nx * math.sqrt(3.0)), T=0.5).row
+        assert row["status"] == "ok"
+        errs.append(row["err_u"])
+    order = -np.polyfit(np.log(nxs), np.log(errs), 1)[0]
+    assert np.all(np.diff(errs) < 0)
+    assert order >= 1.3, (errs, order)
