@@ -69,10 +69,10 @@ def compare(a_path: str, b_path: str) -> None:
                 diffs.append(f"{k.rsplit('|', 1)[1]}: shape {x.shape} vs "
                              f"{None if y is None else y.shape}")
                 continue
-            if np.array_equal(x, y):
+            if np.array_equal(x, y, equal_nan=True):
                 continue
-            scale = max(float(np.max(np.abs(x), initial=0.0)), 1e-300)
-            diffs.append(f"{k.rsplit('|', 1)[1]} {float(np.max(np.abs(x - y))) / scale:.1e}")
+            scale = max(float(np.nanmax(np.abs(x), initial=0.0)), 1e-300)
+            diffs.append(f"{k.rsplit('|', 1)[1]} {float(np.nanmax(np.abs(x - y))) / scale:.1e}")
         if diffs:
             print(f"{run:<50} " + ", ".join(diffs))
         else:

@@ -47,6 +47,14 @@ def test_a_matrix_that_is_not_spd_goes_to_superlu(kind):
     assert np.abs(S @ X - B.toarray()).max() < 1e-9
 
 
+def test_superlu_block_solve_is_column_solves_to_the_bit():
+    S = sp.csr_matrix(_laplacian(250, 0.2) + sp.diags([0.4], [3], shape=(250, 250)))
+    fac = Factor.of(S)  # unsymmetric: the SuperLU block solve
+    B = np.random.default_rng(3).standard_normal((250, 6))
+    X = fac.solve_many(B)
+    assert np.array_equal(X, np.column_stack([fac.solve(B[:, j]) for j in range(6)]))
+
+
 def _trajectory(monkeypatch, cholmod: bool):
     if not cholmod:
         monkeypatch.setattr(linalg, "cholespy", None)

@@ -7,9 +7,10 @@
   fill-reducing ordering) kept as CSR arrays, so that a numba kernel needs no Python;
 * at set-up, many right-hand sides at once (`Factor.solve_many`: the columns of the
   Delassus and Schur operators C S^-1 C^T, one call for all the contact dofs): CHOLMOD's
-  supernodal Cholesky (the `cholespy` package, with its AMD/METIS ordering) when S is
+  supernodal Cholesky (the `cholespy` package, its default fill-reducing ordering) when S is
   symmetric positive definite and cholespy is installed; otherwise (not symmetric, not
-  positive definite, cholespy missing) `lu_solve` column by column. The two agree to
+  positive definite, cholespy missing) `lu_solve_many`, SuperLU's factor on a block of
+  columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
 
 Every kernel module factors through `Factor` and no scheme imports a solver package:
@@ -58,6 +59,34 @@ def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: n
         work[i] = s / Ux[Up[i]]
     for i in range(n):  # x = Pc z
         out[i] = work[perm_c[i]]
+
+
+@njit(cache=True)
+def lu_solve_many(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, B, out, work):  # pragma: no cover
+    """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
+    `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
+    numbers to the bit), the factor read once for all k columns."""
+    n, k = B.shape
+    for i in range(n):
+        work[perm_r[i], :] = B[i, :]
+    for i in range(n):
+        for kk in range(Lp[i], Lp[i + 1] - 1):
+            a, r = Lx[kk], Li[kk]
+            for c in range(k):
+                work[i, c] -= a * work[r, c]
+        d = Lx[Lp[i + 1] - 1]
+        for c in range(k):
+            work[i, c] /= d
+    for i in range(n - 1, -1, -1):
+        for kk in range(Up[i] + 1, Up[i + 1]):
+            a, r = Ux[kk], Ui[kk]
+            for c in range(k):
+                work[i, c] -= a * work[r, c]
+        d = Ux[Up[i]]
+        for c in range(k):
+            work[i, c] /= d
+    for i in range(n):
+        out[i, :] = work[perm_c[i], :]
 
 
 def is_symmetric(S: sp.spmatrix) -> bool:
@@ -126,8 +155,8 @@ class Factor:
 
     def solve_many(self, B: np.ndarray | sp.spmatrix) -> np.ndarray:
         """S^-1 B (n x k, dense result with contiguous rows) for k right-hand sides at
-        once: CHOLMOD in blocks of `MANY_BLOCK_ENTRIES` values when S is SPD, else
-        `lu_solve` column by column. Used at set-up (Delassus and Schur operators)."""
+        once, in blocks of `MANY_BLOCK_ENTRIES` values: CHOLMOD when S is SPD, else
+        `lu_solve_many`. Used at set-up (Delassus and Schur operators)."""
         k = B.shape[1]
         out = np.empty((self.n, k))
         if self.S is not None:  # the factor or the fallback is decided once
@@ -137,20 +166,15 @@ class Factor:
                 self.many_backend = "superlu"
         chol = self.chol
         Bc = sp.csc_matrix(B) if sp.issparse(B) else None
-        if chol is None:
-            work, x = np.empty(self.n), np.empty(self.n)
-            for j in range(k):
-                col = (Bc[:, [j]].toarray().ravel() if Bc is not None
-                       else np.ascontiguousarray(B[:, j], float))
-                lu_solve(*self.arrays, col, x, work)
-                out[:, j] = x
-            return out
         step = max(1, MANY_BLOCK_ENTRIES // max(self.n, 1))
         for j0 in range(0, k, step):
             j1 = min(k, j0 + step)
             blk = np.ascontiguousarray(Bc[:, j0:j1].toarray() if Bc is not None
                                        else B[:, j0:j1], dtype=float)
             X = np.empty(blk.shape)
-            chol.solve(blk, X)
+            if chol is None:
+                lu_solve_many(*self.arrays, blk, X, np.empty(blk.shape))
+            else:
+                chol.solve(blk, X)
             out[:, j0:j1] = X
         return out
