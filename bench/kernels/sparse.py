@@ -4,12 +4,13 @@ Shared by the schemes' 2D/3D paths (their `prepare` on a body's problem). Everyt
 factorable is factored once, when the stepper is prepared, outside the loop; the loops
 are numba kernels over CSR arrays.
 
-* `Factor`: SuperLU of a symmetric positive definite S with a symmetric ordering and
-  diagonal pivots (`SymmetricMode`), its L and U kept as CSR arrays so that a compiled
-  loop does the two triangular solves (`lu_solve`).
+* `Factor` (`contact_bench.kernels.linalg`): S factored once; SuperLU's L and U as CSR
+  arrays for the compiled loops' triangular solves (`lu_solve`), and a multi-right-hand-side
+  solve (CHOLMOD's Cholesky when S is SPD) for the Delassus matrix at set-up.
 * Exact contact: the contact-free solution X_f of S X = b is corrected by
   X = X_f + Z mu with Z = S^-1 C^T (C picks the contact dofs): the gaps g = g_f + W mu
-  with the Delassus matrix W = C S^-1 C^T (n_c x n_c, computed once with n_c solves)
+  with the Delassus matrix W = C S^-1 C^T (n_c x n_c, computed once: one solve with n_c
+  right-hand sides, `Factor.solve_many`)
   must satisfy the linear complementarity problem g >= 0, mu >= 0, g.mu = 0, solved
   exactly by principal pivoting (`lcp_solve`: block pivoting, then Murty's least-index
   rule, which terminates for a positive definite W). Z is kept when it fits in
@@ -41,12 +42,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
-from scipy.sparse.linalg import splu
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.contact_stats import impulse_update, stats_update
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
+from contact_bench.kernels.linalg import Factor, lu_solve
 from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.stepper import KernelStepper
 
@@ -57,27 +58,6 @@ LCP_MAX_PIVOTS = 50
 
 
 # ------------------------------------------------------------------------ CSR kernels
-
-
-@njit(cache=True)
-def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: no cover
-    """out = S^-1 b from SuperLU's Pr S Pc = L U (L unit lower, U upper, both CSR with
-    sorted columns: L's diagonal last in its row, U's first)."""
-    n = b.size
-    for i in range(n):
-        work[perm_r[i]] = b[i]
-    for i in range(n):  # L y = Pr b
-        s = work[i]
-        for k in range(Lp[i], Lp[i + 1] - 1):
-            s -= Lx[k] * work[Li[k]]
-        work[i] = s / Lx[Lp[i + 1] - 1]
-    for i in range(n - 1, -1, -1):  # U z = y
-        s = work[i]
-        for k in range(Up[i] + 1, Up[i + 1]):
-            s -= Ux[k] * work[Ui[k]]
-        work[i] = s / Ux[Up[i]]
-    for i in range(n):  # x = Pc z
-        out[i] = work[perm_c[i]]
 
 
 @njit(cache=True)
@@ -105,31 +85,6 @@ def correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - comp
         lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, w, work)
         for i in range(X.size):
             X[i] += w[i]
-
-
-@dataclass
-class Factor:
-    """S = M + beta dt^2 K factored once (SuperLU), as arrays for `lu_solve`."""
-
-    arrays: tuple
-    n: int
-
-    @classmethod
-    def of(cls, S: sp.spmatrix) -> Factor:
-        lu = splu(sp.csc_matrix(S), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                  options={"SymmetricMode": True})
-        Lm, Um = sp.csr_matrix(lu.L), sp.csr_matrix(lu.U)
-        Lm.sort_indices()
-        Um.sort_indices()
-        arrays = (Lm.indptr.astype(np.int64), Lm.indices.astype(np.int64), Lm.data,
-                  Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
-                  np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
-        return cls(arrays, S.shape[0])
-
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        out = np.empty(self.n)
-        lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
-        return out
 
 
 # ------------------------------------------------------------------------------ LCP
@@ -386,15 +341,16 @@ def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.nd
 
 
 def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Z = S^-1 C^T (n x n_c) and W = C Z, by n_c solves."""
-    Z = np.empty((n, cd.size))
-    e = np.zeros(n)
-    for j, d in enumerate(cd):
-        e[d] = 1.0
-        Z[:, j] = fac.solve(e)
-        e[d] = 0.0
+    """Z = S^-1 C^T (n x n_c, rows contiguous) and W = C Z, by one solve with the n_c
+    right-hand sides C^T (`Factor.solve_many`)."""
+    Z = fac.solve_many(selection(cd, n))
     W = Z[cd, :]
     return Z, np.ascontiguousarray(0.5 * (W + W.T))
+
+
+def selection(cd: np.ndarray, n: int) -> sp.csc_matrix:
+    """C^T: the n x n_c matrix whose column j is the unit vector of contact dof cd[j]."""
+    return sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))
 
 
 class NewmarkStepper(KernelStepper):
@@ -421,10 +377,7 @@ class NewmarkStepper(KernelStepper):
         fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
         keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
         if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
-            Z = np.empty((n, cd.size))
-            Qc = sp.csc_matrix(law.Q.T)
-            for j in range(cd.size):
-                Z[:, j] = fac.solve(Qc[:, j].toarray().ravel())
+            Z = fac.solve_many(sp.csc_matrix(law.Q.T))
             W = np.ascontiguousarray(law.P @ Z)
             Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
             lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
@@ -492,13 +445,12 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
 
 
 def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
-    """W = C S^-1 C^T without keeping Z."""
+    """W = C S^-1 C^T without keeping Z (`Factor.solve_many` in blocks of columns)."""
     W = np.empty((cd.size, cd.size))
-    e = np.zeros(n)
-    for j, d in enumerate(cd):
-        e[d] = 1.0
-        W[:, j] = fac.solve(e)[cd]
-        e[d] = 0.0
+    block = max(1, KEEP_Z_ENTRIES // (10 * max(n, 1)))
+    for j0 in range(0, cd.size, block):
+        j1 = min(cd.size, j0 + block)
+        W[:, j0:j1] = fac.solve_many(selection(cd[j0:j1], n))[cd, :]
     return np.ascontiguousarray(0.5 * (W + W.T))
 
 

@@ -205,9 +205,7 @@ class ExplicitLawStepper(KernelStepper):
             Kmm = K[mv][:, mv]
             mfac = Factor.of(Kmm)
             Qmt = sp.csc_matrix(Qm[:, mv].T)
-            Z = np.empty((mv.size, nc))
-            for j in range(nc):
-                Z[:, j] = mfac.solve(Qmt[:, j].toarray().ravel())
+            Z = mfac.solve_many(Qmt)
             W = np.ascontiguousarray(Pm[:, mv] @ Z)
             keep = np.ones(n)
             keep[mv] = 0.0

@@ -1,0 +1,180 @@
+"""Direct solves with the schemes' matrices, factored once outside the stepping loops.
+
+`Factor.of(S)` factors S once and solves with it in two ways:
+
+* inside a compiled loop, one right-hand side per call: `lu_solve` over `Factor.arrays`,
+  SuperLU's L and U (symmetric mode, diagonal pivots, minimum degree on A^T + A, a
+  fill-reducing ordering) kept as CSR arrays, so that a numba kernel needs no Python;
+* at set-up, many right-hand sides at once (`Factor.solve_many`: the columns of the
+  Delassus and Schur operators C S^-1 C^T, one call for all the contact dofs): CHOLMOD's
+  supernodal Cholesky (the `cholespy` package, its default fill-reducing ordering) when S is
+  symmetric positive definite and cholespy is installed; otherwise (not symmetric, not
+  positive definite, cholespy missing) `lu_solve_many`, SuperLU's factor on a block of
+  columns (each column the numbers of `lu_solve`, to the bit). The two agree to
+  round-off; `Factor.many_backend` says which one a factor uses.
+
+Every kernel module factors through `Factor` and no scheme imports a solver package:
+this module is the one place that knows about them. docs/sparse.md has the measurements
+behind the choice (`benchmarks/cholesky_compare.py`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit
+from scipy.sparse.linalg import splu
+
+try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
+    import cholespy
+except ImportError:  # pragma: no cover - depends on the environment
+    cholespy = None
+
+#: largest number of values in one block of right-hand sides of `Factor.solve_many`
+#: (the block and its solution are dense n x k arrays)
+MANY_BLOCK_ENTRIES = 4_000_000
+#: relative asymmetry max |S - S^T| / max |S| up to which S counts as symmetric
+SYMMETRY_TOL = 1e-14
+
+
+@njit(cache=True)
+def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: no cover
+    """out = S^-1 b from SuperLU's Pr S Pc = L U (L unit lower, U upper, both CSR with
+    sorted columns: L's diagonal last in its row, U's first)."""
+    n = b.size
+    for i in range(n):
+        work[perm_r[i]] = b[i]
+    for i in range(n):  # L y = Pr b
+        s = work[i]
+        for k in range(Lp[i], Lp[i + 1] - 1):
+            s -= Lx[k] * work[Li[k]]
+        work[i] = s / Lx[Lp[i + 1] - 1]
+    for i in range(n - 1, -1, -1):  # U z = y
+        s = work[i]
+        for k in range(Up[i] + 1, Up[i + 1]):
+            s -= Ux[k] * work[Ui[k]]
+        work[i] = s / Ux[Up[i]]
+    for i in range(n):  # x = Pc z
+        out[i] = work[perm_c[i]]
+
+
+@njit(cache=True)
+def lu_solve_many(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, B, out, work):  # pragma: no cover
+    """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
+    `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
+    numbers to the bit), the factor read once for all k columns."""
+    n, k = B.shape
+    for i in range(n):
+        work[perm_r[i], :] = B[i, :]
+    for i in range(n):
+        for kk in range(Lp[i], Lp[i + 1] - 1):
+            a, r = Lx[kk], Li[kk]
+            for c in range(k):
+                work[i, c] -= a * work[r, c]
+        d = Lx[Lp[i + 1] - 1]
+        for c in range(k):
+            work[i, c] /= d
+    for i in range(n - 1, -1, -1):
+        for kk in range(Up[i] + 1, Up[i + 1]):
+            a, r = Ux[kk], Ui[kk]
+            for c in range(k):
+                work[i, c] -= a * work[r, c]
+        d = Ux[Up[i]]
+        for c in range(k):
+            work[i, c] /= d
+    for i in range(n):
+        out[i, :] = work[perm_c[i], :]
+
+
+def is_symmetric(S: sp.spmatrix) -> bool:
+    """Whether max |S - S^T| <= `SYMMETRY_TOL` max |S|."""
+    S = sp.csr_matrix(S)
+    if S.shape[0] != S.shape[1]:
+        return False
+    scale = float(abs(S).max()) if S.nnz else 0.0
+    return float(abs(S - S.T).max()) <= SYMMETRY_TOL * scale if scale else True
+
+
+def cholmod_factor(S: sp.spmatrix) -> Any | None:
+    """CHOLMOD's Cholesky factor of S (a `cholespy.CholeskySolverD`), or None when S is
+    not symmetric, not positive definite, or cholespy is not installed."""
+    if cholespy is None or not is_symmetric(S):
+        return None
+    C = sp.csc_matrix(S)
+    C.sort_indices()
+    try:
+        return cholespy.CholeskySolverD(C.shape[0], C.indptr.astype(np.int32),
+                                        C.indices.astype(np.int32),
+                                        np.ascontiguousarray(C.data, float),
+                                        cholespy.MatrixType.CSC)
+    except ValueError:  # "Matrix is not positive definite!"
+        return None
+
+
+@dataclass
+class Factor:
+    """S factored once: SuperLU's arrays for the compiled loops' `lu_solve`, and
+    `solve_many` for blocks of right-hand sides (module docstring)."""
+
+    arrays: tuple
+    n: int
+    #: the CSC matrix, kept only until `solve_many` has made CHOLMOD's factor of it
+    S: sp.csc_matrix | None = field(default=None, repr=False)
+    #: "cholmod" or "superlu": what `solve_many` uses
+    many_backend: str = "superlu"
+    #: CHOLMOD's factor, made by the first `solve_many`
+    chol: Any = field(default=None, repr=False)
+
+    @classmethod
+    def of(cls, S: sp.spmatrix) -> Factor:
+        """S (square, nonsingular) factored by SuperLU; `solve_many` will use CHOLMOD if
+        S is symmetric positive definite (read from SuperLU's symmetric-mode factor:
+        no row interchange, U's diagonal positive)."""
+        C = sp.csc_matrix(S)
+        lu = splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+        Lm, Um = sp.csr_matrix(lu.L), sp.csr_matrix(lu.U)
+        Lm.sort_indices()
+        Um.sort_indices()
+        arrays = (Lm.indptr.astype(np.int64), Lm.indices.astype(np.int64), Lm.data,
+                  Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
+                  np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
+        # symmetric, no pivoting (Pr = Pc) and U's diagonal positive: S is SPD
+        spd = (cholespy is not None and is_symmetric(C)
+               and np.array_equal(arrays[6], arrays[7]) and bool(np.all(Um.diagonal() > 0)))
+        return cls(arrays, S.shape[0], C if spd else None, "cholmod" if spd else "superlu")
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """S^-1 b for one right-hand side (`lu_solve`)."""
+        out = np.empty(self.n)
+        lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
+        return out
+
+    def solve_many(self, B: np.ndarray | sp.spmatrix) -> np.ndarray:
+        """S^-1 B (n x k, dense result with contiguous rows) for k right-hand sides at
+        once, in blocks of `MANY_BLOCK_ENTRIES` values: CHOLMOD when S is SPD, else
+        `lu_solve_many`. Used at set-up (Delassus and Schur operators)."""
+        k = B.shape[1]
+        out = np.empty((self.n, k))
+        if self.S is not None:  # the factor or the fallback is decided once
+            self.chol = cholmod_factor(self.S)
+            self.S = None
+            if self.chol is None:
+                self.many_backend = "superlu"
+        chol = self.chol
+        Bc = sp.csc_matrix(B) if sp.issparse(B) else None
+        step = max(1, MANY_BLOCK_ENTRIES // max(self.n, 1))
+        for j0 in range(0, k, step):
+            j1 = min(k, j0 + step)
+            blk = np.ascontiguousarray(Bc[:, j0:j1].toarray() if Bc is not None
+                                       else B[:, j0:j1], dtype=float)
+            X = np.empty(blk.shape)
+            if chol is None:
+                lu_solve_many(*self.arrays, blk, X, np.empty(blk.shape))
+            else:
+                chol.solve(blk, X)
+            out[:, j0:j1] = X
+        return out
