@@ -15,6 +15,12 @@ from contact_bench.kernels.linalg import Factor
 needs_cholespy = pytest.mark.skipif(linalg.cholespy is None, reason="cholespy not installed")
 
 
+@pytest.fixture(autouse=True)
+def _cholmod_asked(monkeypatch):
+    """CHOLMOD is opt-in (CONTACT_BENCH_CHOLMOD=1): these tests ask for it."""
+    monkeypatch.setattr(linalg, "USE_CHOLMOD", True)
+
+
 def _laplacian(n: int, shift: float) -> sp.csr_matrix:
     return sp.csr_matrix(sp.diags([-1.0, 2.0 + shift, -1.0], [-1, 0, 1], shape=(n, n)))
 

@@ -8,7 +8,8 @@
 * at set-up, many right-hand sides at once (`Factor.solve_many`: the columns of the
   Delassus and Schur operators C S^-1 C^T, one call for all the contact dofs): CHOLMOD's
   supernodal Cholesky (the `cholespy` package, its default fill-reducing ordering) when S is
-  symmetric positive definite and cholespy is installed; otherwise (not symmetric, not
+  symmetric positive definite, cholespy is installed and CONTACT_BENCH_CHOLMOD=1 asks
+  for it; otherwise (not symmetric, not
   positive definite, cholespy missing) `lu_solve_many`, SuperLU's factor on a block of
   columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
@@ -20,6 +21,7 @@ behind the choice (`benchmarks/cholesky_compare.py`).
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -33,6 +35,10 @@ try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything with
 except ImportError:  # pragma: no cover - depends on the environment
     cholespy = None
 
+#: CHOLMOD for `solve_many` only when asked (CONTACT_BENCH_CHOLMOD=1): SuperLU's block
+#: solve gives the set-up's numbers to the bit and, measured so far, no slower at the
+#: scenes' sizes (docs/sparse.md); CHOLMOD needs a second factorisation
+USE_CHOLMOD = os.environ.get("CONTACT_BENCH_CHOLMOD", "") == "1"
 #: largest number of values in one block of right-hand sides of `Factor.solve_many`
 #: (the block and its solution are dense n x k arrays)
 MANY_BLOCK_ENTRIES = 4_000_000
@@ -131,7 +137,7 @@ class Factor:
     @classmethod
     def of(cls, S: sp.spmatrix) -> Factor:
         """S (square, nonsingular) factored by SuperLU; `solve_many` will use CHOLMOD if
-        S is symmetric positive definite (read from SuperLU's symmetric-mode factor:
+        asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from SuperLU's symmetric-mode factor:
         no row interchange, U's diagonal positive)."""
         C = sp.csc_matrix(S)
         lu = splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
@@ -143,7 +149,7 @@ class Factor:
                   Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
                   np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
         # symmetric, no pivoting (Pr = Pc) and U's diagonal positive: S is SPD
-        spd = (cholespy is not None and is_symmetric(C)
+        spd = (USE_CHOLMOD and cholespy is not None and is_symmetric(C)
                and np.array_equal(arrays[6], arrays[7]) and bool(np.all(Um.diagonal() > 0)))
         return cls(arrays, S.shape[0], C if spd else None, "cholmod" if spd else "superlu")
 
