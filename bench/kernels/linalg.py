@@ -137,8 +137,8 @@ class Factor:
     @classmethod
     def of(cls, S: sp.spmatrix) -> Factor:
         """S (square, nonsingular) factored by SuperLU; `solve_many` will use CHOLMOD if
-        asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from SuperLU's symmetric-mode factor:
-        no row interchange, U's diagonal positive)."""
+        asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from SuperLU's
+        symmetric-mode factor: no row interchange, U's diagonal positive)."""
         C = sp.csc_matrix(S)
         lu = splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                   options={"SymmetricMode": True})
