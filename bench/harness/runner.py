@@ -19,6 +19,10 @@ excluded:
 - `step_s`: the stepping alone, the same stepper with samples only where the scheme needs
   them (stride = steps: the first and the last), the minimum of up to `STEP_REPEATS`
   calls after a warm-up call (`step_time`). Work-precision compares it.
+A scene's declared numerical reference (`Case.reference_run`) is computed once and kept
+on disk (`contact_bench.harness.reference_cache`), before the run: `ref_s` is the time
+this run spent getting it (computing it, or reading it back), `ref_compute_s` what
+computing it took; neither is in `run_s`.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from contact_bench.harness.metrics import (
     penetration,
 )
 from contact_bench.harness.quantities import first_contact_errors
+from contact_bench.harness.reference_cache import reference_samples
 
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
@@ -70,7 +75,7 @@ BASE_COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s")
+TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -450,10 +455,16 @@ def contact_metrics(problem: Any, traj: Trajectory) -> dict[str, Any]:
     out = {k: extra.get(k) for k in ("chatter", "first_contact_start", "first_contact_end",
                                        "peak_contact_force")}
     groups = getattr(problem, "equal_groups", ())
-    if groups and traj.U.shape[1]:
+    if groups and traj.U.shape[1]:  # by blocks of samples: no copy of all the samples
+        rows = max(1, SYMMETRY_BLOCK // max(1, traj.U.shape[1]))
         out["symmetry_defect"] = max(
-            float(np.max(np.ptp(traj.U[:, g], axis=-1))) for g in groups)
+            float(np.max(np.ptp(traj.U[a:a + rows][:, g], axis=-1)))
+            for g in groups for a in range(0, traj.U.shape[0], rows))
     return out
+
+
+#: values of U gathered at once for the symmetry defect (`contact_metrics`)
+SYMMETRY_BLOCK = 2**22
 
 
 def _check_length(case: Case) -> float:
@@ -490,6 +501,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
         semi = _discretise(case, scheme, row["nx"], row["grading"])
     sparse = banded(semi) is None
+    ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
     key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
@@ -521,7 +533,10 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
         table = impact_table(semi, traj)
         if table is not None:  # impact by impact, for the run's outputs (impacts.csv)
             traj.extra["impact_table"] = table
-    if case.quantities:
+    if ref_samples is not None:
+        row["ref_s"], row["ref_compute_s"] = ref_samples.pop("ref_s"), ref_samples["s"].seconds
+        row.update(case.quantity_errors(semi, traj, row, reference=ref_samples.pop("s")))
+    elif case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
 
     row.update(energy_metrics(traj))
@@ -561,6 +576,27 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 notes.append("errors against a numerical reference")
     row["notes"] = "; ".join(notes)
     return Run(row, traj, semi, norm_s)
+
+
+def numerical_reference(case: Case, plan: _Plan, notes: list[str]) -> dict[str, Any] | None:
+    """The samples of the scene's declared reference run for this plan
+    (`Case.reference_run`; None: it declares none), from the reference cache or computed
+    now (`contact_bench.harness.reference_cache`), before the run so that its memory is
+    gone when the run's samples are made: {"s": the samples, "ref_s": the time this run
+    spent getting them, JIT compilation excluded}. The row's note says which and what
+    computing it took."""
+    request = case.reference_run(plan.row["nx"], plan.dt, plan.T_run, plan.stride)
+    if request is None:
+        return None
+    with numba_event.install_recorder("numba:compile") as compiled:
+        start = time.perf_counter()
+        samples = reference_samples(case, request)
+        spent = time.perf_counter() - start
+    spent = max(0.0, spent - compile_seconds(compiled.buffer))
+    how = "read from the reference cache" if samples.cached else "computed"
+    notes.append(f"numerical reference ({samples.description}) {how}, computing it took "
+                 f"{samples.seconds:.3g} s (ref_compute_s)")
+    return {"s": samples, "ref_s": spent}
 
 
 #: steps of the probe that predicts a run's time (`_predicted_s`)
