@@ -35,6 +35,8 @@ class ReferenceRun:
     keep: np.ndarray = field(compare=False)
     #: a line naming the run (report notes)
     label: str = ""
+    #: the 1D bar's mesh grading (`contact_bench.api.fem.mesh_nodes`; 1: uniform)
+    grading: float = 1.0
 
     def inputs(self) -> dict[str, Any]:
         """The request as plain values (the cache key's part), `keep` by its digest."""
@@ -42,7 +44,7 @@ class ReferenceRun:
         return {"scheme": self.scheme, "nx": int(self.nx), "dt": repr(float(self.dt)),
                 "nsteps": int(self.nsteps), "stride": int(self.stride),
                 "keep": hashlib.sha256(keep.tobytes()).hexdigest()[:16],
-                "n_keep": int(keep.size)}
+                "n_keep": int(keep.size), "grading": repr(float(self.grading))}
 
 
 @dataclass

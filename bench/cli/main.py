@@ -297,7 +297,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
                        args.stride, args.grading, args.allow_unstable, keep=runs,
                        explicit_pair=bool(args.case and args.scheme), keep_samples=False,
-                       progress=progress)
+                       progress=progress, time_error=args.time_error)
     finally:
         progress.done()
     if args.format == "csv":
@@ -355,6 +355,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--stride", type=str, default=None,
                    help="keep a sample every K steps (default: the case's, 1 for most)")
     r.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x=0 (>= 1)")
+    r.add_argument("--time-error", type=int, default=0, metavar="K",
+                   help="also err_time_u, err_time_stress: the error against the same scheme, "
+                        "mesh and mass at dt / K (the time integrator's own; cached)")
     r.add_argument("--allow-unstable", action="store_true",
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")

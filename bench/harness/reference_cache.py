@@ -96,16 +96,17 @@ def reference_key(case: Case, request: ReferenceRun) -> str:
 
 
 def compute(case: Case, request: ReferenceRun) -> ReferenceSamples:
-    """Run the request: the scene's problem at request.nx with the scheme's mass, the
+    """Run the request: the scene's problem at request.nx with the scheme's mass (the
+    run's: `contact_bench.harness.runner.problem_for`), the
     scheme prepared once and stepped, only the kept dofs' samples held
     (`contact_bench.kernels.stepper.run_keeping`). `seconds`: problem, set-up and
     stepping, JIT compilation excluded."""
-    from contact_bench.harness.runner import compile_seconds  # the runner imports this
+    from contact_bench.harness.runner import compile_seconds, problem_for  # imports this
 
     scheme = make_scheme(request.scheme)
     with numba_event.install_recorder("numba:compile") as compiled:
         start = time.perf_counter()
-        problem = case.sparse_problem(int(request.nx), 1.0, scheme.mass_kind())
+        problem = problem_for(case, scheme, int(request.nx), float(request.grading))
         stepper = scheme.prepare(problem, float(request.dt))
         traj = run_keeping(stepper, int(request.nsteps), int(request.stride), request.keep)
         elapsed = time.perf_counter() - start
@@ -113,7 +114,8 @@ def compute(case: Case, request: ReferenceRun) -> ReferenceSamples:
     computed.append(request.label or request.scheme)
     return ReferenceSamples(
         t=traj.t, U=traj.U, U_absmax=traj.extra["U_absmax"], stress=traj.stress,
-        contact_measure=float(np.sum(problem.contact.weights)), ndofs=int(problem.nfree),
+        contact_measure=float(np.sum(getattr(problem.contact, "weights", 1.0))),
+        ndofs=int(problem.nfree),
         seconds=max(0.0, elapsed - compile_seconds(compiled.buffer)),
         description=request.label)
 

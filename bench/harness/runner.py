@@ -57,6 +57,7 @@ from contact_bench.harness.metrics import (
 )
 from contact_bench.harness.quantities import first_contact_errors
 from contact_bench.harness.reference_cache import reference_samples
+from contact_bench.harness.time_error import time_errors
 
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
@@ -75,7 +76,8 @@ BASE_COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s")
+TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s",
+                  "time_ref_compute_s")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -294,6 +296,9 @@ class _Plan:
     #: a later run of the table has the same case, mesh and sample times: the error
     #: norms keep what they can share with it (`contact_bench.harness.metrics.error_metrics`'s keep)
     shared: bool = True
+    #: > 1: the time error against the same scheme at dt / time_error
+    #: (`contact_bench.harness.time_error`)
+    time_error: int = 0
 
     def grid(self) -> tuple | None:
         """What the error norms of two runs share when it is equal: the case (one
@@ -574,6 +579,9 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 notes.append(f"reference has no {', '.join(missing)}")
             if case.reference == "numerical":
                 notes.append("errors against a numerical reference")
+    if plan.time_error > 1 and row["status"] == "ok":
+        row.update(time_errors(case, scheme, semi, traj, row, plan.steps, plan.stride,
+                               plan.time_error, notes))
     row["notes"] = "; ".join(notes)
     return Run(row, traj, semi, norm_s)
 
@@ -660,7 +668,7 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
             grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
-            step_repeats: int = STEP_REPEATS) -> Run:
+            step_repeats: int = STEP_REPEATS, time_error: int = 0) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -669,12 +677,15 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     run on the same grid can reuse (`contact_bench.harness.metrics`): a sweep's worker runs its
     tasks
     one after the other. `run_table` knows its runs and keeps only for a later one.
-    `step_repeats`: the timed calls of `step_s` (`step_time`).
+    `step_repeats`: the timed calls of `step_s` (`step_time`). `time_error` > 1: the
+    columns err_time_u, err_time_stress against the same scheme at dt / time_error
+    (`contact_bench.harness.time_error`, a cached reference).
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict),
-                    step_repeats)
+    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict)
+    plan.time_error = int(time_error)
+    return _execute(plan, step_repeats)
 
 
 def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),
@@ -683,8 +694,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
               grading: float = 1.0, allow_unstable: bool = False,
               keep: list[Run] | None = None, *, explicit_pair: bool = False,
               keep_samples: bool = True,
-              progress: Callable[[int, int, Case, Scheme], None] | None = None
-              ) -> pd.DataFrame:
+              progress: Callable[[int, int, Case, Scheme], None] | None = None,
+              time_error: int = 0) -> pd.DataFrame:
     """The product cases x schemes x nx x dt as one DataFrame (one row per run).
 
     Every configuration is checked before any is run, so a bad input (BenchError) fails
@@ -694,7 +705,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
     is an error rather than a 'not applicable' row. `keep` collects the runs; with
     `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
     grow with the number of runs (one run's samples at a time). `progress(i, total,
-    case, scheme)` is called before each run (the CLI's progress line).
+    case, scheme)` is called before each run (the CLI's progress line). `time_error`: as
+    `run_one`'s.
     """
     case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
     scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
@@ -725,6 +737,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                 plan.semi = _REBUILD
             else:
                 kept += size
+        if isinstance(plan, _Plan):
+            plan.time_error = int(time_error)
     rows = []
     for i, plan in enumerate(plans):
         plans[i] = None  # each run's memory goes with it
