@@ -33,7 +33,7 @@ def test_reference_computed_once_and_read_back(cache_dir):
     assert len(reference_cache.computed) == before + 1  # computed by this run
     assert len(list(cache_dir.glob("*/*.npz"))) == 1  # and stored
     assert first["ref_compute_s"] > 0 and first["ref_s"] >= first["ref_compute_s"] * 0.5
-    assert "computed, computing it took" in first["notes"]
+    assert first["ref_from_cache"] is False and "numerical reference: " in first["notes"]
     # another scheme, same mesh and steps: the same reference, from memory
     other = run_one(CASE, "standard", **RUN).row
     assert len(reference_cache.computed) == before + 1
@@ -42,11 +42,11 @@ def test_reference_computed_once_and_read_back(cache_dir):
     reference_cache.forget()
     again = run_one(CASE, "redistributed", **RUN).row
     assert len(reference_cache.computed) == before + 1
-    assert "read from the reference cache" in again["notes"]
+    assert again["ref_from_cache"] is True and again["notes"] == first["notes"]
     assert again["ref_compute_s"] == first["ref_compute_s"]  # the stored cost
     assert again["ref_s"] < first["ref_compute_s"]
     assert _errors(again) == _errors(first) and "err_u_numerical" in _errors(first)
-    assert {"ref_s", "ref_compute_s"} <= set(TIMING_COLUMNS)
+    assert {"ref_s", "ref_compute_s", "ref_from_cache"} <= set(TIMING_COLUMNS)
 
 
 def test_another_request_or_damaged_entry_is_computed(cache_dir):

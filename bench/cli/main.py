@@ -308,6 +308,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         print(_markdown(df))
     else:
         print(_fmt_table(df))
+        _print_reference_costs(runs)
     errors = [r for r in runs if r.row.get("status") == "error"]
     if args.traceback:
         for r in errors:
@@ -321,6 +322,21 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         if args.format == "table":
             print(f"\nwrote {', '.join(str(p) for p in written)}")
     return 0
+
+
+def _print_reference_costs(runs: list[Run]) -> None:
+    """One line per distinct numerical reference of the table: its cost, apart from the
+    runs' (`ref_compute_s`), and whether this table computed it or read it back."""
+    seen: set[tuple] = set()
+    for r in runs:
+        cost = r.row.get("ref_compute_s")
+        key = (r.row.get("case"), r.row.get("nx"), r.row.get("dt"), r.row.get("T"))
+        if cost is None or key in seen:
+            continue
+        seen.add(key)
+        how = "read back from the reference cache" if r.row.get("ref_from_cache") else "computed"
+        print(f"reference of {r.row['case']} at nx = {r.row['nx']}, dt = {r.row['dt']:g}: "
+              f"{how}; computing it takes {cost:.3g} s (ref_compute_s)")
 
 
 class UsageError(Exception):

@@ -21,8 +21,8 @@ excluded:
   calls after a warm-up call (`step_time`). Work-precision compares it.
 A scene's declared numerical reference (`Case.reference_run`) is computed once and kept
 on disk (`contact_bench.harness.reference_cache`), before the run: `ref_s` is the time
-this run spent getting it (computing it, or reading it back), `ref_compute_s` what
-computing it took; neither is in `run_s`.
+this run spent getting it (computing it, or reading it back: `ref_from_cache`),
+`ref_compute_s` what computing it took; neither is in `run_s`.
 """
 
 from __future__ import annotations
@@ -77,7 +77,7 @@ BASE_COLUMNS = (
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
 TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s",
-                  "time_ref_compute_s")
+                  "time_ref_compute_s", "ref_from_cache")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -540,6 +540,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
             traj.extra["impact_table"] = table
     if ref_samples is not None:
         row["ref_s"], row["ref_compute_s"] = ref_samples.pop("ref_s"), ref_samples["s"].seconds
+        row["ref_from_cache"] = ref_samples.pop("ref_from_cache")
         row.update(case.quantity_errors(semi, traj, row, reference=ref_samples.pop("s")))
     elif case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
@@ -591,8 +592,8 @@ def numerical_reference(case: Case, plan: _Plan, notes: list[str]) -> dict[str, 
     (`Case.reference_run`; None: it declares none), from the reference cache or computed
     now (`contact_bench.harness.reference_cache`), before the run so that its memory is
     gone when the run's samples are made: {"s": the samples, "ref_s": the time this run
-    spent getting them, JIT compilation excluded}. The row's note says which and what
-    computing it took."""
+    spent getting them, JIT compilation excluded, "ref_from_cache": read back, not
+    computed}. The row's note names the reference run."""
     request = case.reference_run(plan.row["nx"], plan.dt, plan.T_run, plan.stride)
     if request is None:
         return None
@@ -601,10 +602,9 @@ def numerical_reference(case: Case, plan: _Plan, notes: list[str]) -> dict[str, 
         samples = reference_samples(case, request)
         spent = time.perf_counter() - start
     spent = max(0.0, spent - compile_seconds(compiled.buffer))
-    how = "read from the reference cache" if samples.cached else "computed"
-    notes.append(f"numerical reference ({samples.description}) {how}, computing it took "
-                 f"{samples.seconds:.3g} s (ref_compute_s)")
-    return {"s": samples, "ref_s": spent}
+    # the note is the same at every execution: computed or read back is `ref_from_cache`
+    notes.append(f"numerical reference: {samples.description} (its cost: ref_compute_s)")
+    return {"s": samples, "ref_s": spent, "ref_from_cache": samples.cached}
 
 
 #: steps of the probe that predicts a run's time (`_predicted_s`)
