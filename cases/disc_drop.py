@@ -30,7 +30,7 @@ from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
-from contact_bench.api.registry import make_scheme
+from contact_bench.api.reference_run import ReferenceRun, ReferenceSamples
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact import converged
 
@@ -76,12 +76,14 @@ class DiscDrop(BodyCase):
     #: the numerical reference: this scheme on the mesh with twice the rings, dt / 2
     reference_scheme = "redistributed"
 
-    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
+    def quantity_errors(self, problem, traj, row,
+                        reference: ReferenceSamples | None = None) -> dict[str, float]:
         """err_free_fall: the largest vertical displacement error of any dof against the
         free fall over the samples before the impact, relative to the lift. Against the
-        numerical reference (`reference_scheme` at 2 nx, dt / 2, sampled at the run's
-        times): err_u_numerical, the largest error of u at the mesh's vertices (shared by
-        both meshes) over the largest |u_ref|, and err_contact_force_numerical, the
+        numerical reference (`reference_run`: `reference_scheme` at 2 nx, dt / 2, sampled
+        at the run's times, computed and cached by the harness, given as `reference`):
+        err_u_numerical, the largest error of u at the mesh's vertices (shared by both
+        meshes) over the largest |u_ref| of any dof, and err_contact_force_numerical, the
         l2 error over the samples of the total contact force over its l2 norm. Against the
         converged reference of results/references/disc_drop.json when it is this
         variant's (`contact_bench.exact.converged.errors`): err_contact_start, _end,
@@ -97,39 +99,46 @@ class DiscDrop(BodyCase):
         stored = converged.load(self.name)  # the converged reference, when it is this one's
         if stored is not None and stored["case"] == self.spec:
             out.update(converged.errors(stored, problem, traj, dt))
-        nx, stride = int(row["nx"]), int(row["stride"])
-        if traj.t.size < 2 or problem.U0.size != self.body(nx).ndofs:
+        nx = int(row["nx"])
+        if (reference is None or traj.t.size < 2
+                or problem.U0.size != 2 * self.scalar_dofs(nx).shape[1]):
             return out
-        ref, ref_p, ref_P = self._numerical(nx, dt, traj.t[-1], stride)
+        ref = reference
         k = min(ref.t.size, traj.t.size)
-        P = self.body(nx).dof_coordinates
         nv = self.mesh(nx).nvertices  # scikit-fem numbers the vertices' dofs first
-        scale = float(self.R)
-        where = {tuple(np.round(q / scale, 9)): s for s, q in enumerate(ref_P.T)}
-        fine = np.array([where[tuple(np.round(q / scale, 9))] for q in P[:, :nv].T])
         cols = np.ravel(np.stack([2 * np.arange(nv), 2 * np.arange(nv) + 1], axis=1))
-        rcols = np.ravel(np.stack([2 * fine, 2 * fine + 1], axis=1))
-        du = traj.U[:k][:, cols] - ref.U[:k][:, rcols]
-        out["err_u_numerical"] = float(np.max(np.abs(du)) / np.max(np.abs(ref.U[:k])))
+        du = traj.U[:k][:, cols] - ref.U[:k]  # ref.U: the fine dofs at these vertices
+        out["err_u_numerical"] = float(np.max(np.abs(du)) / np.max(ref.U_absmax[:k]))
         force = -traj.stress[:k] * float(np.sum(problem.contact.weights))
-        rforce = -ref.stress[:k] * float(np.sum(ref_p.contact.weights))
+        rforce = -ref.stress[:k] * ref.contact_measure
         if np.any(rforce):
             out["err_contact_force_numerical"] = float(
                 np.linalg.norm(force - rforce) / np.linalg.norm(rforce))
         return out
 
-    def _numerical(self, nx: int, dt: float, T: float, stride: int):
-        """The reference run (cached on the scene for its parameters)."""
-        key = (int(self.degree), float(self.lift), nx, dt, round(T / dt), stride)
-        cache = _NUMERICAL
-        if key not in cache:
-            if len(cache) >= 2:  # bound the memory: the last two references
-                cache.pop(next(iter(cache)))
-            scheme = make_scheme(self.reference_scheme)
-            p = self.sparse_problem(2 * nx, 1.0, scheme.mass_kind())
-            run = scheme.integrate(p, dt / 2, 2 * int(round(T / dt)), 2 * stride)
-            cache[key] = (run, p, self.body(2 * nx).dof_coordinates)
-        return cache[key]
+    def reference_run(self, nx: int, dt: float, T: float, stride: int) -> ReferenceRun:
+        """The numerical reference of a run at (nx, dt, T, stride): `reference_scheme` on
+        twice the rings with dt / 2 and 2 stride (the run's sample times), keeping the
+        fine mesh's dofs at this mesh's vertices (both components, in this mesh's vertex
+        order): what err_u_numerical reads."""
+        P = self.scalar_dofs(nx)
+        nv = self.mesh(nx).nvertices
+        fineP = self.scalar_dofs(2 * nx)
+        scale = float(self.R)
+        where = {tuple(np.round(q / scale, 9)): s for s, q in enumerate(fineP.T)}
+        fine = np.array([where[tuple(np.round(q / scale, 9))] for q in P[:, :nv].T])
+        keep = np.ravel(np.stack([2 * fine, 2 * fine + 1], axis=1)).astype(np.int64)
+        steps = int(round(T / dt))
+        return ReferenceRun(self.reference_scheme, 2 * int(nx), dt / 2, 2 * steps,
+                            2 * int(stride), keep,
+                            f"{self.reference_scheme} at nx = {2 * int(nx)}, dt = {dt / 2:g}, "
+                            f"{2 * steps} steps")
+
+    def scalar_dofs(self, nx: int) -> np.ndarray:
+        """(2, scalar dofs): where each scalar dof of the mesh with nx rings sits (the
+        body's `dof_coordinates`, without assembling it)."""
+        m = self.mesh(nx)
+        return np.asarray(fe.Basis(m, fem_nd.element_for(m, int(self.degree))).doflocs)
 
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         """The vertical displacement of every point before the first impact."""
@@ -189,10 +198,6 @@ class DiscDrop(BodyCase):
                              normal_stress=zone.normal_stress,
                              vertical=np.tile([0.0, 1.0], n // 2),
                              body_mass=float(np.sum(M @ np.tile([0.0, 1.0], n // 2))))
-
-
-#: numerical reference runs by (degree, lift, nx, dt, steps, stride)
-_NUMERICAL: dict = {}
 
 
 def ring_disc(n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -266,8 +266,16 @@ class Case(Plugin):
     def quantity_errors(self, problem: Any, traj: Trajectory, row: dict[str, Any]
                         ) -> dict[str, float]:
         """The relative errors `err_<q>` of a run in the quantities q of `quantities`
-        (the run's trajectory and the row's contact columns against the reference)."""
+        (the run's trajectory and the row's contact columns against the reference). A
+        scene that declares a `reference_run` takes it as `reference=` (its samples,
+        `contact_bench.api.reference_run.ReferenceSamples`)."""
         return {}
+
+    def reference_run(self, nx: int, dt: float, T: float, stride: int) -> Any:
+        """The fine run (`contact_bench.api.reference_run.ReferenceRun`) that a run at
+        (nx, dt, T, stride) is compared with, or None: the harness computes it once,
+        keeps it on disk and reports its cost apart (`ref_s`)."""
+        return None
 
 
 class BarCase(Case):

@@ -297,7 +297,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
                        args.stride, args.grading, args.allow_unstable, keep=runs,
                        explicit_pair=bool(args.case and args.scheme), keep_samples=False,
-                       progress=progress)
+                       progress=progress, time_error=args.time_error)
     finally:
         progress.done()
     if args.format == "csv":
@@ -308,6 +308,7 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         print(_markdown(df))
     else:
         print(_fmt_table(df))
+        _print_reference_costs(runs)
     errors = [r for r in runs if r.row.get("status") == "error"]
     if args.traceback:
         for r in errors:
@@ -321,6 +322,21 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
         if args.format == "table":
             print(f"\nwrote {', '.join(str(p) for p in written)}")
     return 0
+
+
+def _print_reference_costs(runs: list[Run]) -> None:
+    """One line per distinct numerical reference of the table: its cost, apart from the
+    runs' (`ref_compute_s`), and whether this table computed it or read it back."""
+    seen: set[tuple] = set()
+    for r in runs:
+        cost = r.row.get("ref_compute_s")
+        key = (r.row.get("case"), r.row.get("nx"), r.row.get("dt"), r.row.get("T"))
+        if cost is None or key in seen:
+            continue
+        seen.add(key)
+        how = "read back from the reference cache" if r.row.get("ref_from_cache") else "computed"
+        print(f"reference of {r.row['case']} at nx = {r.row['nx']}, dt = {r.row['dt']:g}: "
+              f"{how}; computing it takes {cost:.3g} s (ref_compute_s)")
 
 
 class UsageError(Exception):
@@ -355,6 +371,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--stride", type=str, default=None,
                    help="keep a sample every K steps (default: the case's, 1 for most)")
     r.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x=0 (>= 1)")
+    r.add_argument("--time-error", type=int, default=0, metavar="K",
+                   help="also err_time_u, err_time_stress: the error against the same scheme, "
+                        "mesh and mass at dt / K (the time integrator's own; cached)")
     r.add_argument("--allow-unstable", action="store_true",
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")

@@ -19,6 +19,10 @@ excluded:
 - `step_s`: the stepping alone, the same stepper with samples only where the scheme needs
   them (stride = steps: the first and the last), the minimum of up to `STEP_REPEATS`
   calls after a warm-up call (`step_time`). Work-precision compares it.
+A scene's declared numerical reference (`Case.reference_run`) is computed once and kept
+on disk (`contact_bench.harness.reference_cache`), before the run: `ref_s` is the time
+this run spent getting it (computing it, or reading it back: `ref_from_cache`),
+`ref_compute_s` what computing it took; neither is in `run_s`.
 """
 
 from __future__ import annotations
@@ -52,6 +56,8 @@ from contact_bench.harness.metrics import (
     penetration,
 )
 from contact_bench.harness.quantities import first_contact_errors
+from contact_bench.harness.reference_cache import reference_samples
+from contact_bench.harness.time_error import time_errors
 
 if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs step
     import pandas as pd
@@ -70,7 +76,8 @@ BASE_COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s")
+TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s",
+                  "time_ref_compute_s", "ref_from_cache")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -289,6 +296,9 @@ class _Plan:
     #: a later run of the table has the same case, mesh and sample times: the error
     #: norms keep what they can share with it (`contact_bench.harness.metrics.error_metrics`'s keep)
     shared: bool = True
+    #: > 1: the time error against the same scheme at dt / time_error
+    #: (`contact_bench.harness.time_error`)
+    time_error: int = 0
 
     def grid(self) -> tuple | None:
         """What the error norms of two runs share when it is equal: the case (one
@@ -450,10 +460,16 @@ def contact_metrics(problem: Any, traj: Trajectory) -> dict[str, Any]:
     out = {k: extra.get(k) for k in ("chatter", "first_contact_start", "first_contact_end",
                                        "peak_contact_force")}
     groups = getattr(problem, "equal_groups", ())
-    if groups and traj.U.shape[1]:
+    if groups and traj.U.shape[1]:  # by blocks of samples: no copy of all the samples
+        rows = max(1, SYMMETRY_BLOCK // max(1, traj.U.shape[1]))
         out["symmetry_defect"] = max(
-            float(np.max(np.ptp(traj.U[:, g], axis=-1))) for g in groups)
+            float(np.max(np.ptp(traj.U[a:a + rows][:, g], axis=-1)))
+            for g in groups for a in range(0, traj.U.shape[0], rows))
     return out
+
+
+#: values of U gathered at once for the symmetry defect (`contact_metrics`)
+SYMMETRY_BLOCK = 2**22
 
 
 def _check_length(case: Case) -> float:
@@ -490,6 +506,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
         semi = _discretise(case, scheme, row["nx"], row["grading"])
     sparse = banded(semi) is None
+    ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
     key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
@@ -521,7 +538,11 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
         table = impact_table(semi, traj)
         if table is not None:  # impact by impact, for the run's outputs (impacts.csv)
             traj.extra["impact_table"] = table
-    if case.quantities:
+    if ref_samples is not None:
+        row["ref_s"], row["ref_compute_s"] = ref_samples.pop("ref_s"), ref_samples["s"].seconds
+        row["ref_from_cache"] = ref_samples.pop("ref_from_cache")
+        row.update(case.quantity_errors(semi, traj, row, reference=ref_samples.pop("s")))
+    elif case.quantities:
         row.update(case.quantity_errors(semi, traj, row))
 
     row.update(energy_metrics(traj))
@@ -559,8 +580,31 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
                 notes.append(f"reference has no {', '.join(missing)}")
             if case.reference == "numerical":
                 notes.append("errors against a numerical reference")
+    if plan.time_error > 1 and row["status"] == "ok":
+        row.update(time_errors(case, scheme, semi, traj, row, plan.steps, plan.stride,
+                               plan.time_error, notes))
     row["notes"] = "; ".join(notes)
     return Run(row, traj, semi, norm_s)
+
+
+def numerical_reference(case: Case, plan: _Plan, notes: list[str]) -> dict[str, Any] | None:
+    """The samples of the scene's declared reference run for this plan
+    (`Case.reference_run`; None: it declares none), from the reference cache or computed
+    now (`contact_bench.harness.reference_cache`), before the run so that its memory is
+    gone when the run's samples are made: {"s": the samples, "ref_s": the time this run
+    spent getting them, JIT compilation excluded, "ref_from_cache": read back, not
+    computed}. The row's note names the reference run."""
+    request = case.reference_run(plan.row["nx"], plan.dt, plan.T_run, plan.stride)
+    if request is None:
+        return None
+    with numba_event.install_recorder("numba:compile") as compiled:
+        start = time.perf_counter()
+        samples = reference_samples(case, request)
+        spent = time.perf_counter() - start
+    spent = max(0.0, spent - compile_seconds(compiled.buffer))
+    # the note is the same at every execution: computed or read back is `ref_from_cache`
+    notes.append(f"numerical reference: {samples.description} (its cost: ref_compute_s)")
+    return {"s": samples, "ref_s": spent, "ref_from_cache": samples.cached}
 
 
 #: steps of the probe that predicts a run's time (`_predicted_s`)
@@ -624,7 +668,7 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
             grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
-            step_repeats: int = STEP_REPEATS) -> Run:
+            step_repeats: int = STEP_REPEATS, time_error: int = 0) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -633,12 +677,15 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     run on the same grid can reuse (`contact_bench.harness.metrics`): a sweep's worker runs its
     tasks
     one after the other. `run_table` knows its runs and keeps only for a later one.
-    `step_repeats`: the timed calls of `step_s` (`step_time`).
+    `step_repeats`: the timed calls of `step_s` (`step_time`). `time_error` > 1: the
+    columns err_time_u, err_time_stress against the same scheme at dt / time_error
+    (`contact_bench.harness.time_error`, a cached reference).
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    return _execute(_prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict),
-                    step_repeats)
+    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict)
+    plan.time_error = int(time_error)
+    return _execute(plan, step_repeats)
 
 
 def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | None] = (None,),
@@ -647,8 +694,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
               grading: float = 1.0, allow_unstable: bool = False,
               keep: list[Run] | None = None, *, explicit_pair: bool = False,
               keep_samples: bool = True,
-              progress: Callable[[int, int, Case, Scheme], None] | None = None
-              ) -> pd.DataFrame:
+              progress: Callable[[int, int, Case, Scheme], None] | None = None,
+              time_error: int = 0) -> pd.DataFrame:
     """The product cases x schemes x nx x dt as one DataFrame (one row per run).
 
     Every configuration is checked before any is run, so a bad input (BenchError) fails
@@ -658,7 +705,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
     is an error rather than a 'not applicable' row. `keep` collects the runs; with
     `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
     grow with the number of runs (one run's samples at a time). `progress(i, total,
-    case, scheme)` is called before each run (the CLI's progress line).
+    case, scheme)` is called before each run (the CLI's progress line). `time_error`: as
+    `run_one`'s.
     """
     case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
     scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
@@ -689,6 +737,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                 plan.semi = _REBUILD
             else:
                 kept += size
+        if isinstance(plan, _Plan):
+            plan.time_error = int(time_error)
     rows = []
     for i, plan in enumerate(plans):
         plans[i] = None  # each run's memory goes with it

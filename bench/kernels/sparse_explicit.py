@@ -21,8 +21,10 @@ Z = K'_mm^-1 Q_m^T, W = P_m Z (n_c x n_c, computed once), y = y_f + W mu, solved
 exactly by `penalty_solve`'s active-set iteration, then u_m = u_f + Z mu (the same
 elimination as `quasistatic_sparse`'s exact contact, with the law in place of the
 complementarity). Their velocity is the backward difference. The response matrices
-(Z here, M^-1 C^T in `taylor_flanagan_sparse`) are kept dense, up to `KEEP_Z_ENTRIES`
-values (beyond: ValueError; `newmark_sparse`'s second-solve fallback is not done here).
+(Z here, M^-1 C^T in `taylor_flanagan_sparse`) are kept dense when they hold at most
+`KEEP_Z_ENTRIES` values; beyond, only their n_c x n_c rows at the contact dofs are kept
+and the correction Z mu is one more solve with the factor already made (matrix-free, as
+`newmark_sparse` does): memory O(n + n_c^2) at any size.
 
 `taylor_flanagan_sparse`: the Taylor-Flanagan central difference with a factored
 (consistent) mass, the penetrating contact dofs stopped together through the Delassus
@@ -51,10 +53,8 @@ from contact_bench.core.contact_stats import impulse_update, stats_update
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
-    KEEP_Z_ENTRIES,
     ContactLaw,
     Factor,
-    delassus,
     initial_acceleration,
     lcp_solve,
     lu_solve,
@@ -64,22 +64,27 @@ from contact_bench.kernels.stepper import KernelStepper
 
 #: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
 SMALL_DENSE = 64
+#: largest dense response matrix (values) the explicit steppers keep; beyond, matrix-free
+KEEP_Z_ENTRIES = 10_000_000
 
 
 @njit(cache=True)
 def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
                          mfac, hfac, diag_h, Pp, Pi, Px, QTp, QTi, QTx, y0, c, ew, sc, fscale,
-                         W, Z, cd, gap0, weights, U, V, A, dt, gamma, nsteps, stride, offset,
-                         t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+                         W, Z, keep_z, QTmp, QTmi, QTmx, cd, gap0, weights, U, V, A, dt,
+                         gamma, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out,
+                         E_out, stats):  # pragma: no cover
     """Advance (U, V, A) in place (module docstring); returns (samples, steps, min gap,
     blow-up step or -1). K rows: Kh = K'[hv] (all columns), Km = K'[mv] with the massless
     columns dropped; QT = Q^T (n x n_c); hfac/diag_h: M_hh's factor or diagonal; mfac:
-    K'_mm's factor; W, Z the massless elimination's matrices."""
+    K'_mm's factor; W, Z the massless elimination's matrices (Z unless `keep_z` is
+    False: then Z mu is a solve with K'_mm's factor of QTm mu, QTm = Q_m^T as CSR)."""
     n = U.size
     nh, nm, nc = hv.size, mv.size, cd.size
     rm = np.empty(nm)
     um = np.empty(nm)
     wm = np.empty(nm)
+    zw = np.empty(nm)
     rh = np.empty(nh)
     ah = np.empty(nh)
     wh = np.empty(nh)
@@ -115,12 +120,19 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
                 pen = pen or y[j] < 0.0
             if pen:
                 penalty_solve(W, y, c, mu, active)
-                on = np.flatnonzero(mu)
-                for b in range(nm):
-                    acc = 0.0
-                    for j in on:
-                        acc += Z[b, j] * mu[j]
-                    U[mv[b]] += acc
+                if keep_z:
+                    on = np.flatnonzero(mu)
+                    for b in range(nm):
+                        acc = 0.0
+                        for j in on:
+                            acc += Z[b, j] * mu[j]
+                        U[mv[b]] += acc
+                else:  # matrix-free: K'_mm^-1 Q_m^T mu (wm holds the old positions)
+                    csr_matvec(QTmp, QTmi, QTmx, mu, rm)
+                    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
+                             mfac[7], rm, um, zw)
+                    for b in range(nm):
+                        U[mv[b]] += um[b]
             for b in range(nm):
                 i = mv[b]
                 V[i] = (U[i] - wm[b]) / dt
@@ -165,11 +177,25 @@ def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, 
     return k, nsteps, min_gap, -1
 
 
-def _check_response(rows: int, nc: int) -> None:
-    """The kept response matrix (rows x n_c values) within `KEEP_Z_ENTRIES`."""
-    if rows * nc > KEEP_Z_ENTRIES:
-        raise ValueError(f"the response matrix would hold {rows} x {nc} values, more than "
-                         f"{KEEP_Z_ENTRIES:.0e} (fewer contact dofs or a smaller mesh)")
+def keeps_response(rows: int, nc: int) -> bool:
+    """Whether a dense response matrix of rows x n_c values is kept (at most
+    `KEEP_Z_ENTRIES` values, read at each call); else the steppers go matrix-free."""
+    return rows * nc <= KEEP_Z_ENTRIES
+
+
+def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(Z, Z[rows]) for Z = S^-1 rhs (one solve per column of rhs, S's factor `fac`):
+    Z whole when `keep`, else a (1, 1) placeholder and only its rows `rows`."""
+    n, nc = fac.n, rhs.shape[1]
+    Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
+    Zr = np.empty((rows.size, nc))
+    for j in range(nc):
+        z = fac.solve(rhs[:, j].toarray().ravel())
+        if keep:
+            Z[:, j] = z
+        Zr[:, j] = z[rows]
+    return Z, Zr
 
 
 def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
@@ -200,13 +226,20 @@ class ExplicitLawStepper(KernelStepper):
         mv = np.flatnonzero(massless).astype(np.int64)
         cd = np.asarray(p.contact.dofs, np.int64)
         nc = cd.size
+        keep_z = keeps_response(mv.size, nc)
         if mv.size:
-            _check_response(mv.size, nc)
             Kmm = K[mv][:, mv]
             mfac = Factor.of(Kmm)
             Qmt = sp.csc_matrix(Qm[:, mv].T)
-            Z = mfac.solve_many(Qmt)
-            W = np.ascontiguousarray(Pm[:, mv] @ Z)
+            Pmm = sp.csr_matrix(Pm[:, mv])
+            if keep_z:
+                Z = mfac.solve_many(Qmt)
+                W = np.ascontiguousarray(Pmm @ Z)
+            else:  # W = P_m K'_mm^-1 Q_m^T column by column, Z not kept
+                Z = np.zeros((1, 1))
+                W = np.empty((nc, nc))
+                for j in range(nc):
+                    W[:, j] = Pmm @ mfac.solve(Qmt[:, j].toarray().ravel())
             keep = np.ones(n)
             keep[mv] = 0.0
             Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
@@ -235,8 +268,8 @@ class ExplicitLawStepper(KernelStepper):
             *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
             Mhh.diagonal() if diag else np.zeros(0), *csr_arrays(Pm), *csr_arrays(Qm.T), y0,
             c, float(law.ew), np.asarray(law.sc, float), float(law.fscale), W,
-            np.ascontiguousarray(Z), cd, np.asarray(p.contact.gap0, float),
-            np.asarray(p.contact.weights, float))
+            np.ascontiguousarray(Z), keep_z, *csr_arrays(sp.csr_matrix(Qm[:, mv].T)), cd,
+            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float))
         self.kernel = _explicit_law_kernel
         self.params = (self.dt, gamma)
 
@@ -323,11 +356,12 @@ def stable_dt(p: SparseProblem, beta: float, gamma: float,
 
 
 @njit(cache=True)
-def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A, dt, nsteps,
-               stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
+def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, Zc, keep_z, U, V, A,
+               dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
                stats):  # pragma: no cover - compiled
     """Taylor-Flanagan on many contact dofs with a factored mass (module docstring of
-    `taylor_flanagan_sparse`); Z = M^-1 C^T, W = C Z."""
+    `taylor_flanagan_sparse`); Z = M^-1 C^T (unless `keep_z` is False: then Z dmu is a
+    solve with M's factor), Zc = C Z its rows at the contact dofs, W = (Zc + Zc^T) / 2."""
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -367,7 +401,7 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
             for a in range(m):  # velocities before this set's correction
                 acc = V[cd[idx[a]]]
                 for b in range(nc):
-                    acc -= Z[cd[idx[a]], b] * mu[b]
+                    acc -= Zc[idx[a], b] * mu[b]
                 q[a] = acc
                 vmax = max(vmax, abs(acc))
                 for b in range(m):
@@ -379,13 +413,22 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, U, V, A,
             for a in range(m):
                 dmu[idx[a]] = ms[a] - mu[idx[a]]
                 mu[idx[a]] = ms[a]
-            on = np.flatnonzero(dmu)
-            for i in range(n):
-                acc = 0.0
-                for b in on:
-                    acc += Z[i, b] * dmu[b]
-                V[i] += acc
-                U[i] += dt * acc
+            if keep_z:
+                on = np.flatnonzero(dmu)
+                for i in range(n):
+                    acc = 0.0
+                    for b in on:
+                        acc += Z[i, b] * dmu[b]
+                    V[i] += acc
+                    U[i] += dt * acc
+            else:  # matrix-free: M^-1 C^T dmu
+                rhs[:] = 0.0
+                for b in range(nc):
+                    rhs[cd[b]] = dmu[b]
+                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
+                for i in range(n):
+                    V[i] += w[i]
+                    U[i] += dt * w[i]
             grow = False
             for j in range(nc):
                 if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
@@ -426,16 +469,19 @@ class TaylorFlanaganStepper(KernelStepper):
         super().__init__(p, dt)
         n = p.nfree
         cd = np.asarray(p.contact.dofs, np.int64)
-        _check_response(n, cd.size)
         fac = Factor.of(p.M)
-        Z, W = delassus(fac, cd, n)
+        keep_z = keeps_response(n, cd.size)
+        C = sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))
+        Z, Zc = response_rows(fac, C, cd, keep_z)
+        W = np.ascontiguousarray(0.5 * (Zc + Zc.T))
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         self.kernel = _tf_kernel
         self.state = (U, V, fac.solve(p.F - p.K @ U))
         self.params = (self.dt,)
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
                           fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z))
+                          np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
+                          np.ascontiguousarray(Zc), keep_z)
 
 
 def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:

@@ -209,6 +209,8 @@ class VerletStepper(KernelStepper):
     """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
     factored, the Delassus matrix) computed once."""
 
+    keeps_selection = False  # the kernel writes sample 0 itself
+
     def __init__(self, p: SparseProblem, dt: float) -> None:
         self.split = MasslessSplit.of(p)
         super().__init__(p, dt)

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from contact_bench.api.plugin import Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
@@ -56,7 +59,14 @@ class KernelStepper(SparseStepper):
     `state` (the arrays the kernel advances in place) is copied at every run. A
     subclass's constructor sets `kernel`, `operators`, `state`, `params`, `tail`, the
     force at t = 0 `force0` (the statistics' start) and `sample0`, the entries of sample
-    0 it writes itself (e.g. {"energy": E0} with a contact law's energy)."""
+    0 it writes itself (e.g. {"energy": E0} with a contact law's energy).
+
+    `run_keeping(nsteps, stride, dofs)`: the same run keeping only the displacement
+    samples of `dofs` (`SampleBuffers`' keep), for a kernel that writes its samples with
+    `write_sample` only (`keeps_selection`)."""
+
+    #: the kernel writes every sample through `write_sample` (a selection can be kept)
+    keeps_selection = True
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
         super().__init__(problem, dt)
@@ -69,7 +79,17 @@ class KernelStepper(SparseStepper):
         self.sample0: dict[str, float] = {}
 
     def run(self, nsteps: int, stride: int) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride)
+        return self._run(nsteps, stride, None)
+
+    def run_keeping(self, nsteps: int, stride: int, dofs: np.ndarray) -> Trajectory:
+        """`run` with only U[:, dofs] kept (V none), and the largest |U|, |V| of each
+        sample in extra["U_absmax"], extra["V_absmax"]: the same steps, bit for bit."""
+        if not self.keeps_selection:
+            return keep_selection(self.run(nsteps, stride), dofs)
+        return self._run(nsteps, stride, np.asarray(dofs, np.int64))
+
+    def _run(self, nsteps: int, stride: int, keep: np.ndarray | None) -> Trajectory:
+        out = SampleBuffers(self.problem, nsteps, stride, keep)
         for name, value in self.sample0.items():
             getattr(out, name)[0] = value
         stats = new_stats(self.force0, out.size)
@@ -77,3 +97,21 @@ class KernelStepper(SparseStepper):
             *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
             int(stride), float(self.problem.energy_offset), *out.arrays(), stats, *self.tail)
         return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+
+
+def keep_selection(traj: Trajectory, dofs: np.ndarray) -> Trajectory:
+    """A full trajectory reduced to what `KernelStepper.run_keeping` keeps: U[:, dofs],
+    no V, the largest |U| and |V| of each sample in extra."""
+    extra = dict(traj.extra, U_absmax=np.max(np.abs(traj.U), axis=1, initial=0.0),
+                 V_absmax=np.max(np.abs(traj.V), axis=1, initial=0.0))
+    return replace(traj, U=np.ascontiguousarray(traj.U[:, np.asarray(dofs, np.int64)]),
+                   V=np.empty((traj.t.size, 0)), extra=extra)
+
+
+def run_keeping(stepper: Stepper, nsteps: int, stride: int, dofs: np.ndarray) -> Trajectory:
+    """`stepper.run(nsteps, stride)` keeping only the displacement samples of `dofs` (and
+    each sample's largest |U|, |V|): without the full samples in memory when the stepper
+    can (`KernelStepper.run_keeping`), else reduced after the run."""
+    if isinstance(stepper, KernelStepper):
+        return stepper.run_keeping(nsteps, stride, dofs)
+    return keep_selection(stepper.run(nsteps, stride), dofs)
