@@ -226,6 +226,13 @@ class MidpointPenaltyStepper(KernelStepper):
                           fac.arrays, cd, gap0, weights, kappa, W)
         self.state = (U, V)
         self.params = (dt,)
+        self.springs = (cd, gap0, kappa)
+
+    def law_energy(self, U: np.ndarray) -> float:
+        """The springs' energy sum_i kappa_i/2 min(0, g_i)^2 in state U."""
+        cd, gap0, kappa = self.springs
+        y = np.minimum(0.0, gap0 + np.asarray(U)[cd])
+        return float(0.5 * np.sum(kappa * y * y))
 
 
 def prepare_midpoint_penalty(p: SparseProblem, dt: float, kappa: np.ndarray
