@@ -55,7 +55,9 @@ class AnsysVm265(BarCase):
     far_end, u_L = "free", 0.0
     T, nx, dt = 2.0e-4, 20, 0.2226e-5
     reference = "exact"
-    stiff = True
+    # not in the study's stability sweep: its T is a few transits, shorter than the
+    # sweep's largest CFL steps (steel_bar is the stiff scene there)
+    stiff = False
     provides = frozenset({"u", "v", "stress", "energy"})
     quantities = frozenset(f"published_{q}" for q in PUBLISHED)
     published = PUBLISHED

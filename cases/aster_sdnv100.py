@@ -56,7 +56,9 @@ class AsterSdnv100(BarCase):
     far_end, u_L = "free", 0.0
     T, nx, dt = 1.2e-4, 200, 1e-7
     reference = "exact"
-    stiff = True
+    # not in the study's stability sweep: its T is a few transits, shorter than the
+    # sweep's largest CFL steps (steel_bar is the stiff scene there)
+    stiff = False
     provides = frozenset({"u", "v", "stress", "energy"})
     quantities = frozenset(f"published_{q}" for q in PUBLISHED)
     published = PUBLISHED
