@@ -5,6 +5,7 @@ and the save / compare / fail-on-regression workflow works on two saved runs."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -44,11 +45,13 @@ def test_every_stepping_id_names_its_work():
 
 
 def _bench(storage: Path, *extra: str) -> subprocess.CompletedProcess:
+    # a serial pytest: pytest-benchmark switches itself off in an xdist worker's environment
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")}
     return subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
          "benchmarks/test_stepping.py::test_stepping", "-k", "restitution-clamped_bar-n1e3",
          f"--benchmark-storage=file://{storage}", *extra],
-        cwd=ROOT, capture_output=True, text=True, timeout=600)
+        cwd=ROOT, capture_output=True, text=True, timeout=600, env=env)
 
 
 def test_save_compare_and_fail_on_regression(tmp_path):

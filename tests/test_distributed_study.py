@@ -44,7 +44,7 @@ class WorkerKiller(TaylorFlanagan):
 
 
 def _metrics(df: pd.DataFrame) -> pd.DataFrame:
-    return df.drop(columns=list(VOLATILE_COLUMNS)).reset_index(drop=True)
+    return df.drop(columns=list(VOLATILE_COLUMNS), errors="ignore").reset_index(drop=True)
 
 
 def test_the_distributed_study_gives_the_serial_table_timed_on_the_workers(monkeypatch):

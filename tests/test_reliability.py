@@ -220,14 +220,15 @@ def test_same_command_bit_identical_in_separate_processes(tmp_path):
 
 
 def _table(case: str, scheme: str) -> pd.DataFrame:
-    return run_table([case], [scheme], [16], T=1.0).drop(columns=list(TIMING_COLUMNS))
+    return run_table([case], [scheme], [16], T=1.0).drop(columns=list(TIMING_COLUMNS),
+                                                         errors="ignore")
 
 
 def test_run_table_identical_serial_and_in_two_worker_processes():
     pairs = [(c, s) for c in ("clamped_bar", "dropped_bar")
              for s in ("standard", "redistributed[beta=0]")]
     serial = run_table([c for c, _ in pairs[::2]], ["standard", "redistributed[beta=0]"],
-                       [16], T=1.0).drop(columns=list(TIMING_COLUMNS))
+                       [16], T=1.0).drop(columns=list(TIMING_COLUMNS), errors="ignore")
     with ProcessPoolExecutor(2, mp_context=get_context("spawn")) as pool:
         parts = list(pool.map(_table, *zip(*pairs, strict=True)))  # pickled: exact floats
     pooled = pd.concat(parts, ignore_index=True)

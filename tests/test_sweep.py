@@ -35,7 +35,7 @@ GRID = dict(cases=["clamped_bar"], schemes=["standard", "redistributed[beta=[0.2
 
 
 def _metrics(df: pd.DataFrame) -> pd.DataFrame:
-    return df.drop(columns=list(VOLATILE_COLUMNS)).reset_index(drop=True)
+    return df.drop(columns=list(VOLATILE_COLUMNS), errors="ignore").reset_index(drop=True)
 
 
 def test_parallel_and_dask_give_the_serial_table():

@@ -78,6 +78,7 @@ from contact_bench.harness.runner import (
     run_one,
     table_columns,
 )
+from contact_bench.harness.runner import TIMING_COLUMNS as RUN_TIMING_COLUMNS
 from contact_bench.sweeps.cache import Cache, code_hash, run_key
 
 #: growth max (E - E0)/|E0| tolerated for 'conserved'/'dissipated' schemes with no bound
@@ -90,7 +91,11 @@ TIMING_COLUMNS = ("step_s", "step_median_s", "step_iqr_s", "step_repeats", "step
                   "setup_s", "run_s", "wall_s", "task_s")
 #: a timing whose interquartile range exceeds this fraction of its median is flagged noisy
 NOISY_SPREAD = 0.1
-VOLATILE_COLUMNS = (*TIMING_COLUMNS, "from_cache", "run_date")
+#: what varies between executions of the same run: the timings (the sweep's and the
+#: harness's, with the references' costs and whether they came from their cache), where a
+#: row came from and when
+VOLATILE_COLUMNS = tuple(dict.fromkeys((*TIMING_COLUMNS, *RUN_TIMING_COLUMNS, "from_cache",
+                                        "run_date")))
 
 COLUMNS = (
     "group", "case", "scheme", "case_name", "scheme_name", "nx", "h", "dt", "cfl", "T",
