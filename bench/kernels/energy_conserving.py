@@ -46,11 +46,10 @@ from contact_bench.core.contact_stats import impulse_update, stats_update
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
-    KEEP_Z_ENTRIES,
     Factor,
+    contact_operators,
     correct,
     delassus,
-    delassus_only,
     lcp_solve,
     lu_solve,
 )
@@ -183,11 +182,7 @@ class MidpointContactStepper(KernelStepper):
         n = p.nfree
         cd = np.asarray(p.contact.dofs, np.int64)
         fac = Factor.of(p.M + (0.25 * dt * dt) * p.K)
-        keep_z = n * cd.size <= KEEP_Z_ENTRIES
-        if keep_z:
-            Z, W = delassus(fac, cd, n)
-        else:
-            Z, W = np.zeros((1, 1)), delassus_only(fac, cd, n)
+        Z, W, keep_z = contact_operators(fac, cd, n)
         keep_y = mode == SIGNORINI_VELOCITY_UPDATE and keep_z
         Y, marrays = np.zeros((1, 1)), fac.arrays
         if mode == SIGNORINI_VELOCITY_UPDATE:  # M^-1 C^T kept, or a solve per update

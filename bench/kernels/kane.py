@@ -48,11 +48,9 @@ from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
-    KEEP_Z_ENTRIES,
     Factor,
+    contact_operators,
     correct,
-    delassus,
-    delassus_only,
     lcp_solve,
     lu_solve,
 )
@@ -146,16 +144,6 @@ def _kane_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z
     return k, nsteps, min_gap, -1
 
 
-def _contact_operators(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray,
-                                                                      bool]:
-    """(Z, W, keep_z) of a factored operator: the Delassus matrix W = C S^-1 C^T and the
-    response Z = S^-1 C^T when it fits in `KEEP_Z_ENTRIES` (else a placeholder: the
-    correction is a second solve)."""
-    if n * cd.size <= KEEP_Z_ENTRIES:
-        Z, W = delassus(fac, cd, n)
-        return Z, W, True
-    return np.zeros((1, 1)), delassus_only(fac, cd, n), False
-
 
 class KaneStepper(KernelStepper):
     """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
@@ -172,10 +160,10 @@ class KaneStepper(KernelStepper):
         cd = np.asarray(p.contact.dofs, np.int64)
         M, K = sp.csr_matrix(p.M), sp.csr_matrix(p.K)
         fac = Factor.of(M + (0.25 * h * h) * K)
-        Z, W, keep_z = _contact_operators(fac, cd, n)
+        Z, W, keep_z = contact_operators(fac, cd, n)
         if PREDICTORS[predictor]:
             mfac = Factor.of(M)
-            ZM, WM, keep_zm = _contact_operators(mfac, cd, n)
+            ZM, WM, keep_zm = contact_operators(mfac, cd, n)
         else:  # no projection: placeholders the kernel never reads
             mfac, ZM, WM, keep_zm = fac, np.zeros((1, 1)), np.zeros((1, 1)), True
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),

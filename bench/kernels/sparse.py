@@ -348,6 +348,17 @@ def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
     return Z, np.ascontiguousarray(0.5 * (W + W.T))
 
 
+def contact_operators(fac: Factor, cd: np.ndarray, n: int
+                      ) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(Z, W, keep_z) of a factored S: the Delassus matrix W = C S^-1 C^T and the response
+    Z = S^-1 C^T when it fits in `KEEP_Z_ENTRIES` values (else a placeholder, and keep_z
+    False: the kernel's correction is a second solve with C^T mu)."""
+    if n * cd.size <= KEEP_Z_ENTRIES:
+        Z, W = delassus(fac, cd, n)
+        return np.ascontiguousarray(Z), W, True
+    return np.zeros((1, 1)), delassus_only(fac, cd, n), False
+
+
 def selection(cd: np.ndarray, n: int) -> sp.csc_matrix:
     """C^T: the n x n_c matrix whose column j is the unit vector of contact dof cd[j]."""
     return sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))

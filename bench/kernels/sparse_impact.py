@@ -49,11 +49,9 @@ from contact_bench.core.contact_stats import (
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
 from contact_bench.kernels.sparse import (
-    KEEP_Z_ENTRIES,
     Factor,
+    contact_operators,
     correct,
-    delassus,
-    delassus_only,
     initial_acceleration,
     lcp_solve,
     lu_solve,
@@ -161,15 +159,6 @@ def _refuse_massless(p: SparseProblem, what: str) -> None:
                          "this problem has massless dofs")
 
 
-def _contact_operators(fac: Factor, cd: np.ndarray, n: int):
-    keep_z = n * cd.size <= KEEP_Z_ENTRIES
-    if keep_z:
-        Z, W = delassus(fac, cd, n)
-    else:
-        W, Z = delassus_only(fac, cd, n), np.zeros((1, 1))
-    return keep_z, np.ascontiguousarray(Z), W
-
-
 class PaoliSchatzmanStepper(KernelStepper):
     """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
     matrix and the state (U^{-1}, U^0) computed once."""
@@ -188,7 +177,7 @@ class PaoliSchatzmanStepper(KernelStepper):
             keep_z, Z, W = False, np.zeros((1, 1)), np.zeros((1, 1))
         else:
             fac = Factor.of(S)
-            keep_z, Z, W = _contact_operators(fac, cd, n)
+            Z, W, keep_z = contact_operators(fac, cd, n)
         U = p.U0.astype(float).copy()
         self.state = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
         self.kernel = _ps_kernel
@@ -304,7 +293,7 @@ class MoreauJeanStepper(KernelStepper):
         n = p.nfree
         cd = np.asarray(p.contact.dofs, np.int64)
         fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
-        keep_z, Z, W = _contact_operators(fac, cd, n)
+        Z, W, keep_z = contact_operators(fac, cd, n)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         self.state = (U, V)
         # a velocity-level tolerance: round-off of the larger of the data's speeds
