@@ -87,6 +87,30 @@ def test_redistributed_mass_keeps_moments_zero_rows_and_spd(mesh, degree):
     assert np.all(V.diagonal()[body.dim * contact] == 0)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_redistribution_changes_the_mass_near_the_contact_face_only(dim):
+    """Entries between dofs two element neighbourhoods or more away from the contact zone
+    keep the consistent mass bit for bit (its upper triangle, which the result mirrors); one neighbourhood cannot keep the second
+    moments on a flat face (its nodes lie at one height), so a second is taken."""
+    mesh = (fe.MeshTri.init_tensor(*[np.linspace(0, 1, 9)] * 2) if dim == 2
+            else fe.MeshTet.init_tensor(*[np.linspace(0, 1, 5)] * 3))
+    body = fem_nd.assemble(mesh, 1.0, 0.3, 1.0)
+    X = body.dof_coordinates
+    contact = np.flatnonzero(np.isclose(X[dim - 1], 0.0))
+    h = 1.0 / (8 if dim == 2 else 4)
+    for layers in (1, 2):  # asked for one: grown to two
+        R = fem_nd.redistributed(body, contact, layers=layers)
+        np.testing.assert_allclose(_moments(R, X), _moments(body.Ms, X), rtol=0,
+                                   atol=1e-13 * np.abs(_moments(body.Ms, X)).max())
+        far = np.flatnonzero(X[dim - 1] > 2.5 * h)  # beyond the second layer
+        D = sp.triu(R - body.Ms, format="csr")[far][:, far]  # (the upper triangle is mirrored)
+        assert abs(D).max() == 0.0
+        near = np.flatnonzero(np.isclose(X[dim - 1], 2 * h))
+        assert abs((R - body.Ms)[near]).max() > 0  # the second layer does change
+    with pytest.raises(ValueError, match="layers must be at least 1; got 0"):
+        fem_nd.redistributed(body, contact, layers=0)
+
+
 def test_redistribution_written_for_the_symmetric_unknowns_matters():
     """Symmetrising a solution of the unsymmetric constraints breaks the first moment:
     the check above can fail (here: each entry moved alone, not its mirror)."""

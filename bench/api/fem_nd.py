@@ -15,9 +15,10 @@ kron:<kind>        Q1 tensor meshes: the 1D variant `<kind>` of `contact_bench.a
                    along x (node 0 at x = x0), Kronecker product with the consistent 1D
                    masses across (`lumped`: lumped across too, the Q1 row sums)
 redistributed      Khenous, Laborde and Renard: zero rows and columns at the contact
-                   nodes, their mass moved to the other entries so that the total mass,
-                   first and second moments are kept (least-squares change; the rest
-                   stays SPD or it is refused)
+                   nodes, their mass moved to the entries within two element
+                   neighbourhoods of the contact zone so that the total mass, first and
+                   second moments are kept (least-squares change; the rest of the mass
+                   is the consistent one and stays SPD, or it is refused)
 =================  =================================================================
 
 Boundaries (`constrain`): Dirichlet (chosen components prescribed on boundary facets)
@@ -223,17 +224,38 @@ def tensor_mass(body: Elasticity, kind: str) -> sp.csr_matrix:
     return sp.csr_matrix((C.data, (order[C.row], order[C.col])), shape=T.shape)
 
 
-def redistributed(body: Elasticity, contact_scalar: np.ndarray) -> sp.csr_matrix:
+#: the redistribution changes the mass entries between dofs within this many element
+#: neighbourhoods of the contact zone: one neighbourhood is not enough on a flat face,
+#: where its nodes all lie at one height and the second moments cannot be kept
+REDISTRIBUTION_LAYERS = 2
+#: largest condition number of the constraints' normal matrix on the changed entries
+#: before one more neighbourhood is taken
+REDISTRIBUTION_CONDITION = 1e12
+
+
+def redistributed(body: Elasticity, contact_scalar: np.ndarray,
+                  layers: int = REDISTRIBUTION_LAYERS) -> sp.csr_matrix:
     """The Khenous-Laborde-Renard mass: rows and columns of the scalar dofs
-    `contact_scalar` zeroed, the other nonzero entries changed least (in the 2-norm
-    weighted by 1 / |entry|, so that each changes in proportion to its size) so that the
-    total mass, first moments 1.M.x_k and second moments x_k.M.x_l are kept.
+    `contact_scalar` zeroed and their mass moved onto the entries near the contact zone,
+    so that the total mass, first moments 1.M.x_k and second moments x_k.M.x_l are kept.
+
+    The changed entries are those between dofs within `layers` element neighbourhoods of
+    the contact dofs (neighbours: dofs that share an element, nonzeros of M); every other
+    entry is the consistent mass's, as the redistribution is meant to change the inertia
+    at the contact boundary only. Among them, the change is the least in the 2-norm
+    weighted by 1 / |entry| (each entry changes in proportion to its size). A change
+    spread over the whole body instead alters the inertia by O(h) everywhere and limits
+    the space-time order to one (docs/manufactured.md). When the constraints cannot be
+    met on those entries (rank-deficient) or the rest of the mass is not positive
+    definite, one more neighbourhood is taken, up to the whole body.
 
     The constraints are written for the symmetric unknowns (one per pair i <= j), so the
     result is symmetric and keeps every moment exactly; writing them for the unsymmetric
     entries and symmetrising afterwards would break the first moments. ValueError if
-    the non-contact block is not positive definite.
+    the non-contact block is not positive definite even with every entry free.
     """
+    if layers < 1:
+        raise ValueError(f"redistribution layers must be at least 1; got {layers!r}")
     Ms = sp.csr_matrix(body.Ms)
     n = Ms.shape[0]
     contact = np.zeros(n, bool)
@@ -253,17 +275,27 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray) -> sp.csr_matrix
         va, vb = vecs[a], vecs[b]
         A[q] = np.where(diag, va[r] * vb[r], va[r] * vb[c] + va[c] * vb[r])
     residual = target - A @ m0
-    w = np.abs(m0)  # each entry changes in proportion to its size
-    delta = w * (A.T @ np.linalg.solve((A * w) @ A.T, residual))
-    m = m0 + delta
-    rows = np.concatenate([r, c[~diag]])
-    cols = np.concatenate([c, r[~diag]])
-    vals = np.concatenate([m, m[~diag]])
-    out = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
     free = np.flatnonzero(~contact)
-    if not is_spd(out[free][:, free]):
-        raise ValueError("redistributed mass: the non-contact block is not positive definite")
-    return out
+    graph = sp.csr_matrix((Ms != 0).astype(np.int8))
+    near = contact.copy()
+    for _ in range(layers):
+        near |= graph @ near.astype(np.int8) > 0
+    while True:
+        whole = bool(near.all())
+        w = np.abs(m0) * (near[r] & near[c])  # the entries allowed to change
+        N = (A * w) @ A.T
+        if whole or np.linalg.cond(N) < REDISTRIBUTION_CONDITION:
+            m = m0 + w * (A.T @ np.linalg.solve(N, residual))
+            rows = np.concatenate([r, c[~diag]])
+            cols = np.concatenate([c, r[~diag]])
+            vals = np.concatenate([m, m[~diag]])
+            out = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+            if is_spd(out[free][:, free]):
+                return out
+            if whole:
+                raise ValueError(
+                    "redistributed mass: the non-contact block is not positive definite")
+        near |= graph @ near.astype(np.int8) > 0
 
 
 def is_spd(A: sp.spmatrix) -> bool:
