@@ -90,8 +90,9 @@ def test_redistributed_mass_keeps_moments_zero_rows_and_spd(mesh, degree):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_redistribution_changes_the_mass_near_the_contact_face_only(dim):
     """Entries between dofs two element neighbourhoods or more away from the contact zone
-    keep the consistent mass bit for bit (its upper triangle, which the result mirrors); one neighbourhood cannot keep the second
-    moments on a flat face (its nodes lie at one height), so a second is taken."""
+    keep the consistent mass bit for bit (its upper triangle, which the result mirrors);
+    one neighbourhood cannot keep the second moments on a flat face (its nodes lie at one
+    height), so a second is taken."""
     mesh = (fe.MeshTri.init_tensor(*[np.linspace(0, 1, 9)] * 2) if dim == 2
             else fe.MeshTet.init_tensor(*[np.linspace(0, 1, 5)] * 3))
     body = fem_nd.assemble(mesh, 1.0, 0.3, 1.0)
