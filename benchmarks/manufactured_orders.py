@@ -1,5 +1,5 @@
 """Convergence orders of every scheme on the manufactured solution with a moving contact zone
-(`manufactured[dim=2]` and `[dim=3]`, P1), space-time refinement at fixed CFL.
+(`manufactured[dim=2]` and `[dim=3]`, P1 or P2), space-time refinement at fixed CFL.
 
 dt = CFL h / c_p (h = 1 / nx, c_p = sqrt(3)), T = 1; errors against the closed form
 (`cases/manufactured.py`: err_u, err_gap, err_contact_force); pairwise orders
@@ -7,7 +7,7 @@ log(e_coarse / e_fine) / log(2) between successive grids (nx doubles). Schemes w
 stepper does not add a time-dependent load are listed as not applicable.
 
     python benchmarks/manufactured_orders.py [--out results/manufactured_orders.md]
-        [--nx2 4 8 16 32 64] [--nx3 4 8 16] [--cfl 0.5] [--schemes a b ...]
+        [--nx2 4 8 16 32 64] [--nx3 4 8 16] [--cfl 0.5] [--degree 1] [--schemes a b ...]
 """
 
 from __future__ import annotations
@@ -26,9 +26,11 @@ from contact_bench.harness.runner import run_one
 ERRORS = ("err_u", "err_gap", "err_contact_force")
 
 
-def measure(dim: int, nxs: list[int], cfl: float, names: list[str]) -> pd.DataFrame:
+def measure(dim: int, nxs: list[int], cfl: float, names: list[str],
+            degree: int = 1) -> pd.DataFrame:
     """One row per (scheme, nx): the errors and the pairwise orders of each."""
-    case = f"manufactured[dim={dim}]"
+    case = f"manufactured[dim={dim}]" if degree == 1 else (
+        f"manufactured[dim={dim},degree={degree}]")
     c_p = math.sqrt(3.0)
     rows = []
     for name in names:
@@ -66,13 +68,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--nx2", type=int, nargs="+", default=[4, 8, 16, 32, 64])
     ap.add_argument("--nx3", type=int, nargs="+", default=[4, 8, 16])
     ap.add_argument("--cfl", type=float, default=0.5)
+    ap.add_argument("--degree", type=int, choices=(1, 2), default=1)
     ap.add_argument("--schemes", nargs="+", default=None)
     args = ap.parse_args(argv)
     names = args.schemes or sorted(schemes().names())
-    parts = [measure(2, args.nx2, args.cfl, names), measure(3, args.nx3, args.cfl, names)]
+    parts = [measure(2, args.nx2, args.cfl, names, args.degree),
+             measure(3, args.nx3, args.cfl, names, args.degree)]
     df = pd.concat(parts, ignore_index=True)
     command = "python benchmarks/manufactured_orders.py " + " ".join(argv or sys.argv[1:])
-    text = ["# Orders on the manufactured solution (moving contact zone), P1", "",
+    text = [f"# Orders on the manufactured solution (moving contact zone), P{args.degree}", "",
             f"Command: `{command.strip()}`", "",
             f"Space-time refinement at fixed CFL {args.cfl:g} (dt = CFL h / c_p, T = 1); "
             "errors against the closed form (cases/manufactured.py), pairwise orders "
