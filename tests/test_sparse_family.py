@@ -151,7 +151,9 @@ def test_massless_ode_omega_against_dense_eigenvalues():
 @pytest.mark.parametrize("spec, free_fall, impulse", [
     ("hht", 1e-10, 1e-8),  # the kernel's impulse, with HHT's gamma
     ("ode_verlet", 1e-10, 1e-10),
-    ("ode_adaptive[rtol=1e-11]", 1e-10, 1e-10),  # the impulse integrated with the state
+    # the impulse integrated with the state; the free fall to DOP853's global error, a
+    # few ten times rtol (2.2e-10 with the local redistribution)
+    ("ode_adaptive[rtol=1e-11]", 1e-9, 1e-10),
 ])
 def test_disc_drop_runs(spec, free_fall, impulse):
     row = run_one("disc_drop", spec, nx=3, T=40).row
