@@ -356,12 +356,14 @@ def stable_dt(p: SparseProblem, beta: float, gamma: float,
 
 
 @njit(cache=True)
-def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, Zc, keep_z, U, V, A,
-               dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
+def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, mdiag, cd, gap0, weights, W, Z, Zc, keep_z, U,
+               V, A, dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
                stats):  # pragma: no cover - compiled
     """Taylor-Flanagan on many contact dofs with a factored mass (module docstring of
     `taylor_flanagan_sparse`); Z = M^-1 C^T (unless `keep_z` is False: then Z dmu is a
-    solve with M's factor), Zc = C Z its rows at the contact dofs, W = (Zc + Zc^T) / 2."""
+    solve with M's factor), Zc = C Z its rows at the contact dofs, W = (Zc + Zc^T) / 2.
+    `mdiag`: M's diagonal when M is diagonal (a lumped mass; else empty), whose solve for
+    the acceleration is a division, the numbers of the factor's solve to the bit."""
     Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
     n = U.size
     nc = cd.size
@@ -440,7 +442,11 @@ def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, Zc, keep
         csr_matvec(Kp, Ki, Kx, U, rhs)  # A = M^-1 (F - K U)
         for i in range(n):
             rhs[i] = F[i] - rhs[i]
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
+        if mdiag.size:
+            for i in range(n):
+                A[i] = rhs[i] / mdiag[i]
+        else:
+            lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
         for i in range(n):
             V[i] += 0.5 * dt * A[i]
         stats_update(stats, status, lam, step, dt)
@@ -478,8 +484,11 @@ class TaylorFlanaganStepper(KernelStepper):
         self.kernel = _tf_kernel
         self.state = (U, V, fac.solve(p.F - p.K @ U))
         self.params = (self.dt,)
+        M = sp.csr_matrix(p.M)
+        diagonal = M.nnz == np.count_nonzero(M.diagonal())
         self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                          fac.arrays, np.asarray(M.diagonal(), float) if diagonal
+                          else np.zeros(0), cd, np.asarray(p.contact.gap0, float),
                           np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
                           np.ascontiguousarray(Zc), keep_z)
 
