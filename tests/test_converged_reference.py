@@ -47,24 +47,34 @@ def test_the_artefact_is_the_scene_variant_with_its_command_and_levels():
 
 
 def test_disc_drop_errors_against_it_decrease_under_refinement():
+    """redistributed at nx 5, 10, 20 (from t = 0, the artefact's CFL): the force history's
+    error decreases strictly; the contact duration's decreases too, up to one time step of
+    the finer run (the resolution of a duration measured in steps: nx 10 and 20 give
+    17.575 and 17.5625, one nx 20 step apart, while the reference is 17.714). The
+    reference's own estimated error is at least 10x below the nx 20 run's error for the
+    duration, the contact end, the rebound velocity and the energy left in vibration
+    (docs/production-cases.md: not yet for the peak force, the impulse and the force
+    history)."""
     case = make_case("disc_drop[degree=1]")
     scheme = make_scheme("redistributed")
     nx0, dt0, T = ART["nx0"], ART["dt0"], ART["T"]
-    rows = []
+    rows, dts = [], []
     for nx in (5, 10, 20):
         problem = case.sparse_problem(nx, 1.0, scheme.mass_kind())
         dt = dt0 * nx0 / nx
         traj = scheme.integrate(problem, dt, int(round(T / dt)), 1)
         rows.append(converged.errors(ART, problem, traj, dt))
-    for col in ("err_contact_duration", "err_force_history"):
-        errs = [r[col] for r in rows]
-        assert errs[0] > errs[1] > errs[2], (col, errs)
-    # the reference's own estimated error against the runs' (docs/production-cases.md:
-    # 3x below nx 20's on the duration, not yet the 10x an nx 80 level would give; the
-    # force history's only below nx 5's)
-    fh, dur = ART["force_history"], ART["scalars"]["contact_duration"]
-    assert rows[2]["err_contact_duration"] * dur["value"] > 3 * dur["error"]
-    assert rows[0]["err_force_history"] > 2 * fh["error"]
+        dts.append(dt)
+    fh = [r["err_force_history"] for r in rows]
+    assert fh[0] > fh[1] > fh[2], fh
+    dur = ART["scalars"]["contact_duration"]
+    errs = [r["err_contact_duration"] for r in rows]
+    for k in (1, 2):
+        assert errs[k] <= errs[k - 1] + 1.001 * dts[k] / dur["value"], (errs, dts)
+    assert errs[2] < errs[0] / 3
+    for q in ("contact_duration", "contact_end", "rebound_velocity", "vibration_energy"):
+        ref = ART["scalars"][q]
+        assert rows[2][f"err_{q}"] * abs(ref["value"]) > 10 * ref["error"], q
 
 
 def test_disc_drop_rows_carry_the_converged_columns():
