@@ -22,7 +22,7 @@ import scipy.sparse as sp
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.kernels.csr import csr_arrays, csr_matvec
 
-#: P1 disc rings -> dofs: 160 -> 154,882, 285 -> 490,052
+#: P1 disc rings -> dofs: 160 -> 154,562, 285 -> 489,062
 SIZES = {"nx160": 160, "nx285": 285}
 STEPS = 50
 SCHEME = "taylor_flanagan[mass=lumped]"
