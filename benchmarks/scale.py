@@ -234,8 +234,10 @@ def report(rows: list[dict[str, Any]], command: str, max_dofs: float) -> str:
         table = table[[c for c in (*cols[:7], "step_ms", *cols[8:]) if c in table]]
     fit = exponents(df)
     full = max_dofs >= max(d for *_, d in SIZES) and set(df["label"]) == set(KINDS)
+    sizes = ("every size" if max_dofs >= max(d for *_, d in SIZES)
+             else f"the sizes up to {max_dofs:g} dofs")
     scope = ("every size" if full else
-             f"the sizes up to {max_dofs:g} dofs of {', '.join(dict.fromkeys(df['label']))} "
+             f"{sizes} of {', '.join(dict.fromkeys(df['label']))} "
              "only (a partial run: the full one is `python benchmarks/scale.py`)")
     prov = provenance(["(benchmarks/scale.py)"]).split("; ", 1)[1]
     return "\n".join([
