@@ -276,10 +276,16 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray,
         A[q] = np.where(diag, va[r] * vb[r], va[r] * vb[c] + va[c] * vb[r])
     residual = target - A @ m0
     free = np.flatnonzero(~contact)
-    graph = sp.csr_matrix((Ms != 0).astype(np.int8))
+    graph = sp.csr_matrix((Ms != 0).astype(np.int32))
+
+    def grown(sel: np.ndarray) -> np.ndarray:
+        """sel and every dof sharing an element with it (32-bit neighbour counts: 8-bit
+        ones wrap past 127 neighbours, as a P2 tetrahedral mesh can have)."""
+        return sel | (graph @ sel.astype(np.int32) > 0)
+
     near = contact.copy()
     for _ in range(layers):
-        near |= graph @ near.astype(np.int8) > 0
+        near = grown(near)
     while True:
         whole = bool(near.all())
         w = np.abs(m0) * (near[r] & near[c])  # the entries allowed to change
@@ -295,7 +301,7 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray,
             if whole:
                 raise ValueError(
                     "redistributed mass: the non-contact block is not positive definite")
-        near |= graph @ near.astype(np.int8) > 0
+        near = grown(near)
 
 
 def is_spd(A: sp.spmatrix) -> bool:
