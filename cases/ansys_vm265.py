@@ -18,19 +18,15 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BarCase
-from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
-from contact_bench.exact.published import Published, bar_observables, published_errors
+from contact_bench.exact.published import Published
+from contact_bench.exact.uniform_impact import PublishedImpactBar
 
 E_ROD, NU = 3.0e7, 0.3  # psi
 RHO = 7.3e-4  # lbf s^2 / in^4 (the page prints 0.73: module docstring)
 LENGTH, AREA = 10.0, 1.0  # in, in^2
 GAP, SPEED = 0.01, 202.2  # in, in/s
 C0 = math.sqrt(E_ROD / RHO)
-EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 #: the published reference (module docstring), with its source and tolerance
 PUBLISHED = {
@@ -45,20 +41,17 @@ PUBLISHED = {
 }
 
 
-class AnsysVm265(BarCase):
+class AnsysVm265(PublishedImpactBar):
     name = "ansys_vm265"
     summary = "Ansys VM265: elastic rod (10 in, steel, inch-lbf-s) hits a rigid wall"
     params = {"wave": Param("bar", "1D model: bar (E, Carpenter's rod) or shell "
                             "(E / (1 - nu^2), the constrained plane-stress shell)",
                             choices=("bar", "shell"))}
-    L, rho, g = LENGTH, RHO, 0.0
-    far_end, u_L = "free", 0.0
+    L, rho, gap, speed = LENGTH, RHO, GAP, SPEED
     T, nx, dt = 2.0e-4, 20, 0.2226e-5
-    reference = "exact"
     # not in the study's stability sweep: its T is a few transits, shorter than the
     # sweep's largest CFL steps (steel_bar is the stiff scene there)
     stiff = False
-    provides = frozenset({"u", "v", "stress", "energy"})
     quantities = frozenset(f"published_{q}" for q in PUBLISHED)
     published = PUBLISHED
     area = AREA
@@ -66,22 +59,3 @@ class AnsysVm265(BarCase):
     @property
     def E(self) -> float:  # type: ignore[override]
         return E_ROD if self.wave == "bar" else E_ROD / (1 - NU**2)
-
-    def u0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), GAP)
-
-    def v0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), -SPEED)
-
-    def exact(self, T: float) -> CharacteristicsSolution:
-        return coarse_solution(EXACT_CELLS, L=self.L, E=self.E, rho=self.rho,
-                               far_end=self.far_end, u0=GAP, v0=-SPEED, T=T)
-
-    @property
-    def exact_energy(self) -> float:
-        return 0.5 * self.rho * self.L * SPEED**2
-
-    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
-        """err_published_<q>: the run against the published values (`PUBLISHED`)."""
-        mine = bar_observables(problem, traj, float(row["dt"]), self.area)
-        return published_errors(self.published, mine)

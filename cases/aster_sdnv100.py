@@ -18,19 +18,15 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BarCase
-from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
-from contact_bench.exact.published import Published, bar_observables, published_errors
+from contact_bench.exact.published import Published
+from contact_bench.exact.uniform_impact import PublishedImpactBar
 
 E_STEEL, NU, RHO = 2e11, 0.3, 8000.0  # Pa, -, kg/m^3
 LENGTH, SIDE = 0.20, 0.02  # m
 GAP, SPEED = 2e-3, 100.0  # m, m/s
 P_MODULUS = E_STEEL * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
 C_P = math.sqrt(P_MODULUS / RHO)
-EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 #: the published reference (module docstring), with its source
 PUBLISHED = {
@@ -46,20 +42,17 @@ PUBLISHED = {
 }
 
 
-class AsterSdnv100(BarCase):
+class AsterSdnv100(PublishedImpactBar):
     name = "aster_sdnv100"
     summary = "code_aster SDNV100: steel bar 20 cm, 2 cm square, hits a wall at 100 m/s"
     params = {"wave": Param("p", "1D model: p (the published c_p, sliding sides) or bar "
                             "(c_0 = sqrt(E / rho), a slender bar with free sides)",
                             choices=("p", "bar"))}
-    L, rho, g = LENGTH, RHO, 0.0
-    far_end, u_L = "free", 0.0
+    L, rho, gap, speed = LENGTH, RHO, GAP, SPEED
     T, nx, dt = 1.2e-4, 200, 1e-7
-    reference = "exact"
     # not in the study's stability sweep: its T is a few transits, shorter than the
     # sweep's largest CFL steps (steel_bar is the stiff scene there)
     stiff = False
-    provides = frozenset({"u", "v", "stress", "energy"})
     quantities = frozenset(f"published_{q}" for q in PUBLISHED)
     published = PUBLISHED
     #: the section's area: a bar's stress times it is the contact force
@@ -69,22 +62,3 @@ class AsterSdnv100(BarCase):
     def E(self) -> float:  # type: ignore[override]
         """The 1D modulus: the P-wave modulus (wave = p) or Young's (wave = bar)."""
         return P_MODULUS if self.wave == "p" else E_STEEL
-
-    def u0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), GAP)
-
-    def v0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), -SPEED)
-
-    def exact(self, T: float) -> CharacteristicsSolution:
-        return coarse_solution(EXACT_CELLS, L=self.L, E=self.E, rho=self.rho,
-                               far_end=self.far_end, u0=GAP, v0=-SPEED, T=T)
-
-    @property
-    def exact_energy(self) -> float:
-        return 0.5 * self.rho * self.L * SPEED**2
-
-    def quantity_errors(self, problem, traj, row) -> dict[str, float]:
-        """err_published_<q>: the run against the published values (`PUBLISHED`)."""
-        mine = bar_observables(problem, traj, float(row["dt"]), self.area)
-        return published_errors(self.published, mine)

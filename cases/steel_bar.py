@@ -12,43 +12,23 @@ shows here). Time scale 1e-4 s: T = 1.2e-3 s (flight, contact, 1.7 transits of f
 after take-off), nx = 100, dt = 1e-6 s (c dt / h = 0.52; explicit schemes get 0.9 x
 their stability limit). Reference: the characteristics solution (exact: piecewise
 linear); its contact interval has length 2 L / c to round-off (tests/test_scenes.py).
-Its grid has one cell per length L (`EXACT_CELLS`): constant data, so any grid is exact
-(the impact instant is inserted), and it agrees with the default grid to round-off
-(tests/test_characteristics_runs.py). Provides u, u_t, the contact stress and the energy.
+Its grid has one cell per length L (`contact_bench.exact.uniform_impact`): constant data,
+so any grid is exact (the impact instant is inserted), and it agrees with the default grid
+to round-off (tests/test_characteristics_runs.py). Provides u, u_t, the contact stress and
+the energy.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
-from contact_bench.api.plugin import BarCase
-from contact_bench.exact.characteristics import CharacteristicsSolution, coarse_solution
+from contact_bench.exact.uniform_impact import UniformImpactBar
 
 GAP = 5e-5  # m
 SPEED = 0.1  # m/s, towards the obstacle
-EXACT_CELLS = 1  # cells per length L of the reference's grid: exact for these data
 
 
-class SteelBar(BarCase):
+class SteelBar(UniformImpactBar):
     name = "steel_bar"
     summary = "Siconos ImpactingBar: steel, SI units, gap 5e-5 m, v0 = -0.1 m/s (stiff)"
-    L, rho, E, g = 1.0, 7800.0, 210e9, 0.0
-    far_end, u_L = "free", 0.0
+    L, rho, E, gap, speed = 1.0, 7800.0, 210e9, GAP, SPEED
     T, nx, dt = 1.2e-3, 100, 1e-6
-    reference = "exact"
     stiff = True
-    provides = frozenset({"u", "v", "stress", "energy"})
-
-    def u0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), GAP)
-
-    def v0(self, x: np.ndarray) -> np.ndarray:
-        return np.full_like(np.asarray(x, float), -SPEED)
-
-    def exact(self, T: float) -> CharacteristicsSolution:
-        return coarse_solution(EXACT_CELLS, L=self.L, E=self.E, rho=self.rho,
-                               far_end=self.far_end, u0=GAP, v0=-SPEED, T=T)
-
-    @property
-    def exact_energy(self) -> float:
-        return 0.5 * self.rho * self.L * SPEED**2
