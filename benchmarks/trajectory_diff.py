@@ -15,43 +15,23 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from trajectory_digest import EXTRA_SCHEMES, SCENES, digest, numeric_extra
-
-from contact_bench.api.registry import cases, schemes
-from contact_bench.core.errors import BenchError
-from contact_bench.harness import run_one
+from trajectory_digest import digest, numeric_extra, plan, trajectories
 
 FIELDS = ("t", "U", "V", "contact_u", "stress", "energy")
 
 
 def record(args: argparse.Namespace) -> None:
-    specs = args.scheme or (schemes().names() + (list(EXTRA_SCHEMES) if args.extra else []))
-    runs: list[tuple[str, int | None, float | None]] = []
-    if not args.only_scenes:
-        runs += [(name, None, None) for name, cls in cases().plugins.items()
-                 if cls.in_default_run]
-    if args.scenes or args.only_scenes:
-        runs += [s for s in SCENES if not args.scene or s[0] in args.scene]
+    specs, runs = plan(args.extra, args.scenes, args.only_scenes, args.scheme, args.scene)
     saved: dict[str, np.ndarray] = {}
-    for case_name, nx, T in runs:
-        for scheme_name in specs:
-            try:
-                run = run_one(case_name, scheme_name, nx=nx, T=T)
-            except BenchError as exc:
-                print(f"{case_name:<14} {scheme_name:<16} refused ({exc})")
-                continue
-            tr = run.trajectory
-            if tr is None:
-                print(f"{case_name:<14} {scheme_name:<16} no trajectory ({run.row['status']})")
-                continue
-            motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress, *numeric_extra(tr.extra)]
-            print(f"{case_name:<14} {scheme_name:<16} {digest([*motion, tr.energy])}",
-                  flush=True)
-            key = f"{case_name}|{nx}|{scheme_name}"
-            for f in FIELDS:
-                saved[f"{key}|{f}"] = np.asarray(getattr(tr, f), float)
-            for j, a in enumerate(numeric_extra(tr.extra)):
-                saved[f"{key}|extra{j}"] = np.asarray(a, float)
+    for case_name, nx, scheme_name, tr in trajectories(specs, runs):
+        motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress, *numeric_extra(tr.extra)]
+        print(f"{case_name:<14} {scheme_name:<16} {digest([*motion, tr.energy])}",
+              flush=True)
+        key = f"{case_name}|{nx}|{scheme_name}"
+        for f in FIELDS:
+            saved[f"{key}|{f}"] = np.asarray(getattr(tr, f), float)
+        for j, a in enumerate(numeric_extra(tr.extra)):
+            saved[f"{key}|extra{j}"] = np.asarray(a, float)
     if args.save:
         np.savez_compressed(args.save, **saved)
 

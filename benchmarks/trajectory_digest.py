@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -72,24 +73,24 @@ def numeric_extra(extra: dict) -> list[np.ndarray]:
     return out
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--split", action="store_true",
-                    help="digest the motion (t, U, V, contact u, stress) and the energy apart")
-    ap.add_argument("--extra", action="store_true",
-                    help="also the scheme variants that take the other stepping kernels")
-    ap.add_argument("--scenes", action="store_true",
-                    help="also the 2D/3D scenes on small grids (SCENES)")
-    ap.add_argument("--only-scenes", action="store_true",
-                    help="the 2D/3D scenes of --scenes alone")
-    args = ap.parse_args(argv)
-    specs = schemes().names() + (list(EXTRA_SCHEMES) if args.extra else [])
+def plan(extra: bool, scenes: bool, only_scenes: bool, scheme: list[str] | None = None,
+         scene: list[str] | None = None) -> tuple[list[str], list[tuple]]:
+    """The schemes (`scheme`, else every registered one and, with `extra`, the variants)
+    and the runs (case, nx, T): the default run's scenes unless `only_scenes`, then the
+    `SCENES` with `scenes` or `only_scenes` (only those named in `scene`, if given)."""
+    specs = scheme or (schemes().names() + (list(EXTRA_SCHEMES) if extra else []))
     runs: list[tuple[str, int | None, float | None]] = []
-    if not args.only_scenes:
+    if not only_scenes:
         runs += [(name, None, None) for name, cls in cases().plugins.items()
                  if cls.in_default_run]
-    if args.scenes or args.only_scenes:
-        runs += list(SCENES)
+    if scenes or only_scenes:
+        runs += [s for s in SCENES if not scene or s[0] in scene]
+    return specs, runs
+
+
+def trajectories(specs: list[str], runs: list[tuple]) -> Iterator[tuple]:
+    """(case, nx, scheme, trajectory) of every run that has one; a refused run or one
+    without a trajectory is a printed line instead."""
     for case_name, nx, T in runs:
         for scheme_name in specs:
             try:
@@ -101,12 +102,28 @@ def main(argv: list[str] | None = None) -> None:
             if tr is None:
                 print(f"{case_name:<14} {scheme_name:<16} no trajectory ({run.row['status']})")
                 continue
-            motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress, *numeric_extra(tr.extra)]
-            if args.split:
-                print(f"{case_name:<14} {scheme_name:<16} motion {digest(motion)} "
-                      f"energy {digest([tr.energy])}")
-            else:
-                print(f"{case_name:<14} {scheme_name:<16} {digest([*motion, tr.energy])}")
+            yield case_name, nx, scheme_name, tr
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--split", action="store_true",
+                    help="digest the motion (t, U, V, contact u, stress) and the energy apart")
+    ap.add_argument("--extra", action="store_true",
+                    help="also the scheme variants that take the other stepping kernels")
+    ap.add_argument("--scenes", action="store_true",
+                    help="also the 2D/3D scenes on small grids (SCENES)")
+    ap.add_argument("--only-scenes", action="store_true",
+                    help="the 2D/3D scenes of --scenes alone")
+    args = ap.parse_args(argv)
+    specs, runs = plan(args.extra, args.scenes, args.only_scenes)
+    for case_name, _, scheme_name, tr in trajectories(specs, runs):
+        motion = [tr.t, tr.U, tr.V, tr.contact_u, tr.stress, *numeric_extra(tr.extra)]
+        if args.split:
+            print(f"{case_name:<14} {scheme_name:<16} motion {digest(motion)} "
+                  f"energy {digest([tr.energy])}")
+        else:
+            print(f"{case_name:<14} {scheme_name:<16} {digest([*motion, tr.energy])}")
 
 
 if __name__ == "__main__":
