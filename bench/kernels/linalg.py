@@ -22,6 +22,7 @@ behind the choice (`benchmarks/cholesky_compare.py`).
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -170,10 +171,19 @@ class Factor:
 
     def solve_many(self, B: np.ndarray | sp.spmatrix) -> np.ndarray:
         """S^-1 B (n x k, dense result with contiguous rows) for k right-hand sides at
-        once, in blocks of `MANY_BLOCK_ENTRIES` values: CHOLMOD when S is SPD, else
-        `lu_solve_many`. Used at set-up (Delassus and Schur operators)."""
+        once (`solve_blocks`). Used at set-up (Delassus and Schur operators)."""
+        out = np.empty((self.n, B.shape[1]))
+        for j0, j1, X in self.solve_blocks(B):
+            out[:, j0:j1] = X
+        return out
+
+    def solve_blocks(self, B: np.ndarray | sp.spmatrix
+                     ) -> Iterator[tuple[int, int, np.ndarray]]:
+        """(j0, j1, S^-1 B[:, j0:j1]) over B's columns in blocks of at most
+        `MANY_BLOCK_ENTRIES` values: CHOLMOD when S is SPD (and asked for), else
+        `lu_solve_many`. For a caller that keeps only part of each block's solution,
+        so that the whole n x k result is never held."""
         k = B.shape[1]
-        out = np.empty((self.n, k))
         if self.S is not None:  # the factor or the fallback is decided once
             self.chol = cholmod_factor(self.S)
             self.S = None
@@ -191,5 +201,4 @@ class Factor:
                 lu_solve_many(*self.arrays, blk, X, np.empty(blk.shape))
             else:
                 chol.solve(blk, X)
-            out[:, j0:j1] = X
-        return out
+            yield j0, j1, X

@@ -185,16 +185,15 @@ def keeps_response(rows: int, nc: int) -> bool:
 
 def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """(Z, Z[rows]) for Z = S^-1 rhs (one solve per column of rhs, S's factor `fac`):
+    """(Z, Z[rows]) for Z = S^-1 rhs (S's factor `fac`, block solves `Factor.solve_blocks`):
     Z whole when `keep`, else a (1, 1) placeholder and only its rows `rows`."""
     n, nc = fac.n, rhs.shape[1]
     Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
     Zr = np.empty((rows.size, nc))
-    for j in range(nc):
-        z = fac.solve(rhs[:, j].toarray().ravel())
+    for j0, j1, X in fac.solve_blocks(rhs):
         if keep:
-            Z[:, j] = z
-        Zr[:, j] = z[rows]
+            Z[:, j0:j1] = X
+        Zr[:, j0:j1] = X[rows]
     return Z, Zr
 
 
@@ -238,8 +237,8 @@ class ExplicitLawStepper(KernelStepper):
             else:  # W = P_m K'_mm^-1 Q_m^T column by column, Z not kept
                 Z = np.zeros((1, 1))
                 W = np.empty((nc, nc))
-                for j in range(nc):
-                    W[:, j] = Pmm @ mfac.solve(Qmt[:, j].toarray().ravel())
+                for j0, j1, X in mfac.solve_blocks(Qmt):
+                    W[:, j0:j1] = Pmm @ X
             keep = np.ones(n)
             keep[mv] = 0.0
             Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
