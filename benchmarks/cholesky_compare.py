@@ -1,8 +1,9 @@
 """Direct solvers for the implicit schemes' SPD systems S = M + beta dt^2 K, measured on
 the project's own matrices (the `redistributed` scheme's mass, beta = 1/4, the scene's dt):
 factor time, one solve, and one solve with n_c right-hand sides (the Delassus matrix's
-columns), for SuperLU (scipy, as `contact_bench.kernels.sparse` used it: symmetric mode,
-MMD on A^T + A, the triangular solves in numba), CHOLMOD (`cholespy`) and Pardiso
+columns), for SuperLU (`contact_bench.kernels.linalg.Factor`, as the loops use it:
+symmetric mode, the triangular solves in numba) under both of its orderings (minimum
+degree on A^T + A, METIS's nested dissection), CHOLMOD (`cholespy`) and Pardiso
 (`pypardiso`, MKL), whichever is installed.
 
     python benchmarks/cholesky_compare.py > results/cholesky_compare.md
@@ -17,6 +18,7 @@ else runs on the machine.
 
 from __future__ import annotations
 
+import os
 import platform
 import sys
 import time
@@ -24,9 +26,9 @@ import time
 import numpy as np
 import scipy
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
 
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.kernels import linalg
 from contact_bench.kernels.linalg import lu_solve, lu_solve_many
 
 REPEATS = 3
@@ -43,30 +45,26 @@ def best(fn, repeats: int = REPEATS) -> float:
     return out
 
 
-def superlu(S, b, B):
-    def factor():
-        lu = splu(sp.csc_matrix(S), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                  options={"SymmetricMode": True})
-        Lm, Um = sp.csr_matrix(lu.L), sp.csr_matrix(lu.U)
-        Lm.sort_indices()
-        Um.sort_indices()
-        return lu, (Lm.indptr.astype(np.int64), Lm.indices.astype(np.int64), Lm.data,
-                    Um.indptr.astype(np.int64), Um.indices.astype(np.int64), Um.data,
-                    np.asarray(lu.perm_r, np.int64), np.asarray(lu.perm_c, np.int64))
-    t_f = best(factor, 1)
-    lu, arrays = factor()
+def superlu(S, b, B, nested: bool):
+    """`Factor.of(S)` with nested dissection (`nested`) or minimum degree, whatever S's
+    size (`NESTED_DISSECTION_DOFS` set for the call)."""
+    keep = linalg.NESTED_DISSECTION_DOFS
+    linalg.NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
+    try:
+        t_f = best(lambda: linalg.Factor.of(S), 1)
+        arrays = linalg.Factor.of(S).arrays
+    finally:
+        linalg.NESTED_DISSECTION_DOFS = keep
     n = S.shape[0]
     x, w = np.empty(n), np.empty(n)
     lu_solve(*arrays, b, x, w)
     t_1 = best(lambda: lu_solve(*arrays, b, x, w))
-    lu.solve(b)
-    t_s = best(lambda: lu.solve(b))
     X, W = np.empty(B.shape), np.empty(B.shape)
     lu_solve_many(*arrays, B, X, W)
     t_m = best(lambda: lu_solve_many(*arrays, B, X, W), 1)
     t_cols = B.shape[1] * t_1  # the former set-up's way: one compiled solve per column
-    nnz = lu.L.nnz + lu.U.nnz
-    return {"factor_s": t_f, "solve_s": t_1, "scipy_solve_s": t_s, "multi_s": t_m,
+    nnz = arrays[2].size + arrays[5].size
+    return {"factor_s": t_f, "solve_s": t_1, "multi_s": t_m,
             "columns_s": t_cols, "factor_nnz": nnz}, x
 
 
@@ -118,7 +116,8 @@ def main(argv: list[str] | None = None) -> None:
     print("# Direct solvers on the implicit schemes' S = M + dt^2/4 K\n")
     print(f"`{cmd}`; "
           f"python {platform.python_version()}, scipy {scipy.__version__}, "
-          f"{platform.machine()}, 2 cores shared with other jobs (times perturbed).\n")
+          f"{platform.machine()}, {os.cpu_count()} cores, "
+          f"load average {os.getloadavg()[0]:.1f} at the start.\n")
     rows = []
     for spec, nx in matrices:
         case, scheme = make_case(spec), make_scheme("redistributed")
@@ -129,7 +128,9 @@ def main(argv: list[str] | None = None) -> None:
         b = rng.standard_normal(n)
         B = np.zeros((n, nc))
         B[np.asarray(p.contact.dofs), np.arange(nc)] = 1.0
-        for name, fn in (("SuperLU", superlu), ("CHOLMOD (cholespy)", cholmod),
+        for name, fn in (("SuperLU, minimum degree", lambda *a: superlu(*a, False)),
+                         ("SuperLU, nested dissection", lambda *a: superlu(*a, True)),
+                         ("CHOLMOD (cholespy)", cholmod),
                          ("Pardiso (pypardiso)", pardiso)):
             try:
                 res, x = fn(S, b, B)
@@ -142,17 +143,16 @@ def main(argv: list[str] | None = None) -> None:
             print(rows[-1], file=sys.stderr, flush=True)
     import pandas as pd
     df = pd.DataFrame(rows)
-    for c in ("factor_s", "solve_s", "scipy_solve_s", "multi_s", "columns_s"):
+    for c in ("factor_s", "solve_s", "multi_s", "columns_s"):
         df[c] = df[c].map(lambda v: "" if pd.isna(v) else f"{v * 1e3:.1f}")
     df = df.rename(columns={"factor_s": "factor ms", "solve_s": "one solve ms",
-                            "scipy_solve_s": "scipy solve ms",
                             "multi_s": "n_c-RHS solve ms",
                             "columns_s": "n_c x one solve ms", "factor_nnz": "L+U nnz"})
     df["L+U nnz"] = df["L+U nnz"].map(lambda v: "" if pd.isna(v) else f"{int(v):,}")
     df["residual"] = df["residual"].map(lambda v: f"{v:.1e}")
     print(df.to_markdown(index=False))
     print("\nSuperLU's 'one solve' is the numba triangular solves of its L and U "
-          "(`lu_solve`), 'scipy solve' SuperLU's own; its n_c-RHS solve is `lu_solve_many` "
+          "(`lu_solve`, what the stepping loops do); its n_c-RHS solve is `lu_solve_many` "
           "(the factor on a block of columns); 'n_c x one solve' (the former set-up's "
           "way) is computed, not measured.")
 

@@ -83,3 +83,50 @@ def test_cholmod_set_up_and_superlu_fallback_step_alike(monkeypatch):
     for f in ("U", "V", "energy", "stress"):
         x, y = getattr(a, f), getattr(b, f)
         assert np.abs(x - y).max() <= 1e-9 * max(np.abs(y).max(), 1e-300), f
+
+
+def _plane_elasticity():
+    """S = M + dt^2/4 K of the P2 disc at nx 6 (a 2D mesh's matrix, 1,000-odd dofs)."""
+    case = make_case("disc_drop[degree=2]")
+    p = case.sparse_problem(6, 1.0, make_scheme("redistributed").mass_kind())
+    return sp.csr_matrix(p.M + 0.25 * case.dt ** 2 * p.K)
+
+
+@pytest.mark.skipif(linalg.pymetis is None, reason="pymetis not installed")
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_nested_dissection_factor_solves_and_keeps_the_spd_reading(monkeypatch, symmetric):
+    """Above `NESTED_DISSECTION_DOFS` the factor is of S[q][:, q] with q METIS's ordering;
+    its permutations must carry q back: one solve and a block of solves equal S^-1 b, and
+    an SPD S is still read as SPD (the CHOLMOD block solve), a nonsymmetric one not."""
+    S = _plane_elasticity()
+    if not symmetric:
+        S = sp.csr_matrix(S + sp.diags([0.1 * S.diagonal().min()], [5], shape=S.shape))
+    n = S.shape[0]
+    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", 0)
+    fac = Factor.of(S)
+    q = linalg.nested_dissection(S)
+    assert sorted(q) == list(range(n)) and not np.array_equal(q, np.arange(n))
+    b = np.random.default_rng(4).standard_normal(n)
+    x = fac.solve(b)
+    assert np.abs(S @ x - b).max() < 1e-12 * np.abs(b).max() * n
+    B = np.random.default_rng(5).standard_normal((n, 4))
+    X = fac.solve_many(B)
+    assert np.abs(S @ X - B).max() < 1e-12 * np.abs(B).max() * n
+    assert fac.many_backend == ("cholmod" if symmetric and linalg.cholespy else "superlu")
+
+
+@pytest.mark.skipif(linalg.pymetis is None, reason="pymetis not installed")
+def test_nested_dissection_is_used_from_its_size_on(monkeypatch):
+    """`Factor.of` orders by nested dissection from `NESTED_DISSECTION_DOFS` dofs on and
+    by minimum degree below (the factor's size tells which: the two orderings fill
+    differently on a 2D mesh), and the two solve alike to round-off."""
+    S = _plane_elasticity()
+    b = np.random.default_rng(6).standard_normal(S.shape[0])
+    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", S.shape[0] + 1)
+    mmd = Factor.of(S)
+    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", S.shape[0])
+    nd = Factor.of(S)
+    assert mmd.arrays[2].size != nd.arrays[2].size
+    x, y = mmd.solve(b), nd.solve(b)
+    assert not np.array_equal(x, y)
+    assert np.abs(x - y).max() < 1e-12 * np.abs(x).max()

@@ -3,8 +3,12 @@
 `Factor.of(S)` factors S once and solves with it in two ways:
 
 * inside a compiled loop, one right-hand side per call: `lu_solve` over `Factor.arrays`,
-  SuperLU's L and U (symmetric mode, diagonal pivots, minimum degree on A^T + A, a
-  fill-reducing ordering) kept as CSR arrays, so that a numba kernel needs no Python;
+  SuperLU's L and U (symmetric mode, diagonal pivots) kept as CSR arrays, so that a numba
+  kernel needs no Python. The fill-reducing ordering is METIS's nested dissection of S's
+  graph (the `pymetis` wheel) from `NESTED_DISSECTION_DOFS` dofs on, SuperLU's minimum
+  degree on A^T + A below: the solves are bound by memory traffic, so the factor's size is
+  their time, and nested dissection's factor of a 2D or 3D mesh's matrix is the smaller
+  one at the sizes where a solve costs anything;
 * at set-up, many right-hand sides at once (`Factor.solve_many`: the columns of the
   Delassus and Schur operators C S^-1 C^T, one call for all the contact dofs): CHOLMOD's
   supernodal Cholesky (the `cholespy` package, its default fill-reducing ordering) when S is
@@ -31,6 +35,11 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.linalg import splu
 
+try:  # METIS's nested dissection (fill-reducing ordering of the loops' factor)
+    import pymetis
+except ImportError:  # pragma: no cover - a dependency; minimum degree without it
+    pymetis = None
+
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
     import cholespy
 except ImportError:  # pragma: no cover - depends on the environment
@@ -48,6 +57,11 @@ SYMMETRY_TOL = 1e-14
 #: the factor's index type in the loops: 32-bit indices read a quarter less memory per
 #: solve than 64-bit ones (the solves are bound by memory traffic); 64-bit past 2^31 entries
 INDEX = np.int32
+#: size from which `Factor.of` orders by nested dissection instead of minimum degree: the
+#: factor of a 2D/3D mesh's matrix is smaller with it from a few thousand dofs on, and
+#: below that (and on a band, where minimum degree makes no fill) minimum degree is as
+#: good or better (docs/sparse.md)
+NESTED_DISSECTION_DOFS = 5000
 
 
 @njit(cache=True)
@@ -108,6 +122,20 @@ def is_symmetric(S: sp.spmatrix) -> bool:
     return float(abs(S - S.T).max()) <= SYMMETRY_TOL * scale if scale else True
 
 
+def nested_dissection(S: sp.spmatrix) -> np.ndarray | None:
+    """METIS's nested-dissection ordering q of S's graph (the pattern of S + S^T without
+    the diagonal; S[q][:, q] is the matrix to factor), or None without pymetis."""
+    if pymetis is None:
+        return None
+    A = sp.csr_matrix(S, dtype=float)
+    A = abs(A) + abs(A.T)
+    A.setdiag(0.0)
+    A.eliminate_zeros()
+    A.sort_indices()
+    perm, _ = pymetis.nested_dissection(pymetis.CSRAdjacency(A.indptr, A.indices))
+    return np.asarray(perm, dtype=np.int64)
+
+
 def cholmod_factor(S: sp.spmatrix) -> Any | None:
     """CHOLMOD's Cholesky factor of S (a `cholespy.CholeskySolverD`), or None when S is
     not symmetric, not positive definite, or cholespy is not installed."""
@@ -140,13 +168,21 @@ class Factor:
 
     @classmethod
     def of(cls, S: sp.spmatrix) -> Factor:
-        """S (square, nonsingular) factored by SuperLU; `solve_many` will use CHOLMOD if
-        asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from SuperLU's
-        symmetric-mode factor: no row interchange, U's diagonal positive)."""
+        """S (square, nonsingular) factored by SuperLU, ordered by nested dissection from
+        `NESTED_DISSECTION_DOFS` dofs on (S[q][:, q] factored in its natural order, q
+        folded into the permutations) and by minimum degree below; `solve_many` will use
+        CHOLMOD if asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from
+        SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive)."""
         C = sp.csc_matrix(S)
-        lu = splu(C, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+        q = nested_dissection(C) if C.shape[0] >= NESTED_DISSECTION_DOFS else None
+        lu = splu(C if q is None else C[q][:, q], diag_pivot_thresh=0.0,
+                  permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
                   options={"SymmetricMode": True})
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
+        if q is not None:  # row q[i] of S is row i of S[q][:, q]: b[q[i]] goes where b'[i] goes
+            qinv = np.empty_like(q)
+            qinv[q] = np.arange(q.size)
+            perm_r, perm_c = perm_r[qinv], perm_c[qinv]
         del lu  # SuperLU's own storage of the factor, freed before the CSR copies
         Lm = sp.csr_matrix(Lc)
         del Lc
