@@ -39,7 +39,7 @@ class ManufacturedContact(BodyCase):
     T, nx, dt, stride = T_END, 8, 0.02, 1
     time_load = True
     quantities = frozenset({"u", "gap", "contact_force"})
-    study = StudyGrid(specs=("manufactured[dim=2]",), nx=(4, 8, 16), T=None,
+    study = StudyGrid(specs=("manufactured[dim=2]", "manufactured[dim=3]"), nx=(4, 8, 16), T=None,
                       small="manufactured", small_nx=(2, 3), small_T=1.0)
 
     @property

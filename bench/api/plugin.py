@@ -263,6 +263,13 @@ class Case(Plugin):
     #: scene declares one
     study: ClassVar[StudyGrid | None] = None
 
+    #: a production code's verification case: its published values by quantity q (each a
+    #: `contact_bench.exact.published.Published`: value, relative tolerance, source),
+    #: whose errors the scene's `quantity_errors` gives as err_published_<q>. The study
+    #: runs every scheme on such a scene once, at the scene's own grid, and tabulates
+    #: those errors against the tolerances. Empty: not a verification case.
+    published: ClassVar[dict[str, Any]] = {}
+
     def quantity_errors(self, problem: Any, traj: Trajectory, row: dict[str, Any]
                         ) -> dict[str, float]:
         """The relative errors `err_<q>` of a run in the quantities q of `quantities`

@@ -15,7 +15,7 @@ and reads a run's errors against them (err_published_<q>).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -55,7 +55,7 @@ class PublishedImpactBar(UniformImpactBar):
     """A production code's verification case of that kind: its published values and the
     section's area (a bar's stress times it is the contact force)."""
 
-    published: dict[str, Published] = {}
+    published: ClassVar[dict[str, Published]] = {}
     area: float = 1.0
 
     def quantity_errors(self, problem: Any, traj: Any, row: dict) -> dict[str, float]:

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from contact_bench.api.registry import make_case
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.environment import environment, provenance
 from contact_bench.harness.io import write_text
@@ -372,6 +373,17 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, "stability", "Stability (worst class per scheme and CFL)",
                         body + f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
+            tolerances = _published_tolerances(case)
+            ver = analysis.verification_table(df[df["case"] == case], tolerances)
+            if not ver.empty:
+                tabs = write_tables(ver, out, f"verification_{s}", prov)
+                written.extend(tabs)
+                tol = ", ".join(f"{q} {t:.0e}" for q, t in tolerances.items())
+                section(case, "verification",
+                        "Against the published values (every scheme at the published "
+                        "grid; relative errors; within: how many within the tolerance)",
+                        f"<p>tolerances: {html.escape(tol)}</p><p>tables: {links(tabs)}</p>"
+                        + _html_table(ver))
             en = energy_all[energy_all["case"] == case]
             if not en.empty:
                 fig = energy_figure(energy_rows[energy_rows["case"] == case], case,
@@ -391,6 +403,16 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         status=_html_table(status), runs=links(written[:1]))
     written.append(write_text(out / "index.html", f"<!-- {html.escape(prov)} -->\n{page}"))
     return written
+
+
+def _published_tolerances(case: str) -> dict[str, float]:
+    """q -> relative tolerance of a verification case's published values
+    (`Case.published`); empty for another scene or one this install does not have."""
+    try:
+        published = make_case(case).published
+    except Exception:  # noqa: BLE001 - a table from elsewhere: no verification section
+        return {}
+    return {q: float(p.tolerance) for q, p in published.items()}
 
 
 _PAGE = """<!DOCTYPE html>

@@ -263,3 +263,27 @@ def energy_trace(row: pd.Series) -> tuple[np.ndarray, np.ndarray] | None:
     t = np.array([np.nan if v is None else v for v in data["t"]], float)
     E = np.array([np.nan if v is None else v for v in data["E"]], float)
     return t, E
+
+
+def verification_table(df: pd.DataFrame, tolerances: dict[str, float]) -> pd.DataFrame:
+    """A verification case's rows (group "verification": every scheme once at the case's
+    published grid) as scheme, status, err_published_<q> for each published quantity q,
+    and `within`: how many of the errors the run has are within q's published tolerance
+    (`tolerances`: q -> relative tolerance, `Case.published`), e.g. "4/5". Empty: the
+    table has no such rows."""
+    if "group" not in df or df.empty:
+        return pd.DataFrame()
+    rows = df[df["group"].astype("string").fillna("").str.split(";")
+              .map(lambda t: "verification" in t).astype(bool)]
+    if rows.empty:
+        return pd.DataFrame()
+    cols = [f"err_published_{q}" for q in tolerances if f"err_published_{q}" in rows]
+    out = rows[["scheme", "status", *cols]].copy()
+
+    def within(r: pd.Series) -> str:
+        have = [(q, r[f"err_published_{q}"]) for q in tolerances
+                if f"err_published_{q}" in r and pd.notna(r[f"err_published_{q}"])]
+        ok = sum(1 for q, e in have if float(e) <= tolerances[q])
+        return f"{ok}/{len(tolerances)}" if r["status"] == "ok" else ""
+    out["within"] = rows.apply(within, axis=1)
+    return out.sort_values("scheme").reset_index(drop=True)

@@ -33,6 +33,12 @@ scheme takes a lumped `mass`, its lumped variant):
 - stability over each parameter declaring a `Param.sweep` (penalty gamma_p, Nitsche
   gamma0, ...), at the refine CFL on the coarsest mesh.
 
+Verification cases of production codes (scenes declaring `Case.published`: code_aster's
+SDNV100, Ansys's VM265): every scheme once at the scene's own grid, nx and dt (the
+published case's), group "verification"; the report tabulates their err_published_<q>
+against the published tolerances (`contact_bench.sweeps.analysis.verification_table`).
+The quick study leaves them out.
+
 The quick study runs the scenes' small variants instead (`StudyGrid.small`, its first
 grid, `small_T`), with fewer factors and the ends of each parameter sweep.
 
@@ -106,7 +112,7 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
     given = [s for spec in case_specs or () for s in expand_spec(spec)]
     sparse = [s for s in given if make_case(s).form != "banded1d"]
-    scenes = [s for s in given if s not in sparse]
+    scenes = [s for s in given if s not in sparse and not make_case(s).published]
     if not case_specs:
         scenes = [n for n, c in cases().plugins.items() if c.in_default_run]
         sparse = [n for n, c in cases().plugins.items() if c.form != "banded1d"]
@@ -139,7 +145,21 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
             tasks += _stability(case_spec, spec, g)
     for case_spec in sparse:
         tasks += plan_sparse(case_spec, specs, quick)
+    verification = ([n for n, c in cases().plugins.items() if c.published]
+                    if not case_specs else [s for s in given if make_case(s).published])
+    if not quick:
+        for case_spec in verification:
+            tasks += plan_verification(case_spec, specs)
     return tasks
+
+
+def plan_verification(case_spec: str, specs: Sequence[str]) -> list[Task]:
+    """Every spec once on a verification case (`Case.published`) at its own nx, dt and
+    T (module docstring)."""
+    case = make_case(case_spec)
+    return [Task(case.spec, spec, int(case.nx), dt=float(case.dt), T=float(case.T),
+                 stride=int(case.stride), group="verification", timed=False)
+            for spec in specs]
 
 
 def _variants(case: Case, spec: str) -> str | None:
