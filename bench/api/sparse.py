@@ -209,3 +209,17 @@ class SparseProblem:
                              f"{(c.size, n)}")
         if np.any(self.gaps(self.U0) < 0):
             raise ValueError("the initial state penetrates the obstacle")
+
+
+#: values of one block of samples in `sample_blocks` (a norm over many samples of a large
+#: problem reads them block by block instead of copying them all at once)
+SAMPLE_BLOCK_VALUES = 4_000_000
+
+
+def sample_blocks(samples: int, width: int) -> list[slice]:
+    """Consecutive slices covering `samples` samples of `width` values each, at most
+    `SAMPLE_BLOCK_VALUES` values a block: an error norm over a trajectory's samples that
+    indexes or subtracts them works block by block, so its temporaries stay a block's
+    size (a run's memory is its samples, not a few copies of them)."""
+    rows = max(1, SAMPLE_BLOCK_VALUES // max(1, int(width)))
+    return [slice(a, min(samples, a + rows)) for a in range(0, int(samples), rows)]
