@@ -265,6 +265,24 @@ def test_the_code_hash_covers_an_entry_point_plugins_own_package(tmp_path: Path,
     assert module_hash.__wrapped__("cb_hash_probe.scheme") != before
 
 
+def test_the_code_hash_covers_the_scenes_converged_reference(tmp_path: Path,
+                                                              monkeypatch) -> None:
+    """A scene reads its converged reference (results/references/<name>.json) at run
+    time: a regenerated reference gives the scene's runs new keys, so rows against the old
+    one are not served from the cache; another scene's keys stay."""
+    from contact_bench.exact import converged
+
+    monkeypatch.setattr(converged, "REFERENCES", tmp_path)
+    disc, bar, scheme = cases().get("disc_drop"), cases().get("clamped_bar"), \
+        schemes().get("redistributed")
+    none, bar0 = code_hash(disc, scheme), code_hash(bar, scheme)
+    (tmp_path / "disc_drop.json").write_text('{"value": 1}')
+    one = code_hash(disc, scheme)
+    (tmp_path / "disc_drop.json").write_text('{"value": 2}')
+    assert len({none, one, code_hash(disc, scheme)}) == 3
+    assert code_hash(bar, scheme) == bar0
+
+
 def test_traits_take_enums_or_their_values_and_refuse_others() -> None:
     from contact_bench.api import BenchError, Contact, Energy, Traits
 

@@ -7,7 +7,9 @@ every module of the compiled layers (`contact_bench.core`, `contact_bench.kernel
 the harness modules a run goes through (`SHARED_MODULES` and what they reach). Plugin
 files of a plugin folder are loaded as `contact_bench.plugins.<stem>` and count like the
 built-ins; an entry-point plugin's module counts with the modules of its own top-level
-package that it reaches. Editing any of them gives new keys, so stale rows are never served.
+package that it reaches. A scene's stored converged reference, read at run time
+(results/references/<name>.json, `contact_bench.exact.converged`), counts too.
+Editing any of them gives new keys, so stale rows are never served.
 
 Each entry is one small JSON file (its key, a digest and the row; verified when read,
 see `Cache`), written atomically (`contact_bench.harness.io`) by the
@@ -91,9 +93,20 @@ def module_hash(*module_names: str) -> str:
     return digest.hexdigest()[:16]
 
 
+def reference_hash(case_name: str) -> str:
+    """SHA-256 of the converged reference a scene reads at run time
+    (results/references/<name>.json, `contact_bench.exact.converged.load`); "" without one."""
+    from contact_bench.exact.converged import REFERENCES
+    path = REFERENCES / f"{case_name}.json"
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else ""
+
+
 def code_hash(case_cls: type, scheme_cls: type) -> str:
-    """The code hash of a (case, scheme) pair (see the module docstring)."""
-    return module_hash(*sorted({case_cls.__module__, scheme_cls.__module__}))
+    """The code hash of a (case, scheme) pair (see the module docstring): its modules' and
+    the scene's stored converged reference's."""
+    code = module_hash(*sorted({case_cls.__module__, scheme_cls.__module__}))
+    ref = reference_hash(getattr(case_cls, "name", ""))
+    return code if not ref else hashlib.sha256(f"{code}{ref}".encode()).hexdigest()[:16]
 
 
 def run_key(inputs: dict[str, Any], code: str, kind: str = "run") -> str:
