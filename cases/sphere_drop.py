@@ -10,7 +10,9 @@ run takes under a minute; the redistributed mass needs nx >= 8 to stay SPD).
 
 References it has exactly: the free fall u = (0, 0, lift - g t^2 / 2) until the impact at
 sqrt(2 lift / g); E0 = m g lift of the mesh's ball (its volume is below 4/3 pi R^3: flat
-faces); the impulse balance. No closed-form u after the impact; no mirror-symmetry column
+faces); the impulse balance. For the study's variant (lift 0.5), the converged reference
+of results/references/sphere_drop.json (contact start, peak force, force history;
+docs/production-cases.md). No closed-form u after the impact; no mirror-symmetry column
 (the refined octahedron is not mirror symmetric). A scheme's redistributed 1D mass
 variants map to the Khenous-Laborde-Renard mass, as in disc_drop.
 """
