@@ -29,8 +29,8 @@ scheme takes a lumped `mass`, its lumped variant):
   the 1D norms of an embedded bar), energy drift at the finest nx;
 - stability over dt, on the coarsest mesh: the refine run, and multiples of the
   declared limit for explicit schemes (SPARSE["limit_factors"]), of the scene's dt
-  otherwise (SPARSE["dt_factors"]), each leaving at least `MIN_STABILITY_STEPS` steps
-  in the run's T;
+  otherwise (SPARSE["dt_factors"], each leaving at least `MIN_STABILITY_STEPS` steps
+  in the run's T);
 - stability over each parameter declaring a `Param.sweep` (penalty gamma_p, Nitsche
   gamma0, ...), at the refine CFL on the coarsest mesh.
 
@@ -217,11 +217,12 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
                 continue
             cfls = ([f * lim for f in g["limit_factors"]] if lim is not None
                     else [f * cfl0 for f in g["dt_factors"]])
-            # a dt that leaves fewer than MIN_STABILITY_STEPS steps in T tests nothing
-            # (cfl0 is the scene's dt on this mesh; a short scene: manufactured, T = 1)
-            t_run = float(case.T if T is None else T)
-            cfls = [c for c in cfls
-                    if float(case.dt) * c / cfl0 * MIN_STABILITY_STEPS <= t_run]
+            if lim is None:  # multiples of the scene's dt (cfl0 on this mesh): one that
+                # leaves fewer than MIN_STABILITY_STEPS steps in T tests nothing (a short
+                # scene: manufactured, T = 1)
+                t_run = float(case.T if T is None else T)
+                cfls = [c for c in cfls
+                        if float(case.dt) * c / cfl0 * MIN_STABILITY_STEPS <= t_run]
             tasks += [Task(case.spec, spec, nxs[0], cfl=float(f"{c:.4g}"), T=T, max_samples=ms,
                            group="stability", timed=False) for c in cfls]
             tasks += [Task(case.spec, vs.spec, nxs[0], cfl=cfl_r, T=T, max_samples=ms,
