@@ -91,18 +91,8 @@ class DiscDrop(BodyCase):
         variant's (`contact_bench.exact.converged.errors`): err_contact_start, _end,
         _duration, err_peak_force, err_contact_impulse, err_rebound_velocity,
         err_vibration_energy and err_force_history."""
-        out: dict[str, float] = {}
         dt = float(row["dt"])
-        before = traj.t < self.impact_time - 1.5 * dt
-        if before.any():
-            vert = np.flatnonzero(problem.vertical > 0)
-            fall = self.free_fall(traj.t)
-            err = max(float(np.max(np.abs(traj.U[b][:, vert] - fall[b, None])))
-                      for b in sample_blocks(int(np.count_nonzero(before)), vert.size))
-            out["err_free_fall"] = err / float(self.lift)
-        stored = converged.load(self.name)  # the converged reference, when it is this one's
-        if stored is not None and stored["case"] == self.spec:
-            out.update(converged.errors(stored, problem, traj, dt))
+        out = converged.drop_errors(self, problem, traj, dt)
         nx = int(row["nx"])
         if (reference is None or traj.t.size < 2
                 or problem.U0.size != 2 * self.scalar_dofs(nx).shape[1]):

@@ -28,7 +28,7 @@ from contact_bench.api import fem_nd
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
-from contact_bench.api.sparse import SparseProblem, sample_blocks
+from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact import converged
 
 
@@ -74,19 +74,7 @@ class SphereDrop(BodyCase):
         variant's (`contact_bench.exact.converged.errors`): err_contact_start, _end,
         _duration, err_peak_force, err_contact_impulse, err_rebound_velocity,
         err_vibration_energy and err_force_history, those the run and the reference have."""
-        out: dict[str, float] = {}
-        dt = float(row["dt"])
-        before = traj.t < self.impact_time - 1.5 * dt
-        if before.any():
-            vert = np.flatnonzero(problem.vertical > 0)
-            fall = self.free_fall(traj.t)
-            err = max(float(np.max(np.abs(traj.U[b][:, vert] - fall[b, None])))
-                      for b in sample_blocks(int(np.count_nonzero(before)), vert.size))
-            out["err_free_fall"] = err / float(self.lift)
-        stored = converged.load(self.name)  # the converged reference, when it is this one's
-        if stored is not None and stored["case"] == self.spec:
-            out.update(converged.errors(stored, problem, traj, dt))
-        return out
+        return converged.drop_errors(self, problem, traj, float(row["dt"]))
 
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2

@@ -192,6 +192,28 @@ def load(name: str, folder: Path | None = None) -> dict[str, Any] | None:
     return json.loads(path.read_text())
 
 
+def drop_errors(case: Any, problem: Any, traj: Any, dt: float) -> dict[str, float]:
+    """A dropped body's errors (the disc, the ball): err_free_fall, the largest vertical
+    displacement error of any dof against `case.free_fall` over the samples before the
+    impact (`case.impact_time` less 1.5 dt), relative to `case.lift`, read block by block
+    (`sample_blocks`); and the columns of `errors` against the stored reference of the
+    scene (`load(case.name)`) when it is this variant's (`case.spec`)."""
+    from contact_bench.api.sparse import sample_blocks
+
+    out: dict[str, float] = {}
+    before = traj.t < case.impact_time - 1.5 * dt
+    if before.any():
+        vert = np.flatnonzero(problem.vertical > 0)
+        fall = case.free_fall(traj.t)
+        err = max(float(np.max(np.abs(traj.U[b][:, vert] - fall[b, None])))
+                  for b in sample_blocks(int(np.count_nonzero(before)), vert.size))
+        out["err_free_fall"] = err / float(case.lift)
+    stored = load(case.name)
+    if stored is not None and stored["case"] == case.spec:
+        out.update(errors(stored, problem, traj, dt))
+    return out
+
+
 def errors(reference: dict[str, Any], problem: Any, traj: Any, dt: float
            ) -> dict[str, float]:
     """The columns err_<q> of a run against a stored reference: |run / ref - 1| for the
@@ -215,5 +237,5 @@ def errors(reference: dict[str, Any], problem: Any, traj: Any, dt: float
     return out
 
 
-__all__ = ["QUANTITIES", "REFERENCES", "SCALARS", "errors", "first_contact", "load", "observables",
-           "richardson", "richardson_history", "total_force"]
+__all__ = ["QUANTITIES", "REFERENCES", "SCALARS", "drop_errors", "errors", "first_contact",
+           "load", "observables", "richardson", "richardson_history", "total_force"]
