@@ -43,12 +43,20 @@ def _sig(x: float, digits: int = 3) -> float:
     return round(x, digits - 1 - int(math.floor(math.log10(abs(x)))))
 
 
-def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
-    """Rows tagged with `group` (the ';'-separated `group` column); all rows if none is."""
-    if "group" not in df or df.empty:
-        return df
+def tagged(df: pd.DataFrame, group: str) -> pd.Series:
+    """Which rows carry the tag `group` in their ';'-separated `group` column (none
+    without the column)."""
+    if "group" not in df:
+        return pd.Series(False, index=df.index)
     tags = df["group"].astype("string").fillna("").str.split(";")
-    mask = tags.map(lambda t: group in t).astype(bool)
+    return tags.map(lambda t: group in t).astype(bool)
+
+
+def select(df: pd.DataFrame, group: str) -> pd.DataFrame:
+    """Rows tagged with `group` (`tagged`); all rows if none is."""
+    if df.empty:
+        return df
+    mask = tagged(df, group)
     return df[mask] if mask.any() else df
 
 
@@ -271,10 +279,7 @@ def verification_table(df: pd.DataFrame, tolerances: dict[str, float]) -> pd.Dat
     and `within`: how many of the errors the run has are within q's published tolerance
     (`tolerances`: q -> relative tolerance, `Case.published`), e.g. "4/5". Empty: the
     table has no such rows."""
-    if "group" not in df or df.empty:
-        return pd.DataFrame()
-    rows = df[df["group"].astype("string").fillna("").str.split(";")
-              .map(lambda t: "verification" in t).astype(bool)]
+    rows = df[tagged(df, "verification")]
     if rows.empty:
         return pd.DataFrame()
     cols = [f"err_published_{q}" for q in tolerances if f"err_published_{q}" in rows]
