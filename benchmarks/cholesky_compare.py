@@ -47,14 +47,10 @@ def best(fn, repeats: int = REPEATS) -> float:
 
 def superlu(S, b, B, nested: bool):
     """`Factor.of(S)` with nested dissection (`nested`) or minimum degree, whatever S's
-    size (`NESTED_DISSECTION_DOFS` set for the call)."""
-    keep = linalg.NESTED_DISSECTION_DOFS
-    linalg.NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
-    try:
+    size (`linalg.ordering`)."""
+    with linalg.ordering(nested):
         t_f = best(lambda: linalg.Factor.of(S), 1)
         arrays = linalg.Factor.of(S).arrays
-    finally:
-        linalg.NESTED_DISSECTION_DOFS = keep
     n = S.shape[0]
     x, w = np.empty(n), np.empty(n)
     lu_solve(*arrays, b, x, w)

@@ -1,6 +1,6 @@
 """How far the loops' fill-reducing ordering moves a run: each scheme on one scene, once
 with `Factor.of` ordering by minimum degree and once by nested dissection (whatever the
-size: `NESTED_DISSECTION_DOFS` set for the run), the trajectories compared.
+size: `linalg.ordering`), the trajectories compared.
 
     python benchmarks/ordering_diff.py --scene 'sphere_drop[lift=0.1]' --nx 16 --T 2 \\
         --scheme redistributed --scheme hht --scheme standard
@@ -24,9 +24,7 @@ from contact_bench.kernels import linalg
 
 def run(spec: str, scheme: str, nx: int, T: float, nested: bool):
     """The scheme's trajectory (stride 1) and its stepping time per step."""
-    keep = linalg.NESTED_DISSECTION_DOFS
-    linalg.NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
-    try:
+    with linalg.ordering(nested):
         case, sch = make_case(spec), make_scheme(scheme)
         p = case.sparse_problem(nx, 1.0, sch.mass_kind())
         steps = int(round(T / case.dt))
@@ -36,8 +34,6 @@ def run(spec: str, scheme: str, nx: int, T: float, nested: bool):
         start = time.perf_counter()
         tr = stepper.run(steps, 1)
         return tr, (time.perf_counter() - start) / steps
-    finally:
-        linalg.NESTED_DISSECTION_DOFS = keep
 
 
 def rel(a: np.ndarray, b: np.ndarray) -> float:

@@ -127,6 +127,11 @@ def test_nested_dissection_is_used_from_its_size_on(monkeypatch):
     monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", S.shape[0])
     nd = Factor.of(S)
     assert mmd.arrays[2].size != nd.arrays[2].size
+    with linalg.ordering(nested=True):  # whatever the size, restored after the block
+        assert Factor.of(S).arrays[2].size == nd.arrays[2].size
+    with linalg.ordering(nested=False):
+        assert Factor.of(S).arrays[2].size == mmd.arrays[2].size
+    assert linalg.NESTED_DISSECTION_DOFS == S.shape[0]
     x, y = mmd.solve(b), nd.solve(b)
     assert not np.array_equal(x, y)
     assert np.abs(x - y).max() < 1e-12 * np.abs(x).max()

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -120,6 +121,20 @@ def is_symmetric(S: sp.spmatrix) -> bool:
         return False
     scale = float(abs(S).max()) if S.nnz else 0.0
     return float(abs(S - S.T).max()) <= SYMMETRY_TOL * scale if scale else True
+
+
+@contextmanager
+def ordering(nested: bool) -> Iterator[None]:
+    """Within the block, `Factor.of` orders every matrix by nested dissection (`nested`)
+    or by minimum degree, whatever its size: for measuring one ordering against the other
+    (benchmarks/cholesky_compare.py, benchmarks/ordering_diff.py)."""
+    global NESTED_DISSECTION_DOFS
+    keep = NESTED_DISSECTION_DOFS
+    NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
+    try:
+        yield
+    finally:
+        NESTED_DISSECTION_DOFS = keep
 
 
 def nested_dissection(S: sp.spmatrix) -> np.ndarray | None:
