@@ -53,6 +53,8 @@ HEADERS = {
     "err_free_fall": "error free fall (rel. to the lift)",
     "err_contact_duration": "error contact duration (rel.)",
     "err_peak_force": "error peak contact force (rel.)",
+    "err_hertz_contact_time": "gap to Hertz's contact time (rel.)",
+    "err_hertz_peak_force": "gap to Hertz's peak force (rel.)",
     "err_u_numerical": "error u vs numerical reference, Linf (rel.)",
     "err_contact_force_numerical": "error contact force vs numerical reference, l2 (rel.)",
     "time_s": "stepping time [s] (min)", "time_median_s": "stepping time [s] (median)",
