@@ -119,3 +119,53 @@ def test_sphere_force_history_converges_to_it_with_a_tenfold_margin():
         errs.append(converged.errors(SPHERE, problem, traj, dt)["err_force_history"])
     assert errs[1] < errs[0], errs
     assert errs[1] > 10 * SPHERE["force_history"]["error"], errs
+
+
+HERTZ = converged.load("hertz_sphere")
+
+
+def test_the_hertz_artefact_is_the_default_variant_at_a_fixed_cfl():
+    assert HERTZ is not None, "results/references/hertz_sphere.json is missing"
+    assert HERTZ["case"] == make_case("hertz_sphere").spec
+    assert HERTZ["case"] == make_case(make_case("hertz_sphere").study.specs[0]).spec
+    nxs = [lv["nx"] for lv in HERTZ["levels"]]
+    assert len(nxs) >= 4 and nxs == sorted(nxs)
+    dts = [lv["dt"] for lv in HERTZ["levels"]]
+    assert np.allclose(np.array(dts) * np.array(nxs), dts[0] * nxs[0])
+    # the whole contact inside the run: every scalar but the start (at t = 0) is there
+    assert set(HERTZ["scalars"]) == set(converged.SCALARS)
+
+
+def test_hertz_rows_carry_the_gaps_to_hertz_and_the_converged_columns():
+    case = make_case("hertz_sphere")
+    scheme = make_scheme("hht")
+    problem = case.sparse_problem(2, 1.0, scheme.mass_kind())
+    dt = 0.01
+    traj = scheme.integrate(problem, dt, int(round(case.T / dt)), 1)
+    row = {"dt": dt, "nx": 2, "stride": 1, "first_contact_start": 0.01,
+           "first_contact_end": 11.0, "peak_contact_force": 0.0125}
+    out = case.quantity_errors(problem, traj, row)
+    assert {"err_hertz_contact_time", "err_hertz_peak_force", "err_contact_duration",
+            "err_peak_force", "err_force_history", "err_vibration_energy"} <= set(out)
+    assert out["err_hertz_contact_time"] == pytest.approx(
+        abs(11.0 / case.hertz().contact_time - 1.0))
+    assert "err_contact_start" not in out  # the reference's contact starts at t = 0
+
+
+def test_hertz_errors_decrease_with_a_tenfold_margin_where_the_reference_has_one():
+    """hht at the study's refine grid (nx 2, 3, 4 at the dt of its rows): the force
+    history's error decreases; at nx 4 the errors of the contact duration, peak force and
+    impulse are at least 10x the reference's own (docs/production-cases.md: the force
+    history, rebound velocity and vibration energy have less)."""
+    case = make_case("hertz_sphere")
+    scheme = make_scheme("hht")
+    rows = []
+    for nx, dt in ((2, 0.01), (3, 0.004327), (4, 0.002411)):
+        problem = case.sparse_problem(nx, 1.0, scheme.mass_kind())
+        traj = scheme.integrate(problem, dt, int(round(case.T / dt)), 1)
+        rows.append(converged.errors(HERTZ, problem, traj, dt))
+    fh = [r["err_force_history"] for r in rows]
+    assert fh[0] > fh[1] > fh[2], fh
+    for q in ("contact_duration", "peak_force", "contact_impulse"):
+        ref = HERTZ["scalars"][q]
+        assert rows[2][f"err_{q}"] * abs(ref["value"]) > 10 * ref["error"], q
