@@ -281,7 +281,7 @@ def test_sigkill_while_writing_leaves_nothing_in_the_target(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["res"]
 
 
-def test_ctrl_c_to_two_workers_is_one_line(tmp_path):
+def test_ctrl_c_to_two_workers_is_one_line(tmp_path, from_a_terminal):
     import os
     import signal
     import subprocess
@@ -293,8 +293,9 @@ def test_ctrl_c_to_two_workers_is_one_line(tmp_path):
             "--scheme", "standard", "--scheme", "penalty", "--nx", "2000,2001,2002,2003",
             "--T", "6", "--dt", "1e-3", "--stride", "100", "-j", "2", "--quiet",
             "--repeats", "0", "--cache", str(cache), "--out", str(tmp_path / "out")]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=_cli_env(), cwd=tmp_path, start_new_session=True)
+    proc = subprocess.Popen(from_a_terminal(argv), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=_cli_env(), cwd=tmp_path,
+                            start_new_session=True)
     try:
         deadline = time.monotonic() + 180
         while len(Cache(cache)) < 1 and time.monotonic() < deadline and proc.poll() is None:
@@ -311,13 +312,13 @@ def test_ctrl_c_to_two_workers_is_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("delay", [0.15, 0.4])
-def test_ctrl_c_during_start_up_imports_is_one_line(delay, tmp_path):
+def test_ctrl_c_during_start_up_imports_is_one_line(delay, tmp_path, from_a_terminal):
     import signal
     import subprocess
     import sys
     import time
 
-    proc = subprocess.Popen([sys.executable, "-m", "contact_bench", "list"],
+    proc = subprocess.Popen(from_a_terminal([sys.executable, "-m", "contact_bench", "list"]),
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             env=_cli_env(), cwd=tmp_path)
     time.sleep(delay)

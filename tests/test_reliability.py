@@ -310,7 +310,7 @@ def test_ctrl_c_while_writing_results_leaves_no_partial_file(tmp_path, monkeypat
         assert text.endswith("\n") and "clamped_bar" in text
 
 
-def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
+def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path, from_a_terminal):
     out = tmp_path / "out"
     # the console script is `from contact_bench.cli.main import main; sys.exit(main())`; "ready"
     # marks
@@ -321,7 +321,7 @@ def test_ctrl_c_during_a_run_exits_130_one_line_no_file(tmp_path):
         argv += ["--dt", dt]
     code = ("import sys; from contact_bench.cli.main import main; print('ready', flush=True); "
             f"sys.exit(main({argv!r}))")
-    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+    proc = subprocess.Popen(from_a_terminal([sys.executable, "-c", code]), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=_env(), cwd=tmp_path)
     try:
         assert proc.stdout.readline().strip() == "ready"
