@@ -11,13 +11,11 @@ on the axis. Contact set: the vertical dofs of the lower half of the meridian; t
 forces sum to the total force.
 
 Reference quantities: Hertz's contact time and peak force (`hertz`,
-`contact_bench.exact.hertz`), the limit v / c -> 0 that the finite-element answer
-approaches as v and h shrink, not an exact solution of this problem: the columns
-err_hertz_contact_time and err_hertz_peak_force are gaps to a model, and
-benchmarks/hertz_gap.py tabulates them. The errors proper are against the converged
-reference of the default variant, results/references/hertz_sphere.json
-(`contact_bench.exact.converged`: err_contact_duration, err_peak_force,
-err_force_history, ...). Exactly: the energy 1/2 m v^2 and the impulse balance
+`contact_bench.exact.hertz`), the limit v / c -> 0, not an exact solution of this problem:
+err_hertz_contact_time and err_hertz_peak_force are gaps to a model (benchmarks/hertz_gap.py
+tabulates them). The errors proper (err_contact_duration, err_force_history, ...) are against
+the default variant's converged reference, results/references/hertz_sphere.json
+(`contact_bench.exact.converged`). Exactly: the energy 1/2 m v^2 and the impulse balance
 (vertical momentum change = contact impulse).
 """
 
