@@ -34,14 +34,19 @@ def test_history_extrapolation_recovers_a_known_limit():
     assert np.max(np.abs(ref - np.sin(t))) < 1e-12
 
 
+def assert_levels_at_a_fixed_cfl(art: dict, min_levels: int) -> None:
+    """The artefact's levels: at least `min_levels`, nx increasing, dt x nx constant."""
+    nxs = [lv["nx"] for lv in art["levels"]]
+    assert len(nxs) >= min_levels and nxs == sorted(nxs)
+    dts = [lv["dt"] for lv in art["levels"]]
+    assert np.allclose(np.array(dts) * np.array(nxs), dts[0] * nxs[0])  # a fixed CFL
+
+
 def test_the_artefact_is_the_scene_variant_with_its_command_and_levels():
     assert ART is not None, "results/references/disc_drop.json is missing"
     assert ART["case"] == make_case("disc_drop[degree=1]").spec
     assert ART["command"].startswith("python benchmarks/converged_reference.py")
-    nxs = [lv["nx"] for lv in ART["levels"]]
-    assert len(nxs) >= 3 and nxs == sorted(nxs)
-    dts = [lv["dt"] for lv in ART["levels"]]
-    assert np.allclose(np.array(dts) * np.array(nxs), dts[0] * nxs[0])  # a fixed CFL
+    assert_levels_at_a_fixed_cfl(ART, 3)
     for q in ("contact_duration", "peak_force", "contact_impulse", "rebound_velocity"):
         assert ART["scalars"][q]["error"] > 0.0
 
@@ -97,10 +102,7 @@ def test_the_sphere_artefact_is_the_study_variant_at_a_fixed_cfl():
     assert SPHERE is not None, "results/references/sphere_drop.json is missing"
     assert SPHERE["case"] == make_case("sphere_drop[lift=0.5]").spec
     assert SPHERE["case"] == make_case(make_case("sphere_drop").study.specs[0]).spec
-    nxs = [lv["nx"] for lv in SPHERE["levels"]]
-    assert len(nxs) >= 3 and nxs == sorted(nxs)
-    dts = [lv["dt"] for lv in SPHERE["levels"]]
-    assert np.allclose(np.array(dts) * np.array(nxs), dts[0] * nxs[0])
+    assert_levels_at_a_fixed_cfl(SPHERE, 3)
     assert SPHERE["force_history"]["error"] > 0.0
 
 
@@ -128,10 +130,7 @@ def test_the_hertz_artefact_is_the_default_variant_at_a_fixed_cfl():
     assert HERTZ is not None, "results/references/hertz_sphere.json is missing"
     assert HERTZ["case"] == make_case("hertz_sphere").spec
     assert HERTZ["case"] == make_case(make_case("hertz_sphere").study.specs[0]).spec
-    nxs = [lv["nx"] for lv in HERTZ["levels"]]
-    assert len(nxs) >= 4 and nxs == sorted(nxs)
-    dts = [lv["dt"] for lv in HERTZ["levels"]]
-    assert np.allclose(np.array(dts) * np.array(nxs), dts[0] * nxs[0])
+    assert_levels_at_a_fixed_cfl(HERTZ, 4)
     # the whole contact inside the run: every scalar but the start (at t = 0) is there
     assert set(HERTZ["scalars"]) == set(converged.SCALARS)
 

@@ -103,16 +103,17 @@ def observables(problem: Any, traj: Any, dt: float, times: np.ndarray | None = N
         vertical = getattr(problem, "vertical", None)
         mass = getattr(problem, "body_mass", None)
         if after.any() and not np.any(force[after] > 0.0) and vertical is not None and mass:
-            vz = float(traj.V[-1] @ (problem.M @ vertical)) / float(mass)
-            accel = float(problem.F @ vertical) / float(mass)
-            out["rebound_velocity"] = vz - accel * (float(t[-1]) - out["contact_end"])
             U, V = np.asarray(traj.U[-1], float), np.asarray(traj.V[-1], float)
+            m_vertical = problem.M @ vertical
+            pz = float(V @ m_vertical)  # the vertical momentum
+            accel = float(problem.F @ vertical) / float(mass)
+            out["rebound_velocity"] = pz / float(mass) - accel * (float(t[-1])
+                                                                  - out["contact_end"])
             # the rigid part: the vertical translation only (the frictionless plane and
             # the vertical load keep every horizontal momentum at zero; an axisymmetric
             # meridian has no radial translation)
-            pz = float(V @ (problem.M @ vertical))
             kin = 0.5 * float(V @ (problem.M @ V)) - 0.5 * pz * pz / float(
-                vertical @ (problem.M @ vertical))
+                vertical @ m_vertical)
             E0 = float(traj.energy[0])
             out["vibration_energy"] = (kin + 0.5 * float(U @ (problem.K @ U))) / E0
     if times is not None:
