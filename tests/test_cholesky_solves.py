@@ -9,6 +9,7 @@ import pytest
 import scipy.sparse as sp
 
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core import ordering
 from contact_bench.kernels import linalg
 from contact_bench.kernels.linalg import Factor
 
@@ -92,7 +93,7 @@ def _plane_elasticity():
     return sp.csr_matrix(p.M + 0.25 * case.dt ** 2 * p.K)
 
 
-@pytest.mark.skipif(linalg.pymetis is None, reason="pymetis not installed")
+@pytest.mark.skipif(ordering.pymetis is None, reason="pymetis not installed")
 @pytest.mark.parametrize("symmetric", [True, False])
 def test_nested_dissection_factor_solves_and_keeps_the_spd_reading(monkeypatch, symmetric):
     """Above `NESTED_DISSECTION_DOFS` the factor is of S[q][:, q] with q METIS's ordering;
@@ -115,7 +116,7 @@ def test_nested_dissection_factor_solves_and_keeps_the_spd_reading(monkeypatch, 
     assert fac.many_backend == ("cholmod" if symmetric and linalg.cholespy else "superlu")
 
 
-@pytest.mark.skipif(linalg.pymetis is None, reason="pymetis not installed")
+@pytest.mark.skipif(ordering.pymetis is None, reason="pymetis not installed")
 def test_nested_dissection_is_used_from_its_size_on(monkeypatch):
     """`Factor.of` orders by nested dissection from `NESTED_DISSECTION_DOFS` dofs on and
     by minimum degree below (the factor's size tells which: the two orderings fill

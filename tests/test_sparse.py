@@ -11,6 +11,7 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.registry import make_case, schemes
 from contact_bench.api.sparse import ContactSet, SparseProblem
+from contact_bench.core import ordering
 from contact_bench.core.errors import BenchError
 from contact_bench.harness.runner import run_one
 from contact_bench.kernels.sparse import (
@@ -67,7 +68,7 @@ def test_lumped_mass_row_sums_and_p2_refused():
     (fe.MeshTri2.init_circle(2), 2),
     (fe.MeshTet.init_ball(2), 1),
 ], ids=["P1 disc", "P2 disc", "P1 ball"])
-def test_redistributed_mass_keeps_moments_zero_rows_and_spd(mesh, degree):
+def test_redistributed_mass_keeps_moments_zero_rows_and_spd(mesh, degree, monkeypatch):
     body = fem_nd.assemble(mesh, 50.0, 0.25, 2.0, degree)
     zone = body.boundary_facets(lambda x: x[1] < -0.5)
     contact = np.unique(body.scalar.get_dofs(zone).flatten())
@@ -82,6 +83,11 @@ def test_redistributed_mass_keeps_moments_zero_rows_and_spd(mesh, degree):
     block = R[rest][:, rest].toarray()  # small: an independent check of SPD
     assert np.linalg.eigvalsh(block).min() > 0
     assert fem_nd.is_spd(R[rest][:, rest]) and not fem_nd.is_spd(R)
+    # the same answers with the nested-dissection ordering (used from
+    # NESTED_DISSECTION_DOFS rows on, here forced on the small matrices)
+    if ordering.pymetis is not None:
+        monkeypatch.setattr(ordering, "NESTED_DISSECTION_DOFS", 0)
+        assert ordering.is_spd(R[rest][:, rest]) and not ordering.is_spd(R)
     # the vector mass: zero rows at every component of the contact nodes
     V = fem_nd.mass_matrix(body, "redistributed", contact)
     assert np.all(V.diagonal()[body.dim * contact] == 0)

@@ -44,6 +44,7 @@ from skfem.helpers import ddot, sym_grad, trace
 from contact_bench.api.fem import assemble as assemble_1d
 from contact_bench.api.fem import mass_variant as mass_variant_1d
 from contact_bench.api.sparse import ContactSet
+from contact_bench.core.ordering import is_spd
 
 ND_MASS_KINDS = ("consistent", "lumped", "redistributed")
 #: mesh type -> (degree -> scalar element)
@@ -302,19 +303,6 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray,
                 raise ValueError(
                     "redistributed mass: the non-contact block is not positive definite")
         near = grown(near)
-
-
-def is_spd(A: sp.spmatrix) -> bool:
-    """Whether a sparse symmetric matrix is positive definite: SuperLU with diagonal
-    pivots (a symmetric elimination) has only positive pivots."""
-    from scipy.sparse.linalg import splu
-
-    try:
-        lu = splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                  options={"SymmetricMode": True})
-    except RuntimeError:  # exactly singular
-        return False
-    return bool(np.all(lu.perm_r == lu.perm_c) and np.all(lu.U.diagonal() > 0))
 
 
 def mass_matrix(body: Elasticity, kind: str, contact_scalar: np.ndarray | None = None

@@ -5,8 +5,8 @@
 * inside a compiled loop, one right-hand side per call: `lu_solve` over `Factor.arrays`,
   SuperLU's L and U (symmetric mode, diagonal pivots) kept as CSR arrays, so that a numba
   kernel needs no Python. The fill-reducing ordering is METIS's nested dissection of S's
-  graph (the `pymetis` wheel) from `NESTED_DISSECTION_DOFS` dofs on, SuperLU's minimum
-  degree on A^T + A below: the solves are bound by memory traffic, so the factor's size is
+  graph (`contact_bench.core.ordering`) from `NESTED_DISSECTION_DOFS` dofs on, SuperLU's
+  minimum degree on A^T + A below: the solves are bound by memory traffic, so the factor's size is
   their time, and nested dissection's factor of a 2D or 3D mesh's matrix is the smaller
   one at the sizes where a solve costs anything;
 * at set-up, many right-hand sides at once (`Factor.solve_many`: the columns of the
@@ -36,10 +36,7 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.linalg import splu
 
-try:  # METIS's nested dissection (fill-reducing ordering of the loops' factor)
-    import pymetis
-except ImportError:  # pragma: no cover - a dependency; minimum degree without it
-    pymetis = None
+from contact_bench.core.ordering import NESTED_DISSECTION_DOFS, nested_dissection
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
     import cholespy
@@ -50,19 +47,18 @@ except ImportError:  # pragma: no cover - depends on the environment
 #: solve gives the set-up's numbers to the bit and, measured so far, no slower at the
 #: scenes' sizes (docs/sparse.md); CHOLMOD needs a second factorisation
 USE_CHOLMOD = os.environ.get("CONTACT_BENCH_CHOLMOD", "") == "1"
-#: largest number of values in one block of right-hand sides of `Factor.solve_many`
-#: (the block and its solution are dense n x k arrays)
-MANY_BLOCK_ENTRIES = 4_000_000
+#: right-hand sides per block of `Factor.solve_many`: `lu_solve_many`'s time per column
+#: falls with the width up to 32-64 columns and is flat beyond
+#: (results/cholesky/block_width.md)
+MANY_BLOCK_COLUMNS = 64
+#: largest number of values in one block of right-hand sides (the block, its solution
+#: and the scratch are dense n x k arrays): fewer columns on a very large n
+MANY_BLOCK_ENTRIES = 32_000_000
 #: relative asymmetry max |S - S^T| / max |S| up to which S counts as symmetric
 SYMMETRY_TOL = 1e-14
 #: the factor's index type in the loops: 32-bit indices read a quarter less memory per
 #: solve than 64-bit ones (the solves are bound by memory traffic); 64-bit past 2^31 entries
 INDEX = np.int32
-#: size from which `Factor.of` orders by nested dissection instead of minimum degree: the
-#: factor of a 2D/3D mesh's matrix is smaller with it from a few thousand dofs on, and
-#: below that (and on a band, where minimum degree makes no fill) minimum degree is as
-#: good or better (docs/sparse.md)
-NESTED_DISSECTION_DOFS = 5000
 
 
 @njit(cache=True)
@@ -135,20 +131,6 @@ def ordering(nested: bool) -> Iterator[None]:
         yield
     finally:
         NESTED_DISSECTION_DOFS = keep
-
-
-def nested_dissection(S: sp.spmatrix) -> np.ndarray | None:
-    """METIS's nested-dissection ordering q of S's graph (the pattern of S + S^T without
-    the diagonal; S[q][:, q] is the matrix to factor), or None without pymetis."""
-    if pymetis is None:
-        return None
-    A = sp.csr_matrix(S, dtype=float)
-    A = abs(A) + abs(A.T)
-    A.setdiag(0.0)
-    A.eliminate_zeros()
-    A.sort_indices()
-    perm, _ = pymetis.nested_dissection(pymetis.CSRAdjacency(A.indptr, A.indices))
-    return np.asarray(perm, dtype=np.int64)
 
 
 def cholmod_factor(S: sp.spmatrix) -> Any | None:
@@ -230,8 +212,8 @@ class Factor:
 
     def solve_blocks(self, B: np.ndarray | sp.spmatrix
                      ) -> Iterator[tuple[int, int, np.ndarray]]:
-        """(j0, j1, S^-1 B[:, j0:j1]) over B's columns in blocks of at most
-        `MANY_BLOCK_ENTRIES` values: CHOLMOD when S is SPD (and asked for), else
+        """(j0, j1, S^-1 B[:, j0:j1]) over B's columns in blocks of `MANY_BLOCK_COLUMNS`
+        (at most `MANY_BLOCK_ENTRIES` values): CHOLMOD when S is SPD (and asked for), else
         `lu_solve_many`. For a caller that keeps only part of each block's solution,
         so that the whole n x k result is never held."""
         k = B.shape[1]
@@ -242,7 +224,7 @@ class Factor:
                 self.many_backend = "superlu"
         chol = self.chol
         Bc = sp.csc_matrix(B) if sp.issparse(B) else None
-        step = max(1, MANY_BLOCK_ENTRIES // max(self.n, 1))
+        step = max(1, min(MANY_BLOCK_COLUMNS, MANY_BLOCK_ENTRIES // max(self.n, 1)))
         for j0 in range(0, k, step):
             j1 = min(k, j0 + step)
             blk = np.ascontiguousarray(Bc[:, j0:j1].toarray() if Bc is not None
