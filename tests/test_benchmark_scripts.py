@@ -171,3 +171,14 @@ def test_small_grids_prints_step_and_recording_per_scheme(capsys):
     assert [c[1] for c in cells] == specs
     for c in cells:
         assert float(c[2]) > 0 and float(c[3]) > 0
+
+
+def test_block_width_prints_a_time_per_column_for_each_width(capsys):
+    _script("block_width").main(["--matrix", "disc_drop[degree=2]:3", "--width", "2",
+                                 "--width", "5"])
+    out = capsys.readouterr().out
+    assert "`python benchmarks/block_width.py --matrix 'disc_drop[degree=2]:3' --width 2 " \
+           "--width 5`" in out
+    rows = [line for line in out.splitlines() if line.startswith("| disc_drop")]
+    assert [r.split("|")[4].strip() for r in rows] == ["2", "5"]
+    assert all(float(r.split("|")[5]) > 0 for r in rows)

@@ -456,12 +456,11 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
 
 
 def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
-    """W = C S^-1 C^T without keeping Z (`Factor.solve_many` in blocks of columns)."""
+    """W = C S^-1 C^T without keeping Z: `Factor.solve_blocks` over the n_c right-hand
+    sides, each block's solution reduced to its contact rows."""
     W = np.empty((cd.size, cd.size))
-    block = max(1, KEEP_Z_ENTRIES // (10 * max(n, 1)))
-    for j0 in range(0, cd.size, block):
-        j1 = min(cd.size, j0 + block)
-        W[:, j0:j1] = fac.solve_many(selection(cd[j0:j1], n))[cd, :]
+    for j0, j1, X in fac.solve_blocks(selection(cd, n)):
+        W[:, j0:j1] = X[cd, :]
     return np.ascontiguousarray(0.5 * (W + W.T))
 
 
