@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import splu
+from scipy.sparse.linalg import SuperLU, splu
 
 try:  # METIS's nested dissection; minimum degree without it
     import pymetis
@@ -39,17 +39,28 @@ def nested_dissection(S: sp.spmatrix) -> np.ndarray | None:
     return np.asarray(perm, dtype=np.int64)
 
 
-def is_spd(A: sp.spmatrix) -> bool:
-    """Whether a sparse symmetric matrix is positive definite: SuperLU with diagonal
-    pivots (a symmetric elimination) has only positive pivots. Ordered by nested
-    dissection from `NESTED_DISSECTION_DOFS` rows on (a symmetric permutation keeps the
-    answer), by minimum degree below."""
+def symmetric_lu(A: sp.spmatrix, nested_from: int | None = None
+                 ) -> tuple[SuperLU, np.ndarray | None]:
+    """SuperLU's symmetric-mode factor of A (diagonal pivots: a symmetric elimination)
+    and its ordering q: A[q][:, q] factored in its natural order, q METIS's nested
+    dissection, from `nested_from` rows on (default `NESTED_DISSECTION_DOFS`); below,
+    A itself with SuperLU's minimum degree on A^T + A, and q None. RuntimeError when A
+    is exactly singular."""
     C = sp.csc_matrix(A)
-    q = nested_dissection(C) if C.shape[0] >= NESTED_DISSECTION_DOFS else None
+    limit = NESTED_DISSECTION_DOFS if nested_from is None else nested_from
+    q = nested_dissection(C) if C.shape[0] >= limit else None
+    lu = splu(C if q is None else C[q][:, q], diag_pivot_thresh=0.0,
+              permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
+              options={"SymmetricMode": True})
+    return lu, q
+
+
+def is_spd(A: sp.spmatrix) -> bool:
+    """Whether a sparse symmetric matrix is positive definite: its symmetric elimination
+    (`symmetric_lu`; a symmetric permutation keeps the answer) made no row interchange
+    and has only positive pivots."""
     try:
-        lu = splu(C if q is None else C[q][:, q], diag_pivot_thresh=0.0,
-                  permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
-                  options={"SymmetricMode": True})
+        lu, _ = symmetric_lu(A)
     except RuntimeError:  # exactly singular
         return False
     return bool(np.all(lu.perm_r == lu.perm_c) and np.all(lu.U.diagonal() > 0))

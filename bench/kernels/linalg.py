@@ -34,9 +34,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
-from scipy.sparse.linalg import splu
 
-from contact_bench.core.ordering import NESTED_DISSECTION_DOFS, nested_dissection
+from contact_bench.core.ordering import NESTED_DISSECTION_DOFS, symmetric_lu
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
     import cholespy
@@ -171,10 +170,7 @@ class Factor:
         CHOLMOD if asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from
         SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive)."""
         C = sp.csc_matrix(S)
-        q = nested_dissection(C) if C.shape[0] >= NESTED_DISSECTION_DOFS else None
-        lu = splu(C if q is None else C[q][:, q], diag_pivot_thresh=0.0,
-                  permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
-                  options={"SymmetricMode": True})
+        lu, q = symmetric_lu(C, NESTED_DISSECTION_DOFS)
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
         if q is not None:  # row q[i] of S is row i of S[q][:, q]: b[q[i]] goes where b'[i] goes
             qinv = np.empty_like(q)
