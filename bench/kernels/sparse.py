@@ -341,11 +341,24 @@ def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.nd
 
 
 def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Z = S^-1 C^T (n x n_c, rows contiguous) and W = C Z, by one solve with the n_c
-    right-hand sides C^T (`Factor.solve_many`)."""
-    Z = fac.solve_many(selection(cd, n))
-    W = Z[cd, :]
+    """Z = S^-1 C^T (n x n_c, rows contiguous) and W = C Z, the n_c right-hand sides C^T
+    solved in blocks (`response_rows`)."""
+    Z, W = response_rows(fac, selection(cd, n), cd, True)
     return Z, np.ascontiguousarray(0.5 * (W + W.T))
+
+
+def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(Z, Z[rows]) for Z = S^-1 rhs (S's factor `fac`, block solves `Factor.solve_blocks`):
+    Z whole when `keep`, else a (1, 1) placeholder and only its rows `rows`."""
+    n, nc = fac.n, rhs.shape[1]
+    Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
+    Zr = np.empty((rows.size, nc))
+    for j0, j1, X in fac.solve_blocks(rhs):
+        if keep:
+            Z[:, j0:j1] = X
+        Zr[:, j0:j1] = X[rows]
+    return Z, Zr
 
 
 def contact_operators(fac: Factor, cd: np.ndarray, n: int
@@ -456,11 +469,9 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
 
 
 def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
-    """W = C S^-1 C^T without keeping Z: `Factor.solve_blocks` over the n_c right-hand
-    sides, each block's solution reduced to its contact rows."""
-    W = np.empty((cd.size, cd.size))
-    for j0, j1, X in fac.solve_blocks(selection(cd, n)):
-        W[:, j0:j1] = X[cd, :]
+    """W = C S^-1 C^T without keeping Z (`response_rows`: each block's solution reduced
+    to its contact rows)."""
+    W = response_rows(fac, selection(cd, n), cd, False)[1]
     return np.ascontiguousarray(0.5 * (W + W.T))
 
 

@@ -59,6 +59,7 @@ from contact_bench.kernels.sparse import (
     lcp_solve,
     lu_solve,
     penalty_solve,
+    response_rows,
 )
 from contact_bench.kernels.stepper import KernelStepper
 
@@ -181,20 +182,6 @@ def keeps_response(rows: int, nc: int) -> bool:
     """Whether a dense response matrix of rows x n_c values is kept (at most
     `KEEP_Z_ENTRIES` values, read at each call); else the steppers go matrix-free."""
     return rows * nc <= KEEP_Z_ENTRIES
-
-
-def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """(Z, Z[rows]) for Z = S^-1 rhs (S's factor `fac`, block solves `Factor.solve_blocks`):
-    Z whole when `keep`, else a (1, 1) placeholder and only its rows `rows`."""
-    n, nc = fac.n, rhs.shape[1]
-    Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
-    Zr = np.empty((rows.size, nc))
-    for j0, j1, X in fac.solve_blocks(rhs):
-        if keep:
-            Z[:, j0:j1] = X
-        Zr[:, j0:j1] = X[rows]
-    return Z, Zr
 
 
 def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
