@@ -20,6 +20,7 @@ import pandas as pd
 import scipy.sparse as sp
 
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core.errors import BenchError
 from contact_bench.kernels.linalg import Factor, lu_solve_many
 
 REPEATS = 3
@@ -46,11 +47,21 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--width", action="append", type=int, metavar="K",
                     help="columns per block (repeatable; default: WIDTHS)")
     args = ap.parse_args(argv)
-    rows = []
+    bad = [k for k in args.width or () if k < 1]
+    if bad:
+        ap.error(f"--width must be >= 1, got {bad[0]}")
+    matrices = []
     for m in args.matrix or MATRICES:
-        spec, nx = m.rsplit(":", 1)
-        case = make_case(spec)
-        p = case.sparse_problem(int(nx), 1.0, make_scheme("redistributed").mass_kind())
+        spec, _, nx = m.rpartition(":")
+        if not spec or not nx.isdigit() or int(nx) < 1:
+            ap.error(f"--matrix {m!r}: expected SPEC:NX with NX >= 1 (e.g. sphere_drop:16)")
+        try:  # the registry's own check: a one-line error naming the bad scene
+            matrices.append((spec, int(nx), make_case(spec)))
+        except BenchError as exc:
+            ap.error(str(exc))
+    rows = []
+    for spec, nx, case in matrices:
+        p = case.sparse_problem(nx, 1.0, make_scheme("redistributed").mass_kind())
         fac = Factor.of(sp.csr_matrix(p.M + 0.25 * case.dt ** 2 * p.K))
         cd = np.asarray(p.contact.dofs, np.int64)
         for k in args.width or WIDTHS:

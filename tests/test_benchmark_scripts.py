@@ -97,6 +97,11 @@ def test_eval_cost_rebuilds_a_characteristics_reference_on_the_grid_asked(capsys
      "reference of clamped_bar is not a characteristics solution (ClampedBarExact)"),
     ("pulse_reference", ["--cells", "0"], "--cells and --points must be >= 1, got 0 and "
      "200000"),
+    ("block_width", ["--width", "0"], "--width must be >= 1, got 0"),
+    ("block_width", ["--matrix", "sphere_drop"], "--matrix 'sphere_drop': expected SPEC:NX "
+     "with NX >= 1 (e.g. sphere_drop:16)"),
+    ("block_width", ["--matrix", "no_such_scene:4"],
+     f"unknown case 'no_such_scene'; allowed: {ALL_CASES}"),
 ])
 def test_scripts_refuse_bad_arguments_in_one_line(capsys, name, argv, message):
     with pytest.raises(SystemExit) as exc:
