@@ -64,7 +64,7 @@ class SphereDrop(BodyCase):
         return 4.0 / 3.0 * math.pi * self.R**3 * self.rho * self.g * float(self.lift)
 
     quantities = frozenset({"free_fall", *converged.QUANTITIES})
-    study = StudyGrid(specs=("sphere_drop[lift=0.5]",), nx=(2, 4), T=5.0,
+    study = StudyGrid(specs=("sphere_drop[lift=0.5]",), nx=(2, 4, 8), T=5.0,
                       small="sphere_drop[lift=0.1]", small_nx=(2, 4, 8), small_T=2.0)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:

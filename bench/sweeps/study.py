@@ -27,12 +27,14 @@ scheme takes a lumped `mass`, its lumped variant):
   the scene's dt on the coarsest mesh (0.9 x the declared limit when that is smaller),
   timed: work-precision on each error column the scene fills (`Case.quantities`, or
   the 1D norms of an embedded bar), energy drift at the finest nx;
-- stability over dt, on the coarsest mesh: the refine run, and multiples of the
+- stability over dt, on the coarsest mesh the scene accepts with the scheme's mass (a
+  scene may refuse a mass that is not positive definite on its coarse meshes: those
+  refine rows are errors that say why): the refine run, and multiples of the
   declared limit for explicit schemes (SPARSE["limit_factors"]), of the scene's dt
   otherwise (SPARSE["dt_factors"], each leaving at least `MIN_STABILITY_STEPS` steps
   in the run's T);
 - stability over each parameter declaring a `Param.sweep` (penalty gamma_p, Nitsche
-  gamma0, ...), at the refine CFL on the coarsest mesh.
+  gamma0, ...), at the refine CFL on that mesh.
 
 Verification cases of production codes (scenes declaring `Case.published`: code_aster's
 SDNV100, Ansys's VM265): every scheme once at the scene's own grid, nx and dt (the
@@ -178,6 +180,20 @@ def _variants(case: Case, spec: str) -> str | None:
     return lumped.spec if not (lumped.cannot_run(case) or case.cannot_run(lumped)) else spec
 
 
+def _coarsest_accepted(case: Case, scheme: Scheme, nxs: Sequence[int]
+                       ) -> tuple[int, float, float | None] | None:
+    """The coarsest of nxs whose mesh the scene accepts with the scheme's mass (a scene
+    may refuse a mass that is not positive definite on coarse meshes), with the scene's
+    dt and the declared limit as CFL numbers on it (`scene_cfl`); None when it refuses
+    every one."""
+    for nx in nxs:
+        try:
+            return (int(nx), *scene_cfl(case, scheme, nx))
+        except Exception:  # noqa: BLE001 - a refused mesh: its error row says why
+            continue
+    return None
+
+
 def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> list[Task]:
     """The sparse part of the study for one scene (see the module docstring): its
     declared variants (`Case.study`) x every spec (a 'not applicable' row where it cannot
@@ -196,24 +212,30 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
     tasks: list[Task] = []
     for variant in variants:
         case = make_case(variant)
+        runnable: dict[str, tuple[int, float, float | None] | None] = {}
         for spec in dict.fromkeys(v for s in specs if (v := _variants(case, s)) is not None):
             scheme = make_scheme(spec)
             if scheme.cannot_run(case) or case.cannot_run(scheme):
                 tasks.append(Task(case.spec, spec, nxs[0], T=T, group="refine", timed=False))
-                continue
-            try:
-                cfl0, lim = scene_cfl(case, scheme, nxs[0])
-            except Exception:  # noqa: BLE001 - a refused mesh: error rows say why
-                cfl0, lim = None, None
+            else:
+                runnable[spec] = _coarsest_accepted(case, scheme, nxs)
+        # the scene's dt as a CFL on its coarsest mesh (c_max / hmin: the mesh's, the same
+        # for every scheme that mesh accepts)
+        scene_cfl0 = next((m[1] for m in runnable.values() if m and m[0] == nxs[0]), None)
+        for spec, measured in runnable.items():
+            scheme = make_scheme(spec)
+            nx_stab, cfl0, lim = measured or (nxs[0], None, None)
+            if measured is not None and scene_cfl0 is not None:
+                cfl0 = scene_cfl0
             cfl_r = None if cfl0 is None else float(f"{cfl0:.4g}")
             if cfl_r is not None and lim is not None:
                 cfl_r = min(cfl_r, float(f"{0.9 * lim:.4g}"))
             for nx in nxs:
-                group = "refine" + (";stability" if nx == nxs[0] else "") + (
+                group = "refine" + (";stability" if nx == nx_stab else "") + (
                     ";energy" if nx == nxs[-1] else "")
                 tasks.append(Task(case.spec, spec, nx, cfl=cfl_r, T=T, max_samples=ms,
                                   group=group))
-            if cfl_r is None:
+            if cfl_r is None:  # every mesh refused: its error rows say why
                 continue
             cfls = ([f * lim for f in g["limit_factors"]] if lim is not None
                     else [f * cfl0 for f in g["dt_factors"]])
@@ -223,9 +245,9 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
                 t_run = float(case.T if T is None else T)
                 cfls = [c for c in cfls
                         if float(case.dt) * c / cfl0 * MIN_STABILITY_STEPS <= t_run]
-            tasks += [Task(case.spec, spec, nxs[0], cfl=float(f"{c:.4g}"), T=T, max_samples=ms,
-                           group="stability", timed=False) for c in cfls]
-            tasks += [Task(case.spec, vs.spec, nxs[0], cfl=cfl_r, T=T, max_samples=ms,
+            tasks += [Task(case.spec, spec, nx_stab, cfl=float(f"{c:.4g}"), T=T,
+                           max_samples=ms, group="stability", timed=False) for c in cfls]
+            tasks += [Task(case.spec, vs.spec, nx_stab, cfl=cfl_r, T=T, max_samples=ms,
                            group="stability;param", timed=False)
                       for vs in _param_variants(spec, scheme, g["param_sweep"])]
     # runs of one mesh and dt one after the other: a scene's numerical reference (kept by
