@@ -28,6 +28,7 @@ import scipy
 import scipy.sparse as sp
 
 from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.core.ordering import forced_ordering
 from contact_bench.kernels import linalg
 from contact_bench.kernels.linalg import lu_solve, lu_solve_many
 
@@ -47,8 +48,8 @@ def best(fn, repeats: int = REPEATS) -> float:
 
 def superlu(S, b, B, nested: bool):
     """`Factor.of(S)` with nested dissection (`nested`) or minimum degree, whatever S's
-    size (`linalg.ordering`)."""
-    with linalg.ordering(nested):
+    size (`forced_ordering`)."""
+    with forced_ordering(nested):
         t_f = best(lambda: linalg.Factor.of(S), 1)
         arrays = linalg.Factor.of(S).arrays
     n = S.shape[0]

@@ -1,6 +1,6 @@
 """How far the loops' fill-reducing ordering moves a run: each scheme on one scene, once
 with `Factor.of` ordering by minimum degree and once by nested dissection (whatever the
-size: `linalg.ordering`), the trajectories compared.
+size: `contact_bench.core.ordering.forced_ordering`), the trajectories compared.
 
     python benchmarks/ordering_diff.py --scene 'sphere_drop[lift=0.1]' --nx 16 --T 2 \\
         --scheme redistributed --scheme hht --scheme standard
@@ -19,12 +19,12 @@ import time
 import numpy as np
 
 from contact_bench.api.registry import make_case, make_scheme
-from contact_bench.kernels import linalg
+from contact_bench.core.ordering import forced_ordering
 
 
 def run(spec: str, scheme: str, nx: int, T: float, nested: bool):
     """The scheme's trajectory (stride 1) and its stepping time per step."""
-    with linalg.ordering(nested):
+    with forced_ordering(nested):
         case, sch = make_case(spec), make_scheme(scheme)
         p = case.sparse_problem(nx, 1.0, sch.mass_kind())
         steps = int(round(T / case.dt))

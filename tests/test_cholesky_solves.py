@@ -103,7 +103,7 @@ def test_nested_dissection_factor_solves_and_keeps_the_spd_reading(monkeypatch, 
     if not symmetric:
         S = sp.csr_matrix(S + sp.diags([0.1 * S.diagonal().min()], [5], shape=S.shape))
     n = S.shape[0]
-    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", 0)
+    monkeypatch.setattr(ordering, "NESTED_DISSECTION_DOFS", 0)
     fac = Factor.of(S)
     q = ordering.nested_dissection(S)
     assert sorted(q) == list(range(n)) and not np.array_equal(q, np.arange(n))
@@ -123,16 +123,16 @@ def test_nested_dissection_is_used_from_its_size_on(monkeypatch):
     differently on a 2D mesh), and the two solve alike to round-off."""
     S = _plane_elasticity()
     b = np.random.default_rng(6).standard_normal(S.shape[0])
-    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", S.shape[0] + 1)
+    monkeypatch.setattr(ordering, "NESTED_DISSECTION_DOFS", S.shape[0] + 1)
     mmd = Factor.of(S)
-    monkeypatch.setattr(linalg, "NESTED_DISSECTION_DOFS", S.shape[0])
+    monkeypatch.setattr(ordering, "NESTED_DISSECTION_DOFS", S.shape[0])
     nd = Factor.of(S)
     assert mmd.arrays[2].size != nd.arrays[2].size
-    with linalg.ordering(nested=True):  # whatever the size, restored after the block
+    with ordering.forced_ordering(nested=True):  # whatever the size, restored after the block
         assert Factor.of(S).arrays[2].size == nd.arrays[2].size
-    with linalg.ordering(nested=False):
+    with ordering.forced_ordering(nested=False):
         assert Factor.of(S).arrays[2].size == mmd.arrays[2].size
-    assert linalg.NESTED_DISSECTION_DOFS == S.shape[0]
+    assert ordering.NESTED_DISSECTION_DOFS == S.shape[0]
     x, y = mmd.solve(b), nd.solve(b)
     assert not np.array_equal(x, y)
     assert np.abs(x - y).max() < 1e-12 * np.abs(x).max()

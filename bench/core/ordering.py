@@ -12,6 +12,9 @@ the project.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import SuperLU, splu
@@ -39,16 +42,28 @@ def nested_dissection(S: sp.spmatrix) -> np.ndarray | None:
     return np.asarray(perm, dtype=np.int64)
 
 
-def symmetric_lu(A: sp.spmatrix, nested_from: int | None = None
-                 ) -> tuple[SuperLU, np.ndarray | None]:
+@contextmanager
+def forced_ordering(nested: bool) -> Iterator[None]:
+    """Within the block, every symmetric factorisation (`symmetric_lu`: the kernels'
+    factors, `is_spd`) is ordered by nested dissection (`nested`) or by minimum degree,
+    whatever its size: for measuring one ordering against the other
+    (benchmarks/cholesky_compare.py, benchmarks/ordering_diff.py)."""
+    global NESTED_DISSECTION_DOFS
+    keep = NESTED_DISSECTION_DOFS
+    NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
+    try:
+        yield
+    finally:
+        NESTED_DISSECTION_DOFS = keep
+
+
+def symmetric_lu(A: sp.spmatrix) -> tuple[SuperLU, np.ndarray | None]:
     """SuperLU's symmetric-mode factor of A (diagonal pivots: a symmetric elimination)
     and its ordering q: A[q][:, q] factored in its natural order, q METIS's nested
-    dissection, from `nested_from` rows on (default `NESTED_DISSECTION_DOFS`); below,
-    A itself with SuperLU's minimum degree on A^T + A, and q None. RuntimeError when A
-    is exactly singular."""
+    dissection, from `NESTED_DISSECTION_DOFS` rows on; below, A itself with SuperLU's
+    minimum degree on A^T + A, and q None. RuntimeError when A is exactly singular."""
     C = sp.csc_matrix(A)
-    limit = NESTED_DISSECTION_DOFS if nested_from is None else nested_from
-    q = nested_dissection(C) if C.shape[0] >= limit else None
+    q = nested_dissection(C) if C.shape[0] >= NESTED_DISSECTION_DOFS else None
     lu = splu(C if q is None else C[q][:, q], diag_pivot_thresh=0.0,
               permc_spec="MMD_AT_PLUS_A" if q is None else "NATURAL",
               options={"SymmetricMode": True})

@@ -5,7 +5,7 @@
 * inside a compiled loop, one right-hand side per call: `lu_solve` over `Factor.arrays`,
   SuperLU's L and U (symmetric mode, diagonal pivots) kept as CSR arrays, so that a numba
   kernel needs no Python. The fill-reducing ordering is METIS's nested dissection of S's
-  graph (`contact_bench.core.ordering`) from `NESTED_DISSECTION_DOFS` dofs on, SuperLU's
+  graph from `contact_bench.core.ordering.NESTED_DISSECTION_DOFS` dofs on, SuperLU's
   minimum degree on A^T + A below: the solves are bound by memory traffic, so the factor's size is
   their time, and nested dissection's factor of a 2D or 3D mesh's matrix is the smaller
   one at the sizes where a solve costs anything;
@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,7 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-from contact_bench.core.ordering import NESTED_DISSECTION_DOFS, symmetric_lu
+from contact_bench.core.ordering import symmetric_lu
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
     import cholespy
@@ -118,20 +117,6 @@ def is_symmetric(S: sp.spmatrix) -> bool:
     return float(abs(S - S.T).max()) <= SYMMETRY_TOL * scale if scale else True
 
 
-@contextmanager
-def ordering(nested: bool) -> Iterator[None]:
-    """Within the block, `Factor.of` orders every matrix by nested dissection (`nested`)
-    or by minimum degree, whatever its size: for measuring one ordering against the other
-    (benchmarks/cholesky_compare.py, benchmarks/ordering_diff.py)."""
-    global NESTED_DISSECTION_DOFS
-    keep = NESTED_DISSECTION_DOFS
-    NESTED_DISSECTION_DOFS = 0 if nested else np.iinfo(np.int64).max
-    try:
-        yield
-    finally:
-        NESTED_DISSECTION_DOFS = keep
-
-
 def cholmod_factor(S: sp.spmatrix) -> Any | None:
     """CHOLMOD's Cholesky factor of S (a `cholespy.CholeskySolverD`), or None when S is
     not symmetric, not positive definite, or cholespy is not installed."""
@@ -164,13 +149,14 @@ class Factor:
 
     @classmethod
     def of(cls, S: sp.spmatrix) -> Factor:
-        """S (square, nonsingular) factored by SuperLU, ordered by nested dissection from
-        `NESTED_DISSECTION_DOFS` dofs on (S[q][:, q] factored in its natural order, q
-        folded into the permutations) and by minimum degree below; `solve_many` will use
+        """S (square, nonsingular) factored by SuperLU (`symmetric_lu`), ordered by nested
+        dissection from `contact_bench.core.ordering.NESTED_DISSECTION_DOFS` dofs on
+        (S[q][:, q] factored in its natural order, q folded into the permutations) and by
+        minimum degree below; `solve_many` will use
         CHOLMOD if asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from
         SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive)."""
         C = sp.csc_matrix(S)
-        lu, q = symmetric_lu(C, NESTED_DISSECTION_DOFS)
+        lu, q = symmetric_lu(C)
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
         if q is not None:  # row q[i] of S is row i of S[q][:, q]: b[q[i]] goes where b'[i] goes
             qinv = np.empty_like(q)

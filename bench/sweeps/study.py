@@ -212,18 +212,17 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
     tasks: list[Task] = []
     for variant in variants:
         case = make_case(variant)
-        runnable: dict[str, tuple[int, float, float | None] | None] = {}
+        runnable: dict[str, tuple[Scheme, tuple[int, float, float | None] | None]] = {}
         for spec in dict.fromkeys(v for s in specs if (v := _variants(case, s)) is not None):
             scheme = make_scheme(spec)
             if scheme.cannot_run(case) or case.cannot_run(scheme):
                 tasks.append(Task(case.spec, spec, nxs[0], T=T, group="refine", timed=False))
             else:
-                runnable[spec] = _coarsest_accepted(case, scheme, nxs)
+                runnable[spec] = scheme, _coarsest_accepted(case, scheme, nxs)
         # the scene's dt as a CFL on its coarsest mesh (c_max / hmin: the mesh's, the same
         # for every scheme that mesh accepts)
-        scene_cfl0 = next((m[1] for m in runnable.values() if m and m[0] == nxs[0]), None)
-        for spec, measured in runnable.items():
-            scheme = make_scheme(spec)
+        scene_cfl0 = next((m[1] for _, m in runnable.values() if m and m[0] == nxs[0]), None)
+        for spec, (scheme, measured) in runnable.items():
             nx_stab, cfl0, lim = measured or (nxs[0], None, None)
             if measured is not None and scene_cfl0 is not None:
                 cfl0 = scene_cfl0
