@@ -51,7 +51,7 @@ def test_explicit_paths_run_past_the_dense_limit(scheme, monkeypatch):
     ref = dense.run(1400, 10)
     monkeypatch.setattr(sparse_explicit, "KEEP_Z_ENTRIES", 0)  # every Z over the limit
     _, free = _stepper(scheme, nx=3)
-    big = [a.shape for a in free.operators
+    big = [a.shape for a in free.ops
            if isinstance(a, np.ndarray) and a.ndim == 2 and a.size >= p.nfree * nc // 2]
     assert big == []  # no n x n_c (nor n_m x n_c) array kept
     tr = free.run(1400, 10)

@@ -15,7 +15,11 @@ smallest gap (the bar: u(0, t)) over every step, `min_contact_u`; the energy
 its own; the run stops at the first sample whose energy is not finite or exceeds
 `BLOWUP_FACTOR` |E(0)|. Given the contact forces of each step (one per contact point, >= 0),
 it keeps the contact statistics of the compiled kernels (status switches, first
-contact's start and end, peak total force: `Trajectory.extra`).
+contact's start and end, peak total force, the impulse, at every sample too:
+`Trajectory.extra`), with the same functions as the compiled loop
+(`contact_bench.core.loop`: `book_step`, `book_sample`), so a scheme written in numpy
+gets every statistic a compiled one gets. `gamma` is the weight of a step's end force in
+its impulse (1: the step's force acts over the whole step, as a kick-drift step's kick).
 
 A compiled (numba) kernel of the bar takes `rec.buffers` and writes its samples with
 `contact_bench.core.sampling.record_sample`, then `rec.from_kernel(...)` wraps them.
@@ -26,10 +30,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from contact_bench.api.plugin import Semidiscrete, Trajectory
-from contact_bench.core.contact_stats import contact_extra, new_stats, stats_update
-from contact_bench.core.sampling import blown_up, energy_of, is_sample, n_samples
+from contact_bench.core.contact_stats import contact_extra, new_stats
+from contact_bench.core.loop import START_DATA, Record, book_sample, book_step, smallest_gap
+from contact_bench.core.sampling import energy_of, is_sample, n_samples
 
 
 def discrete_energy(semi: Semidiscrete, U: np.ndarray, V: np.ndarray) -> float:
@@ -52,41 +58,45 @@ class TrajectoryRecorder:
     """
 
     def __init__(self, problem: Any, dt: float, nsteps: int, stride: int,
-                 energy0: float | None = None) -> None:
+                 energy0: float | None = None, gamma: float = 1.0) -> None:
         from contact_bench.api.problem import as_problem  # the problem layer imports this one
 
-        self.problem = as_problem(problem)
+        self.problem = p = as_problem(problem)
         self.dt, self.nsteps, self.stride = float(dt), int(nsteps), int(stride)
-        k, n = n_samples(self.nsteps, self.stride), self.problem.nfree
+        k, n = n_samples(self.nsteps, self.stride), p.nfree
         self.t, self.U, self.V = np.zeros(k), np.zeros((k, n)), np.zeros((k, n))
         self.contact_u, self.stress, self.energy = np.zeros(k), np.zeros(k), np.zeros(k)
         self.samples = 0
         self.steps_done = 0
         self.blowup_step = -1
-        p = self.problem
         self.energy0 = p.energy(p.U0, p.V0) if energy0 is None else float(energy0)
-        self.min_contact_u = self._gap(p.U0)
-        self._status = np.zeros(p.contact.size, np.bool_)
-        self.stats = new_stats()  # the compiled kernels' contact statistics
+        self.stats = new_stats(samples=k)  # the compiled loop's contact statistics
+        G = sp.csr_matrix(p.contact.gap_operator(n))
+        self._rec = Record(self.t, self.U, self.V, self.contact_u, self.stress, self.energy,
+                           self.stats, np.zeros(p.contact.size, np.bool_),
+                           (G.indptr.astype(np.int64), G.indices.astype(np.int64),
+                            G.data.astype(float)), np.asarray(p.contact.gap0, float),
+                           self.dt, float(gamma), START_DATA)
+        self.min_contact_u = self._gap(p.U0, np.inf)
         self._forces_given = False
-        self._write(0, p.U0, p.V0, 0.0, self.energy0)
+        self.energy[0] = self.energy0
+        book_sample(self._rec, 0, 0.0, self._state(p.U0), self._state(p.V0), 0.0,
+                    self.energy0)
+        self.samples = 1
 
-    def _gap(self, U: np.ndarray) -> float:
-        gaps = self.problem.gaps(U)
-        return float(np.min(gaps)) if gaps.size else np.inf
+    @staticmethod
+    def _state(X: np.ndarray) -> np.ndarray:
+        return np.ascontiguousarray(X, float)
+
+    def _gap(self, U: np.ndarray, start: float) -> float:
+        r = self._rec
+        return float(smallest_gap(r.G, r.gap0, self._state(U), start))
 
     @property
     def buffers(self) -> tuple[np.ndarray, ...]:
         """(t, U, V, contact_u, stress, energy): the arguments `t_out ... E_out` of
         `record_sample` in a compiled kernel (sample 0 already written)."""
         return self.t, self.U, self.V, self.contact_u, self.stress, self.energy
-
-    def _write(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
-               energy: float) -> None:
-        k = self.samples
-        self.t[k], self.U[k], self.V[k] = step * self.dt, U, V
-        self.contact_u[k], self.stress[k], self.energy[k] = self._gap(U), stress, energy
-        self.samples += 1
 
     def record(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
                forces: np.ndarray | None = None, energy: float | None = None) -> bool:
@@ -95,16 +105,17 @@ class TrajectoryRecorder:
         and the scheme's own energy (default: `problem.energy`, computed at samples
         only). Returns True when the run has blown up: stop stepping then."""
         self.steps_done = step
-        self.min_contact_u = min(self.min_contact_u, self._gap(U))
-        if forces is not None:  # the kernels' update of the contact statistics
+        self.min_contact_u = self._gap(U, self.min_contact_u)
+        if forces is not None:  # the compiled loop's statistics, impulse included
             self._forces_given = True
-            stats_update(self.stats, self._status, np.ascontiguousarray(forces, float), step,
-                         self.dt)
+            book_step(self._rec, self._state(forces), step)
         if not is_sample(step, self.nsteps, self.stride):
             return False
         e = self.problem.energy(U, V) if energy is None else float(energy)
-        self._write(step, U, V, stress, e)
-        if blown_up(e, self.energy0):
+        blown = book_sample(self._rec, self.samples, step * self.dt, self._state(U),
+                            self._state(V), float(stress), e)
+        self.samples += 1
+        if blown:
             self.blowup_step = step
             return True
         return False
@@ -112,7 +123,7 @@ class TrajectoryRecorder:
     def trajectory(self, **extra: Any) -> Trajectory:
         """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics;
         the contact statistics when `record` was given the forces)."""
-        stats = contact_extra(self.stats) if self._forces_given else {}
+        stats = contact_extra(self.stats, self.samples) if self._forces_given else {}
         return self.from_kernel(self.samples, self.steps_done, self.min_contact_u,
                                 self.blowup_step, **stats, **extra)
 

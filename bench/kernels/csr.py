@@ -1,14 +1,25 @@
 """Compressed sparse row (CSR) matrices as plain arrays, for the compiled sparse kernels.
 
-A numba kernel takes a scipy matrix as its three CSR arrays (`csr_arrays`: row pointers,
-column indices, values) and multiplies with `csr_matvec`.
+A numba kernel takes a scipy matrix as its three CSR arrays (`csr_arrays`: a `CSR`
+named tuple of row pointers, column indices, values) and multiplies with `matvec` (or
+`csr_matvec` on the three arrays).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
+
+
+class CSR(NamedTuple):
+    """A sparse matrix's CSR arrays: row pointers and column indices (int64), values."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
 
 
 @njit(cache=True)
@@ -21,7 +32,13 @@ def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
         out[i] = s
 
 
-def csr_arrays(A: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A's CSR arrays (indptr and indices as int64, values as float) for `csr_matvec`."""
+@njit(cache=True)
+def matvec(A, x, out):  # pragma: no cover - compiled
+    """out = A x for A a `CSR`."""
+    csr_matvec(A.indptr, A.indices, A.data, x, out)
+
+
+def csr_arrays(A: sp.spmatrix) -> CSR:
+    """A's CSR arrays (indptr and indices as int64, values as float) for `matvec`."""
     A = sp.csr_matrix(A)
-    return A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data.astype(float)
+    return CSR(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data.astype(float))

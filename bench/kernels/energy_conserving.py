@@ -37,23 +37,25 @@ the step's force: lambda + s lambda / dt).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, stats_update
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.core.loop import OK, drive
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
+from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import (
     Factor,
     contact_operators,
     correct,
     delassus,
     lcp_solve,
-    lu_solve,
 )
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.kernels.stepper import LoopStepper
 
 #: Laursen-Chawla: the persistency condition on the dofs closed at t_n
 PERSISTENCY = 0
@@ -62,114 +64,145 @@ SIGNORINI_VELOCITY_UPDATE = 1
 MODES = (PERSISTENCY, SIGNORINI_VELOCITY_UPDATE)
 
 
+class MidpointOps(NamedTuple):
+    """The midpoint step's operators: M, K, F, S's factor, the contact dofs and gaps, the
+    Delassus matrix W and response Z (kept or not), M's factor and M^-1 C^T (kept or
+    not: Laursen-Love's update), dt, the contact condition `mode`, the energy's offset,
+    the LCP's tolerance."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    fac: LU
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    keep_z: bool
+    mfac: LU
+    Y: np.ndarray
+    keep_y: bool
+    dt: float
+    mode: int
+    offset: float
+    tol: float
+
+
+class MidpointState(NamedTuple):
+    """(U, V), the obstacle's force lambda and the step's force with Laursen-Love's update
+    (`force`), the LCP's unknowns and active set, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    force: np.ndarray
+    lam: np.ndarray
+    mu: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    qg: np.ndarray
+    rhs: np.ndarray
+    X: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    y: np.ndarray
+
+
 @njit(cache=True)
-def _midpoint_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
-                     mfac, Y, keep_y, U, V, dt, mode, nsteps, stride, offset,
-                     t_out, U_out, V_out, cu_out, s_out, E_out, stats,
-                     tol):  # pragma: no cover - compiled
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+def midpoint_step(o, s, step):  # pragma: no cover - compiled
+    """The midpoint step with the contact condition `o.mode` (module docstring)."""
+    U, V, X, rhs, w, work, qg = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg
+    mu, lam, push, active, y = s.mu, s.lam, s.force, s.active, s.y
+    cd, gap0, dt, mode, tol = o.cd, o.gap0, o.dt, o.mode, o.tol
     n = U.size
     nc = cd.size
     q = 0.25 * dt * dt
     to_force = 2.0 / (dt * dt)
-    rhs = np.empty(n)
-    X = np.empty(n)
-    w = np.empty(n)
-    work = np.empty(n)
-    y = np.empty(n)
-    mu = np.zeros(nc)
-    lam = np.zeros(nc)
-    push = np.zeros(nc)  # the step's force for the statistics (LL: with the update)
-    qg = np.empty(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    was = False
-    k = 1
-    for step in range(1, nsteps + 1):
-        for i in range(n):
-            w[i] = U[i] + dt * V[i]
-        csr_matvec(Mp, Mi, Mx, w, rhs)
-        csr_matvec(Kp, Ki, Kx, U, w)
-        for i in range(n):
-            rhs[i] += q * (2.0 * F[i] - w[i])
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
-        pen = False
+    for i in range(n):
+        w[i] = U[i] + dt * V[i]
+    matvec(o.M, w, rhs)
+    matvec(o.K, U, w)
+    for i in range(n):
+        rhs[i] += q * (2.0 * o.F[i] - w[i])
+    lu(o.fac, rhs, X, work)
+    pen = False
+    for j in range(nc):
+        d = cd[j]
+        if mode == PERSISTENCY:  # the increment on the dofs closed at t_n, else free
+            qg[j] = X[d] - U[d] if gap0[j] + U[d] <= tol else np.inf
+        else:  # the gap at t_{n+1}
+            qg[j] = gap0[j] + X[d]
+        pen = pen or qg[j] < 0.0
+    if pen:
         for j in range(nc):
-            d = cd[j]
-            if mode == PERSISTENCY:  # the increment on the dofs closed at t_n, else free
-                qg[j] = X[d] - U[d] if gap0[j] + U[d] <= tol else np.inf
-            else:  # the gap at t_{n+1}
-                qg[j] = gap0[j] + X[d]
-            pen = pen or qg[j] < 0.0
-        if pen:
-            for j in range(nc):
-                active[j] = active[j] and qg[j] < np.inf  # a free dof is never active
-            lcp_solve(W, qg, mu, active, tol, was)
-            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
-            for j in range(nc):
-                if active[j]:  # exactly: no increment (persistency), or gap 0 (Signorini)
-                    X[cd[j]] = U[cd[j]] if mode == PERSISTENCY else -gap0[j]
+            active[j] = active[j] and qg[j] < np.inf  # a free dof is never active
+        lcp_solve(o.W, qg, mu, active, tol, s.was[0])
+        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, work)
+        for j in range(nc):
+            if active[j]:  # exactly: no increment (persistency), or gap 0 (Signorini)
+                X[cd[j]] = U[cd[j]] if mode == PERSISTENCY else -gap0[j]
+    else:
+        mu[:] = 0.0
+    s.was[0] = pen
+    loss = 0.0  # lambda . (g0 - g1): the energy the contact took this step
+    for j in range(nc):
+        lam[j] = to_force * mu[j]
+        if gap0[j] + U[cd[j]] > tol:  # arrived from an open gap (beyond round-off)
+            loss += lam[j] * (U[cd[j]] - X[cd[j]])
+    for i in range(n):
+        V[i] = (X[i] - U[i]) * (2.0 / dt) - V[i]
+        U[i] = X[i]
+    for j in range(nc):
+        push[j] = lam[j]
+    if mode == SIGNORINI_VELOCITY_UPDATE and loss > 0.0:
+        # y = M^-1 C^T lambda; a = 1/2 lambda.D_M.lambda; b = lambda.(C V1)
+        if o.keep_y:
+            for i in range(n):
+                acc = 0.0
+                for j in range(nc):
+                    acc += o.Y[i, j] * lam[j]
+                y[i] = acc
         else:
-            mu[:] = 0.0
-        was = pen
-        loss = 0.0  # lambda . (g0 - g1): the energy the contact took this step
-        for j in range(nc):
-            lam[j] = to_force * mu[j]
-            if gap0[j] + U[cd[j]] > tol:  # arrived from an open gap (beyond round-off)
-                loss += lam[j] * (U[cd[j]] - X[cd[j]])
-        for i in range(n):
-            V[i] = (X[i] - U[i]) * (2.0 / dt) - V[i]
-            U[i] = X[i]
-        for j in range(nc):
-            push[j] = lam[j]
-        if mode == SIGNORINI_VELOCITY_UPDATE and loss > 0.0:
-            # y = M^-1 C^T lambda; a = 1/2 lambda.D_M.lambda; b = lambda.(C V1)
-            if keep_y:
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(nc):
-                        acc += Y[i, j] * lam[j]
-                    y[i] = acc
-            else:
-                rhs[:] = 0.0
-                for j in range(nc):
-                    rhs[cd[j]] = lam[j]
-                lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
-                         mfac[7], rhs, y, work)
-            a = 0.0
-            b = 0.0
+            rhs[:] = 0.0
             for j in range(nc):
-                a += 0.5 * lam[j] * y[cd[j]]
-                b += lam[j] * V[cd[j]]
-            if a > 0.0:
-                # the root s >= 0: the obstacle's impulse pushes (lambda >= 0)
-                root = np.sqrt(b * b + 4.0 * a * loss)
-                s = 2.0 * loss / (b + root) if b > 0.0 else (root - b) / (2.0 * a)
-                for i in range(n):
-                    V[i] += s * y[i]
-                for j in range(nc):
-                    push[j] += s * lam[j] / dt
-        stats_update(stats, status, push, step, dt)
-        impulse_update(stats, push, dt, 1.0)
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
-                                 t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+                rhs[cd[j]] = lam[j]
+            lu(o.mfac, rhs, y, work)
+        a = 0.0
+        b = 0.0
+        for j in range(nc):
+            a += 0.5 * lam[j] * y[cd[j]]
+            b += lam[j] * V[cd[j]]
+        if a > 0.0:
+            # the root s >= 0: the obstacle's impulse pushes (lambda >= 0)
+            root = np.sqrt(b * b + 4.0 * a * loss)
+            sv = 2.0 * loss / (b + root) if b > 0.0 else (root - b) / (2.0 * a)
+            for i in range(n):
+                V[i] += sv * y[i]
+            for j in range(nc):
+                push[j] += sv * lam[j] / dt
+    return OK
 
 
-class MidpointContactStepper(KernelStepper):
+@njit(cache=True)
+def midpoint_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the obstacle's stress (lambda) and V."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return e, -s.lam.sum() / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def midpoint_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `midpoint_step`."""
+    return drive(midpoint_step, midpoint_sample, ops, st, rec, nsteps, stride)
+
+
+class MidpointContactStepper(LoopStepper):
     """The midpoint step with the contact condition `mode` (module docstring) prepared:
     S = M + dt^2 / 4 K factored with its Delassus matrix and, for the velocity update,
     M factored (M^-1 C^T kept when Z is). ValueError for a mass with massless dofs (the midpoint
     velocity and the update's M^-1 need inertia on every dof)."""
+
+    loop = staticmethod(midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, mode: int) -> None:
         if mode not in MODES:
@@ -190,15 +223,21 @@ class MidpointContactStepper(KernelStepper):
             marrays = mfac.arrays
             if keep_y:
                 Y = delassus(mfac, cd, n)[0]
-        self.kernel = _midpoint_kernel
-        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
-                          keep_z, marrays, np.ascontiguousarray(Y), keep_y)
-        self.params = (dt, int(mode))
-        self.tail = (1e-13 * max(float(np.max(np.abs(p.U0))),
-                                 float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300),)
+        self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
+        tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        self.ops = MidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
+                               fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                               np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
+                               keep_z, marrays, np.ascontiguousarray(Y), keep_y, dt, int(mode),
+                               float(p.energy_offset), tol)
+
+    def new_state(self) -> MidpointState:
+        n, nc = self.problem.nfree, self.ops.cd.size
+        U, V = (a.copy() for a in self.initial)
+        return MidpointState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc),
+                             np.zeros(nc, np.bool_), np.zeros(1, np.bool_), np.empty(nc),
+                             np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n))
 
 
 def prepare_midpoint_contact(p: SparseProblem, dt: float, mode: int) -> MidpointContactStepper:

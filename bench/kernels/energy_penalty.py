@@ -34,16 +34,19 @@ contact times, peak, impulse) is the step's f_i.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, stats_update
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
-from contact_bench.kernels.sparse import Factor, correct, delassus_only, lu_solve
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.core.loop import BLOWN, OK, drive
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
+from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.sparse import Factor, correct, delassus_only
+from contact_bench.kernels.stepper import LoopStepper
 
 #: Newton iterations of `discrete_gradient_solve` before it gives up
 NEWTON_MAX = 100
@@ -64,9 +67,10 @@ def secant_force(g, gn, k):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _residual(g, gf, gn, k, W, a, phi, dphi, r):  # pragma: no cover - compiled
-    """r = g - gf + a W phi(g) (phi <= 0 the discrete gradient, a = dt^2/2); returns
-    max |r|."""
+def _residual(g, gf, gn, k, W, a, out):  # pragma: no cover - compiled
+    """r = g - gf + a W phi(g) (phi <= 0 the discrete gradient, a = dt^2/2) with out =
+    (phi, dphi, r) written; returns max |r|."""
+    phi, dphi, r = out
     nc = g.size
     for i in range(nc):
         phi[i], dphi[i] = secant_force(g[i], gn[i], k[i])
@@ -95,7 +99,7 @@ def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - comp
         g[i] = gf[i]
         scale = max(scale, abs(gf[i]), abs(gn[i]))
     tol = 4e-16 * max(scale, 1e-300)
-    res = _residual(g, gf, gn, k, W, a, phi, dphi, r)
+    res = _residual(g, gf, gn, k, W, a, (phi, dphi, r))
     J = np.empty((nc, nc))
     for it in range(NEWTON_MAX):
         if res <= tol:
@@ -114,12 +118,12 @@ def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - comp
         while True:  # backtrack until max |R| decreases (Newton's direction descends)
             for i in range(nc):
                 gt[i] = g[i] + t * delta[i]
-            rest = _residual(gt, gf, gn, k, W, a, phi, dphi, rt)
+            rest = _residual(gt, gf, gn, k, W, a, (phi, dphi, rt))
             if rest < res or t < 1e-6:
                 break
             t *= 0.5
         if not rest < res:  # no progress: round-off reached
-            _residual(g, gf, gn, k, W, a, phi, dphi, r)
+            _residual(g, gf, gn, k, W, a, (phi, dphi, r))
             return it if step <= 1e3 * tol else -1
         g[:] = gt
         r[:] = rt
@@ -129,79 +133,103 @@ def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - comp
     return -1
 
 
+class PenaltyMidpointOps(NamedTuple):
+    """The energy-conserving penalty step's operators: M, K, F, S's factor, the contact
+    dofs, gaps and springs kappa, W = C S^-1 C^T, dt, the energy's offset."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    fac: LU
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    kappa: np.ndarray
+    W: np.ndarray
+    dt: float
+    offset: float
+
+
+class PenaltyMidpointState(NamedTuple):
+    """(U, V), the springs' forces, the gaps (free, at t_n, at t_{n+1}), the discrete
+    gradient phi, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    gf: np.ndarray
+    gn: np.ndarray
+    g: np.ndarray
+    phi: np.ndarray
+    rhs: np.ndarray
+    X: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    mv: np.ndarray
+    ku: np.ndarray
+
+
 @njit(cache=True)
-def _midpoint_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, kappa, W, U, V, dt,
-                     nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
-                     stats):  # pragma: no cover - compiled
-    """Advance (U, V) in place (module docstring); returns (samples, steps, min gap,
-    blow-up step or -1)."""
+def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
+    """Advance (U, V) in place (module docstring); a step whose Newton iteration does not
+    converge stops the run as blown up."""
+    U, V, X, rhs, mv, ku = s.U, s.V, s.X, s.rhs, s.mv, s.ku
+    gf, gn, lam, mu, cd, gap0, dt = s.gf, s.gn, s.force, s.mu, o.cd, o.gap0, o.dt
     n = U.size
     nc = cd.size
     a = 0.5 * dt * dt
     q = 0.25 * dt * dt
-    rhs = np.empty(n)
-    X = np.empty(n)
-    w = np.empty(n)
-    work = np.empty(n)
-    mv = np.empty(n)
-    ku = np.empty(n)
-    gf = np.empty(nc)
-    gn = np.empty(nc)
-    g = np.empty(nc)
-    phi = np.zeros(nc)
-    mu = np.empty(nc)
-    lam = np.zeros(nc)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    k = 1
-    for step in range(1, nsteps + 1):
-        for i in range(n):
-            mv[i] = U[i] + dt * V[i]
-        csr_matvec(Mp, Mi, Mx, mv, rhs)
-        csr_matvec(Kp, Ki, Kx, U, ku)
-        for i in range(n):
-            rhs[i] += a * F[i] - q * ku[i]
-        lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, X, work)
-        pen = False
+    for i in range(n):
+        mv[i] = U[i] + dt * V[i]
+    matvec(o.M, mv, rhs)
+    matvec(o.K, U, ku)
+    for i in range(n):
+        rhs[i] += a * o.F[i] - q * ku[i]
+    lu(o.fac, rhs, X, s.work)
+    pen = False
+    for j in range(nc):
+        gn[j] = gap0[j] + U[cd[j]]
+        gf[j] = gap0[j] + X[cd[j]]
+        pen = pen or gn[j] < 0.0 or gf[j] < 0.0
+    if pen:
+        if discrete_gradient_solve(gf, gn, o.kappa, o.W, a, s.g, s.phi) < 0:
+            return BLOWN  # no converged step
         for j in range(nc):
-            gn[j] = gap0[j] + U[cd[j]]
-            gf[j] = gap0[j] + X[cd[j]]
-            pen = pen or gn[j] < 0.0 or gf[j] < 0.0
-        if pen:
-            if discrete_gradient_solve(gf, gn, kappa, W, a, g, phi) < 0:
-                return k, step, min_gap, step  # no converged step: stop as blown up
-            for j in range(nc):
-                mu[j] = -a * phi[j]
-                lam[j] = -phi[j]
-            correct(fac, cd, W, False, mu, X, rhs, w, work)
-        else:
-            lam[:] = 0.0
-        for i in range(n):
-            V[i] = 2.0 * (X[i] - U[i]) / dt - V[i]
-            U[i] = X[i]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, 1.0)  # the step's force acts over the whole step
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            st = 0.0
-            for j in range(nc):
-                y = min(0.0, gap0[j] + U[cd[j]])
-                e += 0.5 * kappa[j] * y * y
-                st += kappa[j] * y
-            blown = write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
-                                 t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            mu[j] = -a * s.phi[j]
+            lam[j] = -s.phi[j]
+        correct(o.fac, cd, o.W, False, mu, X, rhs, s.w, s.work)
+    else:
+        lam[:] = 0.0
+    for i in range(n):
+        V[i] = 2.0 * (X[i] - U[i]) / dt - V[i]
+        U[i] = X[i]
+    return OK
 
 
-class MidpointPenaltyStepper(KernelStepper):
+@njit(cache=True)
+def penalty_midpoint_sample(o, s):  # pragma: no cover - compiled
+    """The energy with the springs' at t_{n+1}, their stress and V."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    st = 0.0
+    for j in range(o.cd.size):
+        y = min(0.0, o.gap0[j] + s.U[o.cd[j]])
+        e += 0.5 * o.kappa[j] * y * y
+        st += o.kappa[j] * y
+    return e, st / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def penalty_midpoint_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `penalty_midpoint_step`."""
+    return drive(penalty_midpoint_step, penalty_midpoint_sample, ops, st, rec, nsteps, stride)
+
+
+class MidpointPenaltyStepper(LoopStepper):
     """`prepare_midpoint_penalty` prepared: S = M + dt^2/4 K factored, W = C S^-1 C^T
     (n_c solves, only its n_c x n_c values kept), sample 0's energy and stress."""
+
+    loop = staticmethod(penalty_midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, kappa: np.ndarray) -> None:
         super().__init__(p, dt)
@@ -221,12 +249,20 @@ class MidpointPenaltyStepper(KernelStepper):
         self.sample0 = {"energy": float(p.energy(U, V) + 0.5 * np.sum(kappa * y * y)),
                         "stress": float(np.sum(kappa * y) / np.sum(weights))}
         self.force0 = float(np.sum(kappa * np.maximum(0.0, -(gap0 + U[cd]))))
-        self.kernel = _midpoint_kernel
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          fac.arrays, cd, gap0, weights, kappa, W)
-        self.state = (U, V)
-        self.params = (dt,)
+        self.gamma = 1.0  # the step's force acts over the whole step
+        self.ops = PenaltyMidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
+                                      fac.arrays, cd, gap0, weights, kappa, W, dt,
+                                      float(p.energy_offset))
+        self.initial = (U, V)
         self.springs = (cd, gap0, kappa)
+
+    def new_state(self) -> PenaltyMidpointState:
+        n, nc = self.problem.nfree, self.ops.cd.size
+        U, V = (a.copy() for a in self.initial)
+        return PenaltyMidpointState(U, V, np.zeros(nc), np.empty(nc), np.empty(nc),
+                                    np.empty(nc), np.empty(nc), np.zeros(nc), np.empty(n),
+                                    np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                                    np.empty(n))
 
     def law_energy(self, U: np.ndarray) -> float:
         """The springs' energy sum_i kappa_i/2 min(0, g_i)^2 in state U."""

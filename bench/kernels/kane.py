@@ -35,119 +35,151 @@ node, S^-1 e0 and M^-1 e0, make both projections one scaled vector each.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.plugin import Semidiscrete, Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, stats_update
+from contact_bench.core.loop import OK, drive
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
+from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import (
     Factor,
     contact_operators,
     correct,
     lcp_solve,
-    lu_solve,
 )
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.kernels.stepper import LoopStepper
 
 #: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
 PREDICTORS = {"none": 0, "projected": 1, "projected_klapproth": 2}
 
 
+class KaneOps(NamedTuple):
+    """Kane's step's operators: M, K, F, S's factor with its Delassus matrix W and
+    response Z (kept or not), M's factor with C M^-1 C^T and M^-1 C^T (the projected
+    predictors'), the contact dofs and gaps, dt, the predictor's code, the energy's
+    offset and the LCP's tolerance."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    fac: LU
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    keep_z: bool
+    mfac: LU
+    WM: np.ndarray
+    ZM: np.ndarray
+    keep_zm: bool
+    dt: float
+    predictor: int
+    offset: float
+    tol: float
+
+
+class KaneState(NamedTuple):
+    """(U, V), the step's force, the two LCPs' unknowns and active sets, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    mup: np.ndarray
+    active: np.ndarray
+    activep: np.ndarray
+    was: np.ndarray  # (2,): the previous step's LCPs ran (the step's, the predictor's)
+    Ut: np.ndarray
+    X: np.ndarray
+    rhs: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    gf: np.ndarray
+
+
 @njit(cache=True)
-def _kane_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
-                 mfac, WM, ZM, keep_zm, U, V, dt, predictor, nsteps, stride, offset,
-                 t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol):  # pragma: no cover
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+def kane_step(o, s, step):  # pragma: no cover - compiled
+    """Kane's step, with the predictor `o.predictor` (module docstring)."""
+    U, V, Ut, X, rhs, w, work, gf = s.U, s.V, s.Ut, s.X, s.rhs, s.w, s.work, s.gf
+    mu, mup, lam, cd, gap0, dt, predictor = s.mu, s.mup, s.force, o.cd, o.gap0, o.dt, o.predictor
     n = U.size
     nc = cd.size
     c = 0.25 * dt * dt
     idt2 = 1.0 / (dt * dt)
-    Ut = np.empty(n)
-    X = np.empty(n)
-    rhs = np.empty(n)
-    w = np.empty(n)
-    work = np.empty(n)
-    gf = np.empty(nc)
-    mu = np.zeros(nc)
-    mup = np.zeros(nc)
-    lam = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    activep = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    was = False
-    was_p = False
-    k = 1
-    for step in range(1, nsteps + 1):
-        for i in range(n):  # 1. the predictor U^n + h V^n ...
-            Ut[i] = U[i] + dt * V[i]
-        mup[:] = 0.0
-        if predictor > 0:  # ... projected onto the admissible set in the M norm
-            pen = False
-            for j in range(nc):
-                gf[j] = gap0[j] + Ut[cd[j]]
-                pen = pen or gf[j] < 0.0
-            if pen:
-                lcp_solve(WM, gf, mup, activep, tol, was_p)
-                correct(mfac, cd, ZM, keep_zm, mup, Ut, rhs, w, work)
-                for j in range(nc):
-                    if activep[j]:
-                        Ut[cd[j]] = -gap0[j]
-            was_p = pen
-        # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu
-        csr_matvec(Mp, Mi, Mx, Ut, rhs)
-        csr_matvec(Kp, Ki, Kx, U, w)
-        for i in range(n):
-            rhs[i] += c * (2.0 * F[i] - w[i])
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
+    for i in range(n):  # 1. the predictor U^n + h V^n ...
+        Ut[i] = U[i] + dt * V[i]
+    mup[:] = 0.0
+    if predictor > 0:  # ... projected onto the admissible set in the M norm
         pen = False
         for j in range(nc):
-            gf[j] = gap0[j] + X[cd[j]]
+            gf[j] = gap0[j] + Ut[cd[j]]
             pen = pen or gf[j] < 0.0
         if pen:
-            lcp_solve(W, gf, mu, active, tol, was)
-            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
+            lcp_solve(o.WM, gf, mup, s.activep, o.tol, s.was[1])
+            correct(o.mfac, cd, o.ZM, o.keep_zm, mup, Ut, rhs, w, work)
             for j in range(nc):
-                if active[j]:
-                    X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
-        else:
-            mu[:] = 0.0
-        was = pen
+                if s.activep[j]:
+                    Ut[cd[j]] = -gap0[j]
+        s.was[1] = pen
+    # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu
+    matvec(o.M, Ut, rhs)
+    matvec(o.K, U, w)
+    for i in range(n):
+        rhs[i] += c * (2.0 * o.F[i] - w[i])
+    lu(o.fac, rhs, X, work)
+    pen = False
+    for j in range(nc):
+        gf[j] = gap0[j] + X[cd[j]]
+        pen = pen or gf[j] < 0.0
+    if pen:
+        lcp_solve(o.W, gf, mu, s.active, o.tol, s.was[0])
+        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, work)
         for j in range(nc):
-            lam[j] = 2.0 * mu[j] * idt2
-            if predictor == 2:
-                lam[j] += mup[j] * idt2
-        # 3. V^{n+1} = B + 2 / h (U^{n+1} - U~)
-        for i in range(n):
-            base = (Ut[i] - U[i]) / dt if predictor == 2 else V[i]
-            V[i] = base + 2.0 * (X[i] - Ut[i]) / dt
-            U[i] = X[i]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, 1.0)
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            if s.active[j]:
+                X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
+    else:
+        mu[:] = 0.0
+    s.was[0] = pen
+    for j in range(nc):
+        lam[j] = 2.0 * mu[j] * idt2
+        if predictor == 2:
+            lam[j] += mup[j] * idt2
+    # 3. V^{n+1} = B + 2 / h (U^{n+1} - U~)
+    for i in range(n):
+        base = (Ut[i] - U[i]) / dt if predictor == 2 else V[i]
+        V[i] = base + 2.0 * (X[i] - Ut[i]) / dt
+        U[i] = X[i]
+    return OK
 
 
+@njit(cache=True)
+def kane_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the step's contact stress and V."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return e, -s.force.sum() / o.weights.sum(), s.V
 
-class KaneStepper(KernelStepper):
+
+@njit(cache=True)
+def kane_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `kane_step`."""
+    return drive(kane_step, kane_sample, ops, st, rec, nsteps, stride)
+
+
+class KaneStepper(LoopStepper):
     """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
     matrix and, with a projected predictor, M factored with C M^-1 C^T."""
+
+    loop = staticmethod(kane_loop)
 
     def __init__(self, p: SparseProblem, dt: float, predictor: str = "none") -> None:
         if predictor not in PREDICTORS:
@@ -164,18 +196,23 @@ class KaneStepper(KernelStepper):
         if PREDICTORS[predictor]:
             mfac = Factor.of(M)
             ZM, WM, keep_zm = contact_operators(mfac, cd, n)
-        else:  # no projection: placeholders the kernel never reads
+        else:  # no projection: placeholders the step never reads
             mfac, ZM, WM, keep_zm = fac, np.zeros((1, 1)), np.zeros((1, 1)), True
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
-        self.kernel = _kane_kernel
-        self.operators = (*csr_arrays(M), *csr_arrays(K), np.asarray(p.F, float),
-                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, Z, keep_z,
-                          mfac.arrays, WM, ZM, keep_zm)
-        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
-        self.params = (h, PREDICTORS[predictor])
-        self.tail = (tol,)
+        self.ops = KaneOps(csr_arrays(M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
+                           np.asarray(p.contact.gap0, float),
+                           np.asarray(p.contact.weights, float), W, Z, keep_z, mfac.arrays,
+                           WM, ZM, keep_zm, h, PREDICTORS[predictor], float(p.energy_offset),
+                           tol)
+        self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
+
+    def new_state(self) -> KaneState:
+        n, nc = self.problem.nfree, self.ops.cd.size
+        U, V = (a.copy() for a in self.initial)
+        return KaneState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                         np.zeros(nc, np.bool_), np.zeros(2, np.bool_), np.empty(n),
+                         np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(nc))
 
 
 def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneStepper:

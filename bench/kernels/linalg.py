@@ -28,7 +28,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -78,6 +78,27 @@ def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: n
         work[i] = s / Ux[Up[i]]
     for i in range(n):  # x = Pc z
         out[i] = work[perm_c[i]]
+
+
+class LU(NamedTuple):
+    """A factor's arrays for the compiled loops: L and U as CSR (L unit lower with its
+    diagonal last in each row, U upper with its diagonal first), the permutations."""
+
+    Lp: np.ndarray
+    Li: np.ndarray
+    Lx: np.ndarray
+    Up: np.ndarray
+    Ui: np.ndarray
+    Ux: np.ndarray
+    perm_r: np.ndarray
+    perm_c: np.ndarray
+
+
+@njit(cache=True)
+def lu(fac, b, out, work):  # pragma: no cover - compiled
+    """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n)."""
+    lu_solve(fac.Lp, fac.Li, fac.Lx, fac.Up, fac.Ui, fac.Ux, fac.perm_r, fac.perm_c, b, out,
+             work)
 
 
 @njit(cache=True)
@@ -138,7 +159,7 @@ class Factor:
     """S factored once: SuperLU's arrays for the compiled loops' `lu_solve`, and
     `solve_many` for blocks of right-hand sides (module docstring)."""
 
-    arrays: tuple
+    arrays: LU
     n: int
     #: the CSC matrix, kept only until `solve_many` has made CHOLMOD's factor of it
     S: sp.csc_matrix | None = field(default=None, repr=False)
@@ -170,9 +191,9 @@ class Factor:
         Lm.sort_indices()
         Um.sort_indices()
         ix = INDEX if max(Lm.nnz, Um.nnz) < np.iinfo(INDEX).max else np.int64
-        arrays = (Lm.indptr.astype(ix), Lm.indices.astype(ix), Lm.data,
-                  Um.indptr.astype(ix), Um.indices.astype(ix), Um.data,
-                  np.asarray(perm_r, ix), np.asarray(perm_c, ix))
+        arrays = LU(Lm.indptr.astype(ix), Lm.indices.astype(ix), Lm.data,
+                    Um.indptr.astype(ix), Um.indices.astype(ix), Um.data,
+                    np.asarray(perm_r, ix), np.asarray(perm_c, ix))
         # symmetric, no pivoting (Pr = Pc) and U's diagonal positive: S is SPD
         spd = (USE_CHOLMOD and cholespy is not None and is_symmetric(C)
                and np.array_equal(arrays[6], arrays[7]) and bool(np.all(Um.diagonal() > 0)))

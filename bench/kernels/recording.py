@@ -1,100 +1,38 @@
-"""What every sparse kernel records: samples, contact statistics, the blow-up rule.
-
-Written once here and used by `contact_bench.kernels.sparse`, `sparse_family`,
-`sparse_impact` and `sparse_explicit`:
+"""The sample buffers of a compiled run and the energy the steps' samples read.
 
 * `SampleBuffers`: the sample arrays (time, U, V, smallest gap, stress, energy) of a
   run, sample 0 written from the problem's initial state; `SampleBuffers.trajectory`
-  wraps what a kernel wrote into a `Trajectory`. Given `keep` (a few dofs), only those
+  wraps what the loop wrote into a `Trajectory` (with the contact statistics of
+  `contact_bench.core.contact_stats` in its extra). Given `keep` (a few dofs), only those
   dofs' displacements are kept, with the largest |U| and |V| of each sample (a
   reference that needs no more holds n_keep, not n, values per sample: `store_state`).
-* the contact statistics (`contact_bench.core.contact_stats`, shared with the plain-numpy
-  `TrajectoryRecorder`): one float array (`new_stats`) with named slots, updated each
-  step by `stats_update` and `impulse_update`, read into `Trajectory.extra` by
-  `contact_extra`.
-* `write_sample`: one sample (time, U, V, smallest gap, stress, energy, the impulse so
-  far) and the blow-up test (`contact_bench.core.sampling.blown_up`).
-* `smallest_gap`: the smallest gap of the contact dofs; `csr_energy`: the discrete
-  energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset with M, K as CSR arrays.
+* `csr_energy`: the discrete energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, M and K CSR.
 
-The compiled functions are numba `njit`s: a kernel calls them, and so can plain Python.
+The loop that writes the samples and keeps the statistics is
+`contact_bench.core.loop.drive`, the one owner of that bookkeeping.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
-from numba.extending import overload
+from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import contact_extra, impulse_sample
-from contact_bench.core.sampling import blown_up, n_samples
-from contact_bench.kernels.csr import csr_matvec
+from contact_bench.core.contact_stats import contact_extra
+from contact_bench.core.sampling import n_samples
+from contact_bench.kernels.csr import matvec
 
 # ---------------------------------------------------------------------------- samples
 
 
 @njit(cache=True)
-def smallest_gap(gap0, U, dofs, start=np.inf):  # pragma: no cover - compiled
-    """min(start, min_j gap0[j] + U[dofs[j]]): the smallest gap of the contact dofs
-    `dofs` (their initial gaps gap0), or `start` if smaller (a running minimum)."""
-    g = start
-    for j in range(dofs.size):
-        g = min(g, gap0[j] + U[dofs[j]])
-    return g
-
-
-@njit(cache=True)
-def csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w):  # pragma: no cover - compiled
-    """1/2 V.M.V + 1/2 U.K.U - F.U + offset, M and K as CSR arrays; w is scratch (n)."""
-    csr_matvec(Mp, Mi, Mx, V, w)
+def csr_energy(M, K, F, U, V, offset, w):  # pragma: no cover - compiled
+    """1/2 V.M.V + 1/2 U.K.U - F.U + offset, M and K as `CSR`; w is scratch (n)."""
+    matvec(M, V, w)
     e = 0.5 * (V @ w)
-    csr_matvec(Kp, Ki, Kx, U, w)
+    matvec(K, U, w)
     return e + 0.5 * (U @ w) - F @ U + offset
-
-
-def store_state(out, k, X):  # pragma: no cover - compiled through its overload
-    """Row k of a state's samples: `out[k, :] = X` for an array; for a kept selection
-    (buf, dofs, absmax) buf[k, :] = X[dofs] and absmax[k] = max |X| (NaN if X has one)."""
-    if isinstance(out, tuple):
-        buf, dofs, absmax = out
-        buf[k, :] = X[dofs]
-        absmax[k] = np.max(np.abs(X))
-    else:
-        out[k, :] = X
-
-
-@overload(store_state)
-def _store_state_compiled(out, k, X):  # pragma: no cover - compiled
-    if isinstance(out, types.Array):
-        def full(out, k, X):
-            out[k, :] = X
-        return full
-    if isinstance(out, types.BaseTuple):
-        def kept(out, k, X):
-            buf, dofs, absmax = out
-            for j in range(dofs.size):
-                buf[k, j] = X[dofs[j]]
-            absmax[k] = np.max(np.abs(X))
-        return kept
-    return None
-
-
-@njit(cache=True)
-def write_sample(k, t, U, V, gap0, idx, stress, e, E0, t_out, U_out, V_out, cu_out, s_out,
-                 E_out, stats):  # pragma: no cover - compiled
-    """Write sample k: time t, U, V, the smallest gap of the contact dofs idx, the stress,
-    the energy e and the impulse so far (`impulse_sample`). True when the run has blown
-    up (`contact_bench.core.sampling.blown_up`: e not finite or far above |E0|)."""
-    t_out[k] = t
-    store_state(U_out, k, U)
-    store_state(V_out, k, V)
-    cu_out[k] = smallest_gap(gap0, U, idx)
-    s_out[k] = stress
-    E_out[k] = e
-    impulse_sample(stats, k)
-    return blown_up(e, E0)
 
 
 class SampleBuffers:

@@ -38,18 +38,19 @@ steps from the initial state.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
+from numba import cfunc, float64, int64, njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, stats_update
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.linalg import Factor, lu_solve
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.core.loop import OK, drive
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, Factor, lu, lu_solve
+from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.stepper import LoopStepper
 
 #: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
 KEEP_Z_ENTRIES = 10_000_000
@@ -190,114 +191,157 @@ def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
 # -------------------------------------------------------------------------- Newmark
 
 
+class NewmarkOps(NamedTuple):
+    """What a Newmark step reads: M, K, F, S's factor, the contact (exact: its dofs,
+    gaps, Delassus matrix W and response Z; or a law on y = P X + y0), the time load."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    fac: LU
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    keep_z: bool
+    massless: np.ndarray
+    beta: float
+    gamma: float
+    dt: float
+    offset: float
+    tol: float
+    kappa: np.ndarray  # a law's stiffnesses (empty: exact contact)
+    cpen: np.ndarray  # kappa beta dt^2
+    P: CSR
+    y0: np.ndarray
+    ew: float
+    sc: np.ndarray
+    fscale: float
+    alpha: float
+    has_load: bool
+    load: object  # the `TimeLoad`'s density (a cfunc), or `NO_LOAD`
+    B: CSR
+    BX: np.ndarray
+    bcodes: np.ndarray
+
+
+class NewmarkState(NamedTuple):
+    """A Newmark run's state: U, V, the predictors P, Q, the contact's forces and active
+    set, the load at the step's time and scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    force: np.ndarray  # lambda, the obstacle's force at t_{n+1}
+    mu: np.ndarray
+    active: np.ndarray
+    was: np.ndarray  # (1,): the previous step was in contact (the LCP's warm start)
+    Fn: np.ndarray
+    vals: np.ndarray
+    rhs: np.ndarray
+    X: np.ndarray
+    work: np.ndarray
+    w: np.ndarray
+    gf: np.ndarray
+    y: np.ndarray
+
+
+@cfunc(float64(float64, float64, float64, float64, int64))
+def NO_LOAD(x, y, z, t, code):  # pragma: no cover - compiled
+    """The time load's density of a problem without one (never called)."""
+    return 0.0
+
+
 @njit(cache=True)
-def _newmark_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z,
-                    massless, U, V, P, Q, beta, gamma, dt, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out, stats, tol,
-                    kappa, Pp, Pi, Px, y0, ew, sc, fscale, alpha,
-                    load, Bp, Bi, Bx, BX, bcodes):  # pragma: no cover
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
-    n = U.size
-    nc = cd.size
+def newmark_step(o, s, step):  # pragma: no cover - compiled
+    """One Newmark step (module docstring; `loop.drive`'s step)."""
+    n = s.U.size
+    nc = o.cd.size
+    beta, gamma, dt = o.beta, o.gamma, o.dt
+    U, V, P, Q, X, rhs, w, gf = s.U, s.V, s.P, s.Q, s.X, s.rhs, s.w, s.gf
     bdt2 = beta * dt * dt
     k1 = (gamma + 0.5 - beta) / beta
     k2 = 1.0 / beta
     kv = gamma / (beta * dt)
     idt = 1.0 / dt
-    rhs = np.empty(n)
-    X = np.empty(n)
-    work = np.empty(n)
-    w = np.empty(n)
-    mu = np.zeros(nc)
-    lam = np.zeros(nc)
-    gf = np.empty(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    # a piecewise-linear law (penalty, Nitsche: `ContactLaw`) on y = P X + y0, or exact
-    # contact on the gaps (P = C, y0 = gap0)
-    penalty = kappa.size > 0
-    y = np.empty(nc)
-    st = 0.0
-    was_in_contact = False
-    cpen = kappa * bdt2
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    # a time-dependent load (`TimeLoad`; None: F alone) at the equation's time
-    # t_{n+1} + alpha dt: Fn = F + B v(t)
-    if load is None:
-        Fn = F
-    else:
-        Fn = F.copy()
-    vals = np.empty(bcodes.size)
-    k = 1
-    for step in range(1, nsteps + 1):
-        if load is not None:
-            tl = (step + alpha) * dt
-            for j in range(bcodes.size):
-                vals[j] = load(BX[0, j], BX[1, j], BX[2, j], tl, bcodes[j])
-            csr_matvec(Bp, Bi, Bx, vals, Fn)
-            for i in range(n):
-                Fn[i] += F[i]
-        csr_matvec(Mp, Mi, Mx, P, rhs)
-        if alpha != 0.0:  # HHT: + alpha beta dt^2 K U^n
-            csr_matvec(Kp, Ki, Kx, U, w)
-            for i in range(n):
-                rhs[i] += bdt2 * (Fn[i] + alpha * w[i])
-        else:
-            for i in range(n):
-                rhs[i] += bdt2 * Fn[i]
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
-        pen = False
-        csr_matvec(Pp, Pi, Px, X, gf)
-        for i in range(nc):
-            gf[i] += y0[i]
-            pen = pen or gf[i] < 0.0
-        if pen:
-            if penalty:
-                penalty_solve(W, gf, cpen, mu, active)
-            else:
-                lcp_solve(W, gf, mu, active, tol, was_in_contact)
-            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
-            for j in range(nc):
-                if active[j] and not penalty:
-                    X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
-                lam[j] = fscale * mu[j] / bdt2
-        else:
-            mu[:] = 0.0
-            lam[:] = 0.0
-        was_in_contact = pen
+    penalty = o.kappa.size > 0
+    # a time-dependent load (`TimeLoad`) at the equation's time t_{n+1} + alpha dt:
+    # Fn = F + B v(t)
+    Fn = s.Fn
+    if o.has_load:
+        tl = (step + o.alpha) * dt
+        for j in range(o.bcodes.size):
+            s.vals[j] = o.load(o.BX[0, j], o.BX[1, j], o.BX[2, j], tl, o.bcodes[j])
+        matvec(o.B, s.vals, Fn)
         for i in range(n):
-            if massless[i]:  # no inertia: backward-difference velocity, no acceleration
-                v = X[i] - U[i]
-                V[i] = v * idt
-                P[i] = X[i] + v
-                Q[i] = v
-            else:  # d = beta dt^2 a^{n+1}
-                d = X[i] - P[i]
-                V[i] = kv * d + Q[i] * idt
-                P[i] = k1 * d + (X[i] + Q[i])
-                Q[i] = k2 * d + Q[i]
-            U[i] = X[i]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, gamma)
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            if penalty:  # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2
-                csr_matvec(Pp, Pi, Px, U, y)
-                st = 0.0
-                for i in range(nc):
-                    yi = min(0.0, y[i] + y0[i])
-                    e += 0.5 * ew * kappa[i] * yi * yi
-                    st += sc[i] * yi
-            stress = st / area if penalty else -lam.sum() / area
-            blown = write_sample(k, step * dt, U, V, gap0, cd, stress, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            Fn[i] += o.F[i]
+    matvec(o.M, P, rhs)
+    if o.alpha != 0.0:  # HHT: + alpha beta dt^2 K U^n
+        matvec(o.K, U, w)
+        for i in range(n):
+            rhs[i] += bdt2 * (Fn[i] + o.alpha * w[i])
+    else:
+        for i in range(n):
+            rhs[i] += bdt2 * Fn[i]
+    lu(o.fac, rhs, X, s.work)
+    pen = False
+    matvec(o.P, X, gf)
+    for i in range(nc):
+        gf[i] += o.y0[i]
+        pen = pen or gf[i] < 0.0
+    lam, mu, active = s.force, s.mu, s.active
+    if pen:
+        if penalty:
+            penalty_solve(o.W, gf, o.cpen, mu, active)
+        else:
+            lcp_solve(o.W, gf, mu, active, o.tol, s.was[0])
+        correct(o.fac, o.cd, o.Z, o.keep_z, mu, X, rhs, w, s.work)
+        for j in range(nc):
+            if active[j] and not penalty:
+                X[o.cd[j]] = -o.gap0[j]  # in contact: the gap is 0 exactly
+            lam[j] = o.fscale * mu[j] / bdt2
+    else:
+        mu[:] = 0.0
+        lam[:] = 0.0
+    s.was[0] = pen
+    for i in range(n):
+        if o.massless[i]:  # no inertia: backward-difference velocity, no acceleration
+            v = X[i] - U[i]
+            V[i] = v * idt
+            P[i] = X[i] + v
+            Q[i] = v
+        else:  # d = beta dt^2 a^{n+1}
+            d = X[i] - P[i]
+            V[i] = kv * d + Q[i] * idt
+            P[i] = k1 * d + (X[i] + Q[i])
+            Q[i] = k2 * d + Q[i]
+        U[i] = X[i]
+    return OK
+
+
+@njit(cache=True)
+def newmark_sample(o, s):  # pragma: no cover - compiled
+    """The sampled energy (with a law's), stress and velocity (`loop.drive`'s sample)."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    area = o.weights.sum()
+    if o.kappa.size == 0:
+        return e, -s.force.sum() / area, s.V
+    # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2, and its stress
+    matvec(o.P, s.U, s.y)
+    st = 0.0
+    for i in range(o.cd.size):
+        yi = min(0.0, s.y[i] + o.y0[i])
+        e += 0.5 * o.ew * o.kappa[i] * yi * yi
+        st += o.sc[i] * yi
+    return e, st / area, s.V
+
+
+@njit(cache=True)
+def newmark_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `newmark_step`."""
+    return drive(newmark_step, newmark_sample, ops, st, rec, nsteps, stride)
 
 
 @dataclass
@@ -377,11 +421,12 @@ def selection(cd: np.ndarray, n: int) -> sp.csc_matrix:
     return sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))
 
 
-class NewmarkStepper(KernelStepper):
+class NewmarkStepper(LoopStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
 
     adds_time_load = True
+    loop = staticmethod(newmark_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
                  kappa: np.ndarray | None = None, law: ContactLaw | None = None,
@@ -432,21 +477,29 @@ class NewmarkStepper(KernelStepper):
             A = initial_acceleration(p, F0 - K @ U)
         # the state: the next predictor P = U + dt V + (1/2 - beta) dt^2 A and
         # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
-        self.state = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
-                      dt * V + dt * dt * (1.0 - gamma) * A)
+        self.initial = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
+                        dt * V + dt * dt * (1.0 - gamma) * A)
         tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                                  initial=0.0)), 1e-300)
-        self.operators = (*csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float),
-                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, Z, keep_z, p.massless)
-        self.params = (beta, gamma, dt)
-        self.kernel = _newmark_kernel
         ld = p.load
-        self.tail = (tol, lk, *csr_arrays(Pm), y0, ew, sc, fscale, float(alpha),
-                     *((None, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0),
-                        np.zeros((3, 0)), np.zeros(0, np.int64)) if ld is None else
-                       (ld.density, *csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
-                        np.asarray(ld.codes, np.int64))))
+        self.gamma = gamma
+        self.ops = NewmarkOps(
+            csr_arrays(p.M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
+            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
+            keep_z, p.massless, beta, gamma, dt, float(p.energy_offset), tol, lk,
+            lk * (beta * dt * dt), csr_arrays(Pm), y0, ew, sc, fscale, float(alpha),
+            ld is not None, NO_LOAD if ld is None else ld.density,
+            csr_arrays(sp.csr_matrix((n, 0)) if ld is None else ld.B),
+            np.zeros((3, 0)) if ld is None else np.ascontiguousarray(ld.points, float),
+            np.zeros(0, np.int64) if ld is None else np.asarray(ld.codes, np.int64))
+
+    def new_state(self) -> NewmarkState:
+        n, nc = self.problem.nfree, self.ops.cd.size
+        U, V, P, Q = (a.copy() for a in self.initial)
+        return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                            np.zeros(1, np.bool_), np.asarray(self.ops.F, float).copy(),
+                            np.empty(self.ops.bcodes.size), np.empty(n), np.empty(n),
+                            np.empty(n), np.empty(n), np.empty(nc), np.empty(nc))
 
 
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
@@ -486,10 +539,10 @@ class MasslessSplit:
     hv: np.ndarray
     mv: np.ndarray
     cl: np.ndarray  # the contact dofs' positions in mv
-    Kh: tuple  # CSR rows K[hv] (all columns)
-    Kmh: tuple  # CSR rows K[mv] with the massless columns dropped
-    mfac: tuple  # K_mm factored
-    hfac: tuple  # M_hh factored (unless diagonal)
+    Kh: CSR  # CSR rows K[hv] (all columns)
+    Kmh: CSR  # CSR rows K[mv] with the massless columns dropped
+    mfac: LU  # K_mm factored
+    hfac: LU  # M_hh factored (unless diagonal)
     diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
     W: np.ndarray  # C K_mm^-1 C^T
     Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
@@ -531,67 +584,88 @@ class MasslessSplit:
 # ------------------------------------------------------- explicit central difference
 
 
+class CentralOps(NamedTuple):
+    """The kick-drift central difference's operators: the diagonal mass m (and dt / m),
+    K, F, the contact dofs and their gaps."""
+
+    m: np.ndarray
+    c: np.ndarray  # dt / m
+    K: CSR
+    F: np.ndarray
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    dt: float
+    offset: float
+
+
+class CentralState(NamedTuple):
+    """(U^n, V^{n-1/2}), the contact forces and scratch."""
+
+    U: np.ndarray
+    Vh: np.ndarray
+    force: np.ndarray
+    Un: np.ndarray
+    tmp: np.ndarray
+
+
 @njit(cache=True)
-def _central_kernel(m, Kp, Ki, Kx, F, cd, gap0, weights, U, Vh, dt, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out, stats):  # pragma: no cover
+def central_step(o, s, step):  # pragma: no cover - compiled
     """Kick-drift central difference with a diagonal mass m (> 0 everywhere), carrying
     (U^n, V^{n-1/2}); a contact dof whose predicted gap is negative gets the force
     lambda = max(0, -m V^{n+1/2} / dt) that stops it (Taylor-Flanagan)."""
+    U, Vh, Un, lam, c, dt = s.U, s.Vh, s.Un, s.force, o.c, o.dt
     n = U.size
-    nc = cd.size
-    c = dt / m
-    Un = np.empty(n)
-    tmp = np.empty(n)
-    lam = np.zeros(nc)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    k = 1
-    for step in range(1, nsteps + 1):
-        if step > 1:  # kick and drift fused with the product K U: one pass
-            for i in range(n):
-                ku = 0.0
-                for kk in range(Kp[i], Kp[i + 1]):
-                    ku += Kx[kk] * U[Ki[kk]]
-                v = Vh[i] + c[i] * (F[i] - ku)
-                Vh[i] = v
-                Un[i] = U[i] + dt * v
-        else:
-            for i in range(n):
-                Un[i] = U[i] + dt * Vh[i]
-        for j in range(nc):
-            d = cd[j]
-            lam[j] = 0.0
-            if gap0[j] + Un[d] < 0.0:
-                lj = -Vh[d] * m[d] / dt
-                if lj > 0.0:
-                    lam[j] = lj
-                    Un[d] += dt * c[d] * lj
-                    Vh[d] += c[d] * lj
-        U, Un = Un, U
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, 1.0)
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            csr_matvec(Kp, Ki, Kx, U, tmp)
-            for i in range(n):
-                tmp[i] = Vh[i] + 0.5 * dt * ((F[i] - tmp[i]) / m[i])
-            e = -(F @ U) + offset
-            for i in range(n):
-                e += 0.5 * m[i] * tmp[i] * tmp[i]
-            csr_matvec(Kp, Ki, Kx, U, Un)
-            e += 0.5 * (U @ Un)
-            blown = write_sample(k, step * dt, U, tmp, gap0, cd, -lam.sum() / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+    Kp, Ki, Kx = o.K
+    if step > 1:  # kick and drift fused with the product K U: one pass
+        for i in range(n):
+            ku = 0.0
+            for kk in range(Kp[i], Kp[i + 1]):
+                ku += Kx[kk] * U[Ki[kk]]
+            v = Vh[i] + c[i] * (o.F[i] - ku)
+            Vh[i] = v
+            Un[i] = U[i] + dt * v
+    else:
+        for i in range(n):
+            Un[i] = U[i] + dt * Vh[i]
+    for j in range(o.cd.size):
+        d = o.cd[j]
+        lam[j] = 0.0
+        if o.gap0[j] + Un[d] < 0.0:
+            lj = -Vh[d] * o.m[d] / dt
+            if lj > 0.0:
+                lam[j] = lj
+                Un[d] += dt * c[d] * lj
+                Vh[d] += c[d] * lj
+    U[:] = Un
+    return OK
 
 
-class CentralStepper(KernelStepper):
+@njit(cache=True)
+def central_sample(o, s):  # pragma: no cover - compiled
+    """The energy with the velocity V^n = V^{n-1/2} + dt/2 M^-1 (F - K U^n)."""
+    U, tmp, m, F = s.U, s.tmp, o.m, o.F
+    matvec(o.K, U, tmp)
+    for i in range(U.size):
+        tmp[i] = s.Vh[i] + 0.5 * o.dt * ((F[i] - tmp[i]) / m[i])
+    e = -(F @ U) + o.offset
+    for i in range(U.size):
+        e += 0.5 * m[i] * tmp[i] * tmp[i]
+    matvec(o.K, U, s.Un)
+    e += 0.5 * (U @ s.Un)
+    return e, -s.force.sum() / o.weights.sum(), tmp
+
+
+@njit(cache=True)
+def central_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `central_step`."""
+    return drive(central_step, central_sample, ops, st, rec, nsteps, stride)
+
+
+class CentralStepper(LoopStepper):
     """`central_sparse` prepared: the diagonal mass and the initial half-step velocity."""
+
+    loop = staticmethod(central_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
         M = sp.csr_matrix(p.M)
@@ -602,12 +676,17 @@ class CentralStepper(KernelStepper):
         super().__init__(p, dt)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         A = initial_acceleration(p)
-        self.kernel = _central_kernel
-        self.state = (U, V + 0.5 * dt * A)  # (U^0, V^{1/2})
-        self.params = (self.dt,)
-        self.operators = (m, *csr_arrays(p.K), np.asarray(p.F, float),
-                          np.asarray(p.contact.dofs, np.int64),
-                          np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float))
+        self.initial = (U, V + 0.5 * self.dt * A)  # (U^0, V^{1/2})
+        self.ops = CentralOps(m, self.dt / m, csr_arrays(p.K), np.asarray(p.F, float),
+                              np.asarray(p.contact.dofs, np.int64),
+                              np.asarray(p.contact.gap0, float),
+                              np.asarray(p.contact.weights, float), self.dt,
+                              float(p.energy_offset))
+
+    def new_state(self) -> CentralState:
+        n = self.problem.nfree
+        U, Vh = (a.copy() for a in self.initial)
+        return CentralState(U, Vh, np.zeros(self.ops.cd.size), np.empty(n), np.empty(n))
 
 
 def prepare_central(p: SparseProblem, dt: float) -> CentralStepper:
@@ -624,88 +703,117 @@ def central_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Tra
 # ------------------------------------- explicit with massless (quasi-static) contact dofs
 
 
+class QuasistaticOps(NamedTuple):
+    """Explicit Newmark with massless contact dofs: the split into dofs with mass (hv)
+    and massless ones (mv), their rows of K, K_mm's and M_hh's factors (or M_hh's
+    diagonal), the contact dofs' positions in mv (cl) and the Delassus matrix W = C
+    K_mm^-1 C^T with Z = K_mm^-1 C^T."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    hv: np.ndarray
+    mv: np.ndarray
+    Kh: CSR
+    Km: CSR
+    mfac: LU
+    hfac: LU
+    diag_h: np.ndarray
+    cl: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    dt: float
+    gamma: float
+    offset: float
+    tol: float
+
+
+class QuasistaticState(NamedTuple):
+    """(U, V, A), the obstacle's forces mu, the active set and scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    force: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    rm: np.ndarray
+    um: np.ndarray
+    wm: np.ndarray
+    rh: np.ndarray
+    ah: np.ndarray
+    wh: np.ndarray
+    w: np.ndarray
+    gf: np.ndarray
+
+
 @njit(cache=True)
-def _quasistatic_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
-                        mfac, hfac, diag_h, cl, gap0, weights, W, Z, U, V, A, dt, gamma, nsteps,
-                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats,
-                        tol):  # pragma: no cover - compiled
+def quasistatic_step(o, s, step):  # pragma: no cover - compiled
     """Central differences on the dofs with mass (hv), the massless ones (mv) solved
-    from their own rows each step, with exact contact on the contact dofs among them
-    (cl: their positions in mv; W = C K_mm^-1 C^T, Z = K_mm^-1 C^T)."""
-    n = U.size
+    from their own rows each step, with exact contact on the contact dofs among them."""
+    U, V, A, mu, dt, gamma = s.U, s.V, s.A, s.force, o.dt, o.gamma
+    hv, mv, cl, gap0 = o.hv, o.mv, o.cl, o.gap0
+    rm, um, rh, ah, gf = s.rm, s.um, s.rh, s.ah, s.gf
     nh, nm, nc = hv.size, mv.size, cl.size
-    rm = np.empty(nm)
-    um = np.empty(nm)
-    wm = np.empty(nm)
-    rh = np.empty(nh)
-    ah = np.empty(nh)
-    wh = np.empty(nh)
-    w = np.empty(n)
-    gf = np.empty(nc)
-    mu = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    gdofs = mv[cl]  # the contact dofs in U
-    min_gap = smallest_gap(gap0, U, gdofs)
-    was = False
-    k = 1
-    for step in range(1, nsteps + 1):
-        for a in range(nh):
-            i = hv[a]
-            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
-        csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh u_h (the massless columns dropped)
-        for b in range(nm):
-            rm[b] = F[mv[b]] - rm[b]
-        lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
-                 rm, um, wm)
-        pen = False
+    for a in range(nh):
+        i = hv[a]
+        U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+    matvec(o.Km, U, rm)  # K_mh u_h (the massless columns dropped)
+    for b in range(nm):
+        rm[b] = o.F[mv[b]] - rm[b]
+    lu(o.mfac, rm, um, s.wm)
+    pen = False
+    for j in range(nc):
+        gf[j] = gap0[j] + um[cl[j]]
+        pen = pen or gf[j] < 0.0
+    if pen:
+        lcp_solve(o.W, gf, mu, s.active, o.tol, s.was[0])
+        add_response(o.Z, mu, um)
         for j in range(nc):
-            gf[j] = gap0[j] + um[cl[j]]
-            pen = pen or gf[j] < 0.0
-        if pen:
-            lcp_solve(W, gf, mu, active, tol, was)
-            add_response(Z, mu, um)
-            for j in range(nc):
-                if active[j]:
-                    um[cl[j]] = -gap0[j]
-        else:
-            mu[:] = 0.0
-        was = pen
-        for b in range(nm):
-            i = mv[b]
-            V[i] = (um[b] - U[i]) / dt
-            U[i] = um[b]
-        csr_matvec(Khp, Khi, Khx, U, rh)  # (K U) on the dofs with mass
+            if s.active[j]:
+                um[cl[j]] = -gap0[j]
+    else:
+        mu[:] = 0.0
+    s.was[0] = pen
+    for b in range(nm):
+        i = mv[b]
+        V[i] = (um[b] - U[i]) / dt
+        U[i] = um[b]
+    matvec(o.Kh, U, rh)  # (K U) on the dofs with mass
+    for a in range(nh):
+        rh[a] = o.F[hv[a]] - rh[a]
+    if o.diag_h.size:
         for a in range(nh):
-            rh[a] = F[hv[a]] - rh[a]
-        if diag_h.size:
-            for a in range(nh):
-                ah[a] = rh[a] / diag_h[a]
-        else:
-            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
-                     rh, ah, wh)
-        for a in range(nh):
-            i = hv[a]
-            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
-            A[i] = ah[a]
-        stats_update(stats, status, mu, step, dt)
-        impulse_update(stats, mu, dt, gamma)
-        min_gap = smallest_gap(gap0, U, gdofs, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, gdofs, -mu.sum() / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            ah[a] = rh[a] / o.diag_h[a]
+    else:
+        lu(o.hfac, rh, ah, s.wh)
+    for a in range(nh):
+        i = hv[a]
+        V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+        A[i] = ah[a]
+    return OK
 
 
-class QuasistaticStepper(KernelStepper):
+@njit(cache=True)
+def quasistatic_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the obstacle's stress and V."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return e, -s.force.sum() / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def quasistatic_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `quasistatic_step`."""
+    return drive(quasistatic_step, quasistatic_sample, ops, st, rec, nsteps, stride)
+
+
+class QuasistaticStepper(LoopStepper):
     """`quasistatic_sparse` prepared: K_mm and M_hh factored, the Delassus matrix and the
     initial acceleration computed once."""
+
+    loop = staticmethod(quasistatic_loop)
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float = 0.5) -> None:
         massless = p.massless
@@ -713,16 +821,23 @@ class QuasistaticStepper(KernelStepper):
             raise ValueError("the explicit quasi-static path needs massless contact dofs")
         super().__init__(p, dt)
         split = MasslessSplit.of(p)
-        self.kernel = _quasistatic_kernel
-        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy(),
-                      initial_acceleration(p))
-        self.operators = (
-            *csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
-            *split.Kh, *split.Kmh, split.mfac, split.hfac, split.diag_h, split.cl,
+        self.gamma = float(gamma)
+        self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy(),
+                        initial_acceleration(p))
+        self.ops = QuasistaticOps(
+            csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
+            split.Kh, split.Kmh, split.mfac, split.hfac, split.diag_h, split.cl,
             np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
-            split.W, split.Z)
-        self.params = (self.dt, float(gamma))
-        self.tail = (split.tol,)
+            split.W, split.Z, self.dt, float(gamma), float(p.energy_offset), split.tol)
+
+    def new_state(self) -> QuasistaticState:
+        n, nh, nm = self.problem.nfree, self.ops.hv.size, self.ops.mv.size
+        nc = self.ops.cl.size
+        U, V, A = (a.copy() for a in self.initial)
+        return QuasistaticState(U, V, A, np.zeros(nc), np.zeros(nc, np.bool_),
+                                np.zeros(1, np.bool_), np.empty(nm), np.empty(nm),
+                                np.empty(nm), np.empty(nh), np.empty(nh), np.empty(nh),
+                                np.empty(n), np.empty(nc))
 
 
 def prepare_quasistatic(p: SparseProblem, dt: float, gamma: float = 0.5

@@ -42,6 +42,8 @@ runs at 0.95 and 1.05 times it.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -49,19 +51,18 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, stats_update
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import smallest_gap, write_sample
+from contact_bench.core.loop import BLOWN, OK, drive
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.sparse import (
     ContactLaw,
     Factor,
     initial_acceleration,
     lcp_solve,
-    lu_solve,
     penalty_solve,
     response_rows,
 )
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.kernels.stepper import LoopStepper
 
 #: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
 SMALL_DENSE = 64
@@ -69,113 +70,145 @@ SMALL_DENSE = 64
 KEEP_Z_ENTRIES = 10_000_000
 
 
+class ExplicitLawOps(NamedTuple):
+    """Explicit Newmark with a contact law: M, K' (K with the law's stiffness), F, the
+    split into dofs with mass (hv) and massless ones (mv) with K''s rows Kh = K'[hv] and
+    Km = K'[mv] (massless columns dropped), K'_mm's and M_hh's factors (or M_hh's
+    diagonal), the law (y = P U + y0, force Q^T mu, mu = c max(0, -y); QT = Q^T, QTm its
+    massless rows), the massless elimination's W and Z (kept or not)."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    hv: np.ndarray
+    mv: np.ndarray
+    Kh: CSR
+    Km: CSR
+    mfac: LU
+    hfac: LU
+    diag_h: np.ndarray
+    P: CSR
+    QT: CSR
+    QTm: CSR
+    y0: np.ndarray
+    c: np.ndarray
+    ew: float
+    sc: np.ndarray
+    fscale: float
+    W: np.ndarray
+    Z: np.ndarray
+    keep_z: bool
+    weights: np.ndarray
+    dt: float
+    gamma: float
+    offset: float
+
+
+class ExplicitLawState(NamedTuple):
+    """(U, V, A), the law's forces (mu, and the contact points' force fscale mu), its
+    active set and values y, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    active: np.ndarray
+    y: np.ndarray
+    f: np.ndarray
+    rm: np.ndarray
+    um: np.ndarray
+    wm: np.ndarray
+    zw: np.ndarray
+    rh: np.ndarray
+    ah: np.ndarray
+    wh: np.ndarray
+    w: np.ndarray
+
+
 @njit(cache=True)
-def _explicit_law_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, Khp, Khi, Khx, Kmp, Kmi, Kmx,
-                         mfac, hfac, diag_h, Pp, Pi, Px, QTp, QTi, QTx, y0, c, ew, sc, fscale,
-                         W, Z, keep_z, QTmp, QTmi, QTmx, cd, gap0, weights, U, V, A, dt,
-                         gamma, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out,
-                         E_out, stats):  # pragma: no cover
-    """Advance (U, V, A) in place (module docstring); returns (samples, steps, min gap,
-    blow-up step or -1). K rows: Kh = K'[hv] (all columns), Km = K'[mv] with the massless
-    columns dropped; QT = Q^T (n x n_c); hfac/diag_h: M_hh's factor or diagonal; mfac:
-    K'_mm's factor; W, Z the massless elimination's matrices (Z unless `keep_z` is
-    False: then Z mu is a solve with K'_mm's factor of QTm mu, QTm = Q_m^T as CSR)."""
-    n = U.size
-    nh, nm, nc = hv.size, mv.size, cd.size
-    rm = np.empty(nm)
-    um = np.empty(nm)
-    wm = np.empty(nm)
-    zw = np.empty(nm)
-    rh = np.empty(nh)
-    ah = np.empty(nh)
-    wh = np.empty(nh)
-    w = np.empty(n)
-    y = np.empty(nc)
-    mu = np.zeros(nc)
-    lam = np.zeros(nc)
-    f = np.empty(n)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    k = 1
-    for step in range(1, nsteps + 1):
-        for a in range(nh):
-            i = hv[a]
-            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
-        if nm:  # the massless dofs from their rows, the law solved exactly
-            csr_matvec(Kmp, Kmi, Kmx, U, rm)
-            for b in range(nm):
-                rm[b] = F[mv[b]] - rm[b]
-            lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
-                     mfac[7], rm, um, wm)
-            for b in range(nm):
-                i = mv[b]
-                wm[b] = U[i]  # the old position, for the velocity
-                U[i] = um[b]
-            csr_matvec(Pp, Pi, Px, U, y)
-            pen = False
-            for j in range(nc):
-                y[j] += y0[j]
-                pen = pen or y[j] < 0.0
-            if pen:
-                penalty_solve(W, y, c, mu, active)
-                if keep_z:
-                    on = np.flatnonzero(mu)
-                    for b in range(nm):
-                        acc = 0.0
-                        for j in on:
-                            acc += Z[b, j] * mu[j]
-                        U[mv[b]] += acc
-                else:  # matrix-free: K'_mm^-1 Q_m^T mu (wm holds the old positions)
-                    csr_matvec(QTmp, QTmi, QTmx, mu, rm)
-                    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6],
-                             mfac[7], rm, um, zw)
-                    for b in range(nm):
-                        U[mv[b]] += um[b]
-            for b in range(nm):
-                i = mv[b]
-                V[i] = (U[i] - wm[b]) / dt
-        csr_matvec(Pp, Pi, Px, U, y)  # the law at U_{n+1}
+def explicit_law_step(o, s, step):  # pragma: no cover - compiled
+    """Advance (U, V, A) in place (module docstring)."""
+    U, V, A, mu, y, dt, gamma = s.U, s.V, s.A, s.mu, s.y, o.dt, o.gamma
+    hv, mv = o.hv, o.mv
+    rm, um, wm, rh, ah = s.rm, s.um, s.wm, s.rh, s.ah
+    nh, nm, nc = hv.size, mv.size, o.y0.size
+    for a in range(nh):
+        i = hv[a]
+        U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+    if nm:  # the massless dofs from their rows, the law solved exactly
+        matvec(o.Km, U, rm)
+        for b in range(nm):
+            rm[b] = o.F[mv[b]] - rm[b]
+        lu(o.mfac, rm, um, wm)
+        for b in range(nm):
+            i = mv[b]
+            wm[b] = U[i]  # the old position, for the velocity
+            U[i] = um[b]
+        matvec(o.P, U, y)
+        pen = False
         for j in range(nc):
-            y[j] += y0[j]
-            mu[j] = c[j] * max(0.0, -y[j])
-            lam[j] = fscale * mu[j]
-        csr_matvec(QTp, QTi, QTx, mu, f)  # Q^T mu
-        csr_matvec(Khp, Khi, Khx, U, rh)
+            y[j] += o.y0[j]
+            pen = pen or y[j] < 0.0
+        if pen:
+            penalty_solve(o.W, y, o.c, mu, s.active)
+            if o.keep_z:
+                on = np.flatnonzero(mu)
+                for b in range(nm):
+                    acc = 0.0
+                    for j in on:
+                        acc += o.Z[b, j] * mu[j]
+                    U[mv[b]] += acc
+            else:  # matrix-free: K'_mm^-1 Q_m^T mu (wm holds the old positions)
+                matvec(o.QTm, mu, rm)
+                lu(o.mfac, rm, um, s.zw)
+                for b in range(nm):
+                    U[mv[b]] += um[b]
+        for b in range(nm):
+            i = mv[b]
+            V[i] = (U[i] - wm[b]) / dt
+    matvec(o.P, U, y)  # the law at U_{n+1}
+    for j in range(nc):
+        y[j] += o.y0[j]
+        mu[j] = o.c[j] * max(0.0, -y[j])
+        s.force[j] = o.fscale * mu[j]
+    matvec(o.QT, mu, s.f)  # Q^T mu
+    matvec(o.Kh, U, rh)
+    for a in range(nh):
+        i = hv[a]
+        rh[a] = o.F[i] - rh[a] + s.f[i]
+    if o.diag_h.size:
         for a in range(nh):
-            i = hv[a]
-            rh[a] = F[i] - rh[a] + f[i]
-        if diag_h.size:
-            for a in range(nh):
-                ah[a] = rh[a] / diag_h[a]
-        else:
-            lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
-                     rh, ah, wh)
-        for a in range(nh):
-            i = hv[a]
-            V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
-            A[i] = ah[a]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, gamma)
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            csr_matvec(Mp, Mi, Mx, V, w)
-            e = 0.5 * (V @ w)
-            csr_matvec(Kp, Ki, Kx, U, w)
-            e += 0.5 * (U @ w) - F @ U + offset
-            st = 0.0
-            for j in range(nc):  # the law's energy and stress
-                yn = min(0.0, y[j])
-                e += 0.5 * ew * c[j] * yn * yn
-                st += sc[j] * yn
-            blown = write_sample(k, step * dt, U, V, gap0, cd, st / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            ah[a] = rh[a] / o.diag_h[a]
+    else:
+        lu(o.hfac, rh, ah, s.wh)
+    for a in range(nh):
+        i = hv[a]
+        V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])
+        A[i] = ah[a]
+    return OK
+
+
+@njit(cache=True)
+def explicit_law_sample(o, s):  # pragma: no cover - compiled
+    """The energy with the law's (its y at U_{n+1}), the law's stress and V."""
+    U, V, w = s.U, s.V, s.w
+    matvec(o.M, V, w)
+    e = 0.5 * (V @ w)
+    matvec(o.K, U, w)
+    e += 0.5 * (U @ w) - o.F @ U + o.offset
+    st = 0.0
+    for j in range(o.y0.size):  # the law's energy and stress
+        yn = min(0.0, s.y[j])
+        e += 0.5 * o.ew * o.c[j] * yn * yn
+        st += o.sc[j] * yn
+    return e, st / o.weights.sum(), V
+
+
+@njit(cache=True)
+def explicit_law_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `explicit_law_step`."""
+    return drive(explicit_law_step, explicit_law_sample, ops, st, rec, nsteps, stride)
 
 
 def keeps_response(rows: int, nc: int) -> bool:
@@ -196,9 +229,11 @@ def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:
     return sp.csr_matrix(p.K if law.K_extra is None else p.K + law.K_extra)
 
 
-class ExplicitLawStepper(KernelStepper):
+class ExplicitLawStepper(LoopStepper):
     """`explicit_law_sparse` prepared: K'_mm and M_hh factored, the massless elimination's
     matrices, the initial acceleration and sample 0's energy and stress computed once."""
+
+    loop = staticmethod(explicit_law_loop)
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float, law: ContactLaw) -> None:
         super().__init__(p, dt)
@@ -240,7 +275,7 @@ class ExplicitLawStepper(KernelStepper):
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
         A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
-        self.state = (U, V, A)
+        self.initial = (U, V, A)
         yneg = np.minimum(0.0, Pm @ U + y0)
         self.sample0 = {  # sample 0's energy and stress, with the law's terms
             "energy": float(p.energy(U, V) + 0.5 * U @ ((K - p.K) @ U)
@@ -249,15 +284,23 @@ class ExplicitLawStepper(KernelStepper):
                             / np.sum(p.contact.weights))}
         # the law's total force at t = 0 (in the initial acceleration): the impulse's start
         self.force0 = float(law.fscale) * float(np.sum(mu0))
-        self.operators = (
-            *csr_arrays(p.M), *csr_arrays(K), np.asarray(p.F, float), hv, mv,
-            *csr_arrays(K[hv]), *csr_arrays(Kmh), mfac.arrays, hfac.arrays,
-            Mhh.diagonal() if diag else np.zeros(0), *csr_arrays(Pm), *csr_arrays(Qm.T), y0,
-            c, float(law.ew), np.asarray(law.sc, float), float(law.fscale), W,
-            np.ascontiguousarray(Z), keep_z, *csr_arrays(sp.csr_matrix(Qm[:, mv].T)), cd,
-            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float))
-        self.kernel = _explicit_law_kernel
-        self.params = (self.dt, gamma)
+        self.gamma = gamma
+        self.ops = ExplicitLawOps(
+            csr_arrays(p.M), csr_arrays(K), np.asarray(p.F, float), hv, mv,
+            csr_arrays(K[hv]), csr_arrays(Kmh), mfac.arrays, hfac.arrays,
+            Mhh.diagonal() if diag else np.zeros(0), csr_arrays(Pm), csr_arrays(Qm.T),
+            csr_arrays(sp.csr_matrix(Qm[:, mv].T)), y0, c, float(law.ew),
+            np.asarray(law.sc, float), float(law.fscale), W, np.ascontiguousarray(Z), keep_z,
+            np.asarray(p.contact.weights, float), self.dt, gamma, float(p.energy_offset))
+
+    def new_state(self) -> ExplicitLawState:
+        n, o = self.problem.nfree, self.ops
+        nh, nm, nc = o.hv.size, o.mv.size, o.y0.size
+        U, V, A = (a.copy() for a in self.initial)
+        return ExplicitLawState(U, V, A, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                                np.empty(nc), np.empty(n), np.empty(nm), np.empty(nm),
+                                np.empty(nm), np.empty(nm), np.empty(nh), np.empty(nh),
+                                np.empty(nh), np.empty(n))
 
 
 def prepare_explicit_law(p: SparseProblem, dt: float, gamma: float, law: ContactLaw
@@ -341,119 +384,145 @@ def stable_dt(p: SparseProblem, beta: float, gamma: float,
 # ------------------------------------------- Taylor-Flanagan with a non-diagonal mass
 
 
+class TaylorFlanaganOps(NamedTuple):
+    """Taylor-Flanagan with a factored mass: M, K, F, M's factor (and its diagonal when
+    M is diagonal, else empty), the contact dofs and gaps, Z = M^-1 C^T (kept or not),
+    Zc = C Z, W = (Zc + Zc^T) / 2."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    fac: LU
+    mdiag: np.ndarray
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    Zc: np.ndarray
+    keep_z: bool
+    dt: float
+    offset: float
+
+
+class TaylorFlanaganState(NamedTuple):
+    """(U, V, A), the contact forces, the impulses mu = dt lam, the stopped set, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    inJ: np.ndarray
+    rhs: np.ndarray
+    work: np.ndarray
+    w: np.ndarray
+
+
 @njit(cache=True)
-def _tf_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, mdiag, cd, gap0, weights, W, Z, Zc, keep_z, U,
-               V, A, dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out,
-               stats):  # pragma: no cover - compiled
-    """Taylor-Flanagan on many contact dofs with a factored mass (module docstring of
-    `taylor_flanagan_sparse`); Z = M^-1 C^T (unless `keep_z` is False: then Z dmu is a
-    solve with M's factor), Zc = C Z its rows at the contact dofs, W = (Zc + Zc^T) / 2.
-    `mdiag`: M's diagonal when M is diagonal (a lumped mass; else empty), whose solve for
-    the acceleration is a division, the numbers of the factor's solve to the bit."""
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+def tf_step(o, s, step):  # pragma: no cover - compiled
+    """Taylor-Flanagan on many contact dofs with a factored mass (`prepare_taylor_flanagan`);
+    with a diagonal mass the acceleration's solve is a division (the factor's numbers to
+    the bit)."""
+    U, V, A, lam, mu, inJ, rhs, w = s.U, s.V, s.A, s.force, s.mu, s.inJ, s.rhs, s.w
+    cd, gap0, Zc, W, dt = o.cd, o.gap0, o.Zc, o.W, o.dt
     n = U.size
     nc = cd.size
-    rhs = np.empty(n)
-    work = np.empty(n)
-    w = np.empty(n)
-    lam = np.zeros(nc)
-    mu = np.zeros(nc)
-    inJ = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    k = 1
-    for step in range(1, nsteps + 1):
-        for i in range(n):  # drift and half kick
-            U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
-            V[i] += 0.5 * dt * A[i]
-        lam[:] = 0.0
-        inJ[:] = False
+    for i in range(n):  # drift and half kick
+        U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
+        V[i] += 0.5 * dt * A[i]
+    lam[:] = 0.0
+    inJ[:] = False
+    grow = False
+    for j in range(nc):
+        gj = gap0[j] + U[cd[j]]
+        if not np.isfinite(gj):  # blown up between samples: stop before the LCP
+            return BLOWN
+        if gj < 0.0:
+            inJ[j] = True
+            grow = True
+    for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
+        if not grow:
+            break
+        idx = np.flatnonzero(inJ)
+        m = idx.size
+        Ws = np.empty((m, m))
+        q = np.empty(m)
+        vmax = 0.0
+        for a in range(m):  # velocities before this set's correction
+            acc = V[cd[idx[a]]]
+            for b in range(nc):
+                acc -= Zc[idx[a], b] * mu[b]
+            q[a] = acc
+            vmax = max(vmax, abs(acc))
+            for b in range(m):
+                Ws[a, b] = W[idx[a], idx[b]]
+        ms = np.zeros(m)
+        act = np.zeros(m, np.bool_)
+        lcp_solve(Ws, q, ms, act, 1e-13 * max(vmax, 1e-300))
+        dmu = np.zeros(nc)  # the change of mu = dt lam
+        for a in range(m):
+            dmu[idx[a]] = ms[a] - mu[idx[a]]
+            mu[idx[a]] = ms[a]
+        if o.keep_z:
+            on = np.flatnonzero(dmu)
+            for i in range(n):
+                acc = 0.0
+                for b in on:
+                    acc += o.Z[i, b] * dmu[b]
+                V[i] += acc
+                U[i] += dt * acc
+        else:  # matrix-free: M^-1 C^T dmu
+            rhs[:] = 0.0
+            for b in range(nc):
+                rhs[cd[b]] = dmu[b]
+            lu(o.fac, rhs, w, s.work)
+            for i in range(n):
+                V[i] += w[i]
+                U[i] += dt * w[i]
         grow = False
         for j in range(nc):
-            gj = gap0[j] + U[cd[j]]
-            if not np.isfinite(gj):  # blown up between samples: stop before the LCP
-                return k, step, min_gap, step
-            if gj < 0.0:
+            if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
                 inJ[j] = True
                 grow = True
-        for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
-            if not grow:
-                break
-            idx = np.flatnonzero(inJ)
-            m = idx.size
-            Ws = np.empty((m, m))
-            q = np.empty(m)
-            vmax = 0.0
-            for a in range(m):  # velocities before this set's correction
-                acc = V[cd[idx[a]]]
-                for b in range(nc):
-                    acc -= Zc[idx[a], b] * mu[b]
-                q[a] = acc
-                vmax = max(vmax, abs(acc))
-                for b in range(m):
-                    Ws[a, b] = W[idx[a], idx[b]]
-            ms = np.zeros(m)
-            act = np.zeros(m, np.bool_)
-            lcp_solve(Ws, q, ms, act, 1e-13 * max(vmax, 1e-300))
-            dmu = np.zeros(nc)  # the change of mu = dt lam
-            for a in range(m):
-                dmu[idx[a]] = ms[a] - mu[idx[a]]
-                mu[idx[a]] = ms[a]
-            if keep_z:
-                on = np.flatnonzero(dmu)
-                for i in range(n):
-                    acc = 0.0
-                    for b in on:
-                        acc += Z[i, b] * dmu[b]
-                    V[i] += acc
-                    U[i] += dt * acc
-            else:  # matrix-free: M^-1 C^T dmu
-                rhs[:] = 0.0
-                for b in range(nc):
-                    rhs[cd[b]] = dmu[b]
-                lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, w, work)
-                for i in range(n):
-                    V[i] += w[i]
-                    U[i] += dt * w[i]
-            grow = False
-            for j in range(nc):
-                if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
-                    inJ[j] = True
-                    grow = True
-        for j in range(nc):
-            lam[j] = mu[j] / dt
-            mu[j] = 0.0
-        csr_matvec(Kp, Ki, Kx, U, rhs)  # A = M^-1 (F - K U)
+    for j in range(nc):
+        lam[j] = mu[j] / dt
+        mu[j] = 0.0
+    matvec(o.K, U, rhs)  # A = M^-1 (F - K U)
+    for i in range(n):
+        rhs[i] = o.F[i] - rhs[i]
+    if o.mdiag.size:
         for i in range(n):
-            rhs[i] = F[i] - rhs[i]
-        if mdiag.size:
-            for i in range(n):
-                A[i] = rhs[i] / mdiag[i]
-        else:
-            lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, A, work)
-        for i in range(n):
-            V[i] += 0.5 * dt * A[i]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, 1.0)  # the impulses dt lam, applied whole
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            csr_matvec(Mp, Mi, Mx, V, w)
-            e = 0.5 * (V @ w)
-            csr_matvec(Kp, Ki, Kx, U, w)
-            e += 0.5 * (U @ w) - F @ U + offset
-            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            A[i] = rhs[i] / o.mdiag[i]
+    else:
+        lu(o.fac, rhs, A, s.work)
+    for i in range(n):
+        V[i] += 0.5 * dt * A[i]
+    return OK
 
 
-class TaylorFlanaganStepper(KernelStepper):
+@njit(cache=True)
+def tf_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the contact stress and V."""
+    U, V, w = s.U, s.V, s.w
+    matvec(o.M, V, w)
+    e = 0.5 * (V @ w)
+    matvec(o.K, U, w)
+    e += 0.5 * (U @ w) - o.F @ U + o.offset
+    return e, -s.force.sum() / o.weights.sum(), V
+
+
+@njit(cache=True)
+def tf_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `tf_step`."""
+    return drive(tf_step, tf_sample, ops, st, rec, nsteps, stride)
+
+
+class TaylorFlanaganStepper(LoopStepper):
     """`taylor_flanagan_sparse` prepared: M factored, the response Z = M^-1 C^T and the
     Delassus matrix W = C Z, the initial acceleration computed once."""
+
+    loop = staticmethod(tf_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
         if np.any(p.massless):
@@ -467,16 +536,22 @@ class TaylorFlanaganStepper(KernelStepper):
         Z, Zc = response_rows(fac, C, cd, keep_z)
         W = np.ascontiguousarray(0.5 * (Zc + Zc.T))
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        self.kernel = _tf_kernel
-        self.state = (U, V, fac.solve(p.F - p.K @ U))
-        self.params = (self.dt,)
+        self.initial = (U, V, fac.solve(p.F - p.K @ U))
+        self.gamma = 1.0  # the impulses dt lam, applied whole
         M = sp.csr_matrix(p.M)
         diagonal = M.nnz == np.count_nonzero(M.diagonal())
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          fac.arrays, np.asarray(M.diagonal(), float) if diagonal
-                          else np.zeros(0), cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
-                          np.ascontiguousarray(Zc), keep_z)
+        self.ops = TaylorFlanaganOps(
+            csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), fac.arrays,
+            np.asarray(M.diagonal(), float) if diagonal else np.zeros(0), cd,
+            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,
+            np.ascontiguousarray(Z), np.ascontiguousarray(Zc), keep_z, self.dt,
+            float(p.energy_offset))
+
+    def new_state(self) -> TaylorFlanaganState:
+        n, nc = self.problem.nfree, self.ops.cd.size
+        U, V, A = (a.copy() for a in self.initial)
+        return TaylorFlanaganState(U, V, A, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                                   np.empty(n), np.empty(n), np.empty(n))
 
 
 def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:

@@ -38,6 +38,8 @@ Both accumulate the contact impulse and record it at each sample (the statistics
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -46,46 +48,74 @@ from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.contact_stats import (
     CONTACT_IMPULSE,
-    LAST_FORCE,
     SAMPLE_IMPULSE,
     contact_extra,
     first_contact_impulse,
-    impulse_update,
     new_stats,
     stats_update,
 )
+from contact_bench.core.loop import OK, START_PROJECTED, drive
 from contact_bench.core.sampling import blown_up, n_samples
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
+from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import (
     Factor,
     MasslessSplit,
     add_response,
     lcp_solve,
-    lu_solve,
 )
-from contact_bench.kernels.stepper import KernelStepper, SparseStepper
+from contact_bench.kernels.stepper import LoopStepper, SparseStepper
+
+
+class MasslessOps(NamedTuple):
+    """The massless-contact ODE's operators (`MasslessSplit`'s arrays with F and the
+    contact dofs' gaps): hv, mv the dofs with mass and the massless ones, cl the contact
+    dofs' positions in mv, K's rows Kh = K[hv] and Km = K[mv] (massless columns dropped),
+    K_mm's and M_hh's factors (or M_hh's diagonal), W = C K_mm^-1 C^T, Z = K_mm^-1 C^T."""
+
+    F: np.ndarray
+    hv: np.ndarray
+    mv: np.ndarray
+    cl: np.ndarray
+    Kh: CSR
+    Km: CSR
+    mfac: LU
+    hfac: LU
+    diag_h: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    tol: float
+    gap0: np.ndarray
+
+
+def massless_ops(split: MasslessSplit, p: SparseProblem) -> MasslessOps:
+    """`MasslessOps` of a problem's split."""
+    return MasslessOps(np.asarray(p.F, float), split.hv, split.mv, split.cl, split.Kh,
+                       split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z,
+                       split.tol, np.asarray(p.contact.gap0, float))
 
 
 @njit(cache=True)
-def massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, warm,
-                   rm, um, wm, gf):  # pragma: no cover - compiled
+def massless_solve(o, U, mu, active, warm, scr):  # pragma: no cover - compiled
     """U[mv] <- u_m(u_h), the massless rows solved with exact contact; mu (out) the
-    obstacle's forces, active (in/out) the contact dofs on the obstacle. Returns whether
-    any contact dof would penetrate without the obstacle (the LCP ran)."""
+    obstacle's forces, active (in/out) the contact dofs on the obstacle; scr: scratch
+    (rm, um, wm of the massless dofs' size, gf of the contact's). Returns whether any
+    contact dof would penetrate without the obstacle (the LCP ran)."""
+    rm, um, wm, gf = scr
+    mv, cl, gap0 = o.mv, o.cl, o.gap0
     nm, nc = mv.size, cl.size
-    csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh u_h
+    matvec(o.Km, U, rm)  # K_mh u_h
     for b in range(nm):
-        rm[b] = F[mv[b]] - rm[b]
-    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
-             rm, um, wm)
+        rm[b] = o.F[mv[b]] - rm[b]
+    lu(o.mfac, rm, um, wm)
     pen = False
     for j in range(nc):
         gf[j] = gap0[j] + um[cl[j]]
         pen = pen or gf[j] < 0.0
     if pen:
-        lcp_solve(W, gf, mu, active, tol, warm)
-        add_response(Z, mu, um)
+        lcp_solve(o.W, gf, mu, active, o.tol, warm)
+        add_response(o.Z, mu, um)
         for j in range(nc):
             if active[j]:
                 um[cl[j]] = -gap0[j]  # on the obstacle: the gap is 0 exactly
@@ -98,32 +128,29 @@ def massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, activ
 
 
 @njit(cache=True)
-def heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, ah, wh
-                       ):  # pragma: no cover - compiled
-    """ah = M_hh^-1 (F - K U)_h."""
-    nh = hv.size
-    csr_matvec(Khp, Khi, Khx, U, rh)
+def heavy_acceleration(o, U, rh, ah, wh):  # pragma: no cover - compiled
+    """ah = M_hh^-1 (F - K U)_h (rh, wh: scratch)."""
+    nh = o.hv.size
+    matvec(o.Kh, U, rh)
     for a in range(nh):
-        rh[a] = F[hv[a]] - rh[a]
-    if diag_h.size:
+        rh[a] = o.F[o.hv[a]] - rh[a]
+    if o.diag_h.size:
         for a in range(nh):
-            ah[a] = rh[a] / diag_h[a]
+            ah[a] = rh[a] / o.diag_h[a]
     else:
-        lu_solve(hfac[0], hfac[1], hfac[2], hfac[3], hfac[4], hfac[5], hfac[6], hfac[7],
-                 rh, ah, wh)
+        lu(o.hfac, rh, ah, wh)
 
 
 @njit(cache=True)
-def massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, vm, wm
-                      ):  # pragma: no cover - compiled
+def massless_velocity(o, V, active, rm, vm, wm):  # pragma: no cover - compiled
     """V[mv] <- d u_m / dt: K_mm v_m = -K_mh v_h, with v = 0 on the active contact dofs
     (a correction Z nu, W_AA nu = -v_A)."""
+    mv, cl, W, Z = o.mv, o.cl, o.W, o.Z
     nm = mv.size
-    csr_matvec(Kmp, Kmi, Kmx, V, rm)
+    matvec(o.Km, V, rm)
     for b in range(nm):
         rm[b] = -rm[b]
-    lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
-             rm, vm, wm)
+    lu(o.mfac, rm, vm, wm)
     idx = np.flatnonzero(active)
     if idx.size:
         sub = np.empty((idx.size, idx.size))
@@ -144,82 +171,94 @@ def massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, vm, wm
         V[mv[b]] = vm[b]
 
 
+class VerletOps(NamedTuple):
+    """Velocity Verlet on the massless-contact ODE: the ODE's operators, M and K whole
+    (the energy), the contact zone's weights, dt, the energy's offset."""
+
+    ode: MasslessOps
+    M: CSR
+    K: CSR
+    weights: np.ndarray
+    dt: float
+    offset: float
+
+
+class VerletState(NamedTuple):
+    """(U, V), the acceleration of the dofs with mass, the obstacle's forces and active
+    set, scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    force: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    scr: tuple  # (rm, um, wm, gf): `massless_solve`'s scratch
+    rh: np.ndarray
+    wh: np.ndarray
+    w: np.ndarray
+
+
 @njit(cache=True)
-def _verlet_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx,
-                   mfac, hfac, diag_h, W, Z, tol, gap0, weights, U, V, dt, nsteps, stride,
-                   offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats
-                   ):  # pragma: no cover - compiled
+def verlet_step(o, s, step):  # pragma: no cover - compiled
     """Velocity Verlet on the dofs with mass, the massless ones u_m(u_h) at every step
-    (module docstring); sample 0 is the projected initial state."""
-    n = U.size
-    nh, nm, nc = hv.size, mv.size, cl.size
-    rm = np.empty(nm)
-    um = np.empty(nm)
-    wm = np.empty(nm)
-    rh = np.empty(nh)
-    A = np.empty(nh)
-    wh = np.empty(nh)
-    w = np.empty(n)
-    gf = np.empty(nc)
-    mu = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    was = massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active,
-                         False, rm, um, wm, gf)
-    heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
-    massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
-    stats[LAST_FORCE] = mu.sum()  # the force at t = 0 in A: the impulse's start
-    E0 = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-    gdofs = mv[cl]  # the contact dofs in U
-    min_gap = smallest_gap(gap0, U, gdofs)
-    t_out[0] = 0.0
-    U_out[0, :] = U
-    V_out[0, :] = V
-    cu_out[0] = min_gap
-    s_out[0] = -mu.sum() / area
-    E_out[0] = E0
+    (module docstring); step 0 projects the initial state (`loop.START_PROJECTED`)."""
+    ode, U, V, A = o.ode, s.U, s.V, s.A
+    if step == 0:
+        s.was[0] = massless_solve(ode, U, s.force, s.active, False, s.scr)
+        heavy_acceleration(ode, U, s.rh, A, s.wh)
+        massless_velocity(ode, V, s.active, s.scr[0], s.scr[1], s.scr[2])
+        return OK
+    hv, dt = ode.hv, o.dt
     h = 0.5 * dt
-    k = 1
-    for step in range(1, nsteps + 1):
-        for a in range(nh):
-            i = hv[a]
-            V[i] += h * A[a]
-            U[i] += dt * V[i]
-        was = massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu,
-                             active, was, rm, um, wm, gf)
-        heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, rh, A, wh)
-        for a in range(nh):
-            V[hv[a]] += h * A[a]
-        stats_update(stats, status, mu, step, dt)
-        impulse_update(stats, mu, dt, 0.5)
-        min_gap = smallest_gap(gap0, U, gdofs, min_gap)
-        if step % stride == 0 or step == nsteps:
-            massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, gdofs, -mu.sum() / area, e, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+    for a in range(hv.size):
+        i = hv[a]
+        V[i] += h * A[a]
+        U[i] += dt * V[i]
+    s.was[0] = massless_solve(ode, U, s.force, s.active, s.was[0], s.scr)
+    heavy_acceleration(ode, U, s.rh, A, s.wh)
+    for a in range(hv.size):
+        V[hv[a]] += h * A[a]
+    return OK
 
 
-class VerletStepper(KernelStepper):
+@njit(cache=True)
+def verlet_sample(o, s):  # pragma: no cover - compiled
+    """The massless dofs' velocity, then the energy and the obstacle's stress."""
+    massless_velocity(o.ode, s.V, s.active, s.scr[0], s.scr[1], s.scr[2])
+    e = csr_energy(o.M, o.K, o.ode.F, s.U, s.V, o.offset, s.w)
+    return e, -s.force.sum() / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def verlet_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `verlet_step`."""
+    return drive(verlet_step, verlet_sample, ops, st, rec, nsteps, stride)
+
+
+class VerletStepper(LoopStepper):
     """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
     factored, the Delassus matrix) computed once."""
 
-    keeps_selection = False  # the kernel writes sample 0 itself
+    loop = staticmethod(verlet_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
         self.split = MasslessSplit.of(p)
         super().__init__(p, dt)
-        self.kernel = _verlet_kernel
-        self.state = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
-        self.params = (self.dt,)
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          *self.split.args(), np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float))
+        self.gamma = 0.5
+        self.start = START_PROJECTED
+        self.ops = VerletOps(massless_ops(self.split, p), csr_arrays(p.M), csr_arrays(p.K),
+                             np.asarray(p.contact.weights, float), self.dt,
+                             float(p.energy_offset))
+
+    def new_state(self) -> VerletState:
+        p, o = self.problem, self.ops.ode
+        n, nh, nm, nc = p.nfree, o.hv.size, o.mv.size, o.cl.size
+        return VerletState(p.U0.astype(float).copy(), p.V0.astype(float).copy(),
+                           np.empty(nh), np.zeros(nc), np.zeros(nc, np.bool_),
+                           np.zeros(1, np.bool_),
+                           (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)),
+                           np.empty(nh), np.empty(nh), np.empty(n))
 
 
 def prepare_verlet(p: SparseProblem, dt: float) -> VerletStepper:
@@ -270,31 +309,31 @@ def massless_ode_omega(p: SparseProblem) -> float:
 
 
 @njit(cache=True)
-def ode_rhs(y, U, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac, hfac, diag_h, W, Z,
-            tol, gap0, mu, active):  # pragma: no cover - compiled
+def ode_rhs(y, U, o, mu, active):  # pragma: no cover - compiled
     """d/dt (u_h, v_h) = (v_h, M_hh^-1 (F - K U)_h) with U = (u_h, u_m(u_h)); U (the
     full displacement), mu and active are scratch (active: the last evaluation's
     contact set, the LCP's warm start)."""
-    nh, nm, nc = hv.size, mv.size, cl.size
+    hv = o.hv
+    nh, nm, nc = hv.size, o.mv.size, o.cl.size
     for a in range(nh):
         U[hv[a]] = y[a]
-    massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, True,
-                   np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
+    massless_solve(o, U, mu, active, True,
+                   (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)))
     dy = np.empty(2 * nh)
     dy[:nh] = y[nh:]
     ah = np.empty(nh)
-    heavy_acceleration(U, F, hv, Khp, Khi, Khx, hfac, diag_h, np.empty(nh), ah, np.empty(nh))
+    heavy_acceleration(o, U, np.empty(nh), ah, np.empty(nh))
     dy[nh:] = ah
     return dy
 
 
 @njit(cache=True)
-def ode_samples(Ys, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac, hfac, diag_h, W, Z,
-                tol, gap0, U_out, V_out, lam_out):  # pragma: no cover - compiled
+def ode_samples(Ys, o, U_out, V_out, lam_out):  # pragma: no cover - compiled
     """The full samples from the integrator's (u_h, v_h) columns: u_m(u_h), its
     derivative and the obstacle's forces (lam_out, n_c per sample)."""
-    nh, nm, nc = hv.size, mv.size, cl.size
-    rm, um, wm, gf = np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)
+    hv = o.hv
+    nh, nm, nc = hv.size, o.mv.size, o.cl.size
+    scr = (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
     mu = np.zeros(nc)
     active = np.zeros(nc, np.bool_)
     for s in range(Ys.shape[1]):
@@ -303,9 +342,8 @@ def ode_samples(Ys, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac, hfac, dia
             V_out[s, hv[a]] = Ys[nh + a, s]
         U = U_out[s]
         V = V_out[s]
-        massless_solve(U, F, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, gap0, tol, mu, active, False,
-                       rm, um, wm, gf)
-        massless_velocity(V, mv, cl, Kmp, Kmi, Kmx, mfac, W, Z, active, rm, um, wm)
+        massless_solve(o, U, mu, active, False, scr)
+        massless_velocity(o, V, active, scr[0], scr[1], scr[2])
         lam_out[s, :] = mu
 
 
@@ -344,7 +382,7 @@ class AdaptiveStepper(SparseStepper):
         from scipy.integrate import solve_ivp  # here: 20 MB that other schemes' runs skip
 
         p, split, dt, rtol = self.problem, self.split, self.dt, self.rtol
-        hv, F, gap0 = split.hv, self.F, self.gap0
+        F = self.F
         steps = np.arange(0, nsteps + 1, stride)
         if steps[-1] != nsteps:
             steps = np.append(steps, nsteps)
@@ -353,12 +391,11 @@ class AdaptiveStepper(SparseStepper):
         U = p.U0.astype(float).copy()
         nc = p.contact.size
         force = np.zeros(nc)  # the last evaluation's contact forces
-        args = (U, F, hv, split.mv, split.cl, *split.Kh, *split.Kmh, split.mfac, split.hfac,
-                split.diag_h, split.W, split.Z, split.tol, gap0, force,
-                np.zeros(nc, np.bool_))
+        ops = massless_ops(split, p)
+        active = np.zeros(nc, np.bool_)
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            return np.append(ode_rhs(y[:-1], *args), force.sum())
+            return np.append(ode_rhs(y[:-1], U, ops, force, active), force.sum())
 
         sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), self.y0.copy(), method="DOP853",
                         t_eval=t_eval, rtol=rtol, atol=self.atol)
@@ -367,9 +404,7 @@ class AdaptiveStepper(SparseStepper):
         Us = np.zeros((k, p.nfree))
         Vs = np.zeros((k, p.nfree))
         lam = np.zeros((k, nc))
-        ode_samples(np.ascontiguousarray(sol.y[:-1]), F, hv, split.mv, split.cl, *split.Kh,
-                    *split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z,
-                    split.tol, gap0, Us, Vs, lam)
+        ode_samples(np.ascontiguousarray(sol.y[:-1]), ops, Us, Vs, lam)
         energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
                   + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
         gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)

@@ -34,123 +34,141 @@ Both refuse a problem with massless dofs: an impact law acts on momentum.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import (
-    CONTACT_IMPULSE,
-    LAST_FORCE,
-    impulse_update,
-    stats_update,
-)
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.recording import csr_energy, smallest_gap, write_sample
+from contact_bench.core.loop import BLOWN, OK, START_LEVEL, drive
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, lu
+from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import (
     Factor,
     contact_operators,
     correct,
     initial_acceleration,
     lcp_solve,
-    lu_solve,
 )
-from contact_bench.kernels.stepper import KernelStepper
+from contact_bench.kernels.stepper import LoopStepper
+
+
+class ImpactOps(NamedTuple):
+    """An impact law's operators: M, K, F, S's factor (or S's diagonal `sdiag`, non-empty
+    when S is diagonal), the contact dofs and gaps, W = C S^-1 C^T and Z = S^-1 C^T (kept
+    or not), the scheme's two parameters (Paoli-Schatzman: beta, e; Moreau-Jean: theta,
+    e), dt, the energy's offset and the LCP's tolerance."""
+
+    M: CSR
+    K: CSR
+    F: np.ndarray
+    sdiag: np.ndarray
+    fac: LU
+    cd: np.ndarray
+    gap0: np.ndarray
+    weights: np.ndarray
+    W: np.ndarray
+    Z: np.ndarray
+    keep_z: bool
+    a: float  # beta (Paoli-Schatzman) or theta (Moreau-Jean)
+    e: float
+    dt: float
+    offset: float
+    tol: float
+
+
+class ImpactState(NamedTuple):
+    """U^{n-1} (Paoli-Schatzman), U^n, V^n (Moreau-Jean), the next state X, the contact
+    forces, the LCP's unknowns and active set, scratch."""
+
+    Um: np.ndarray
+    U: np.ndarray
+    V: np.ndarray
+    X: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    rhs: np.ndarray
+    tmp: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    gf: np.ndarray
+    idx: np.ndarray
 
 
 @njit(cache=True)
-def _ps_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, sdiag, fac, cd, gap0, weights, W, Z, keep_z,
-               Um, U, beta, e, dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out,
-               s_out, E_out, stats, tol):  # pragma: no cover - compiled
-    """Paoli-Schatzman from (U^{-1}, U^0) (module docstring); `sdiag` non-empty: S is
-    that diagonal (per-dof projection), else `fac` and the LCP on W."""
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+def ps_step(o, s, step):  # pragma: no cover - compiled
+    """Paoli-Schatzman: level `step`'s contact force r^n and U^{n+1} (in X) from
+    (U^{n-1}, U^n) (module docstring); level 0 from the start (`loop.START_LEVEL`)."""
+    Um, U, X, rhs, tmp, w, gf = s.Um, s.U, s.X, s.rhs, s.tmp, s.w, s.gf
+    cd, gap0, beta, e, dt = o.cd, o.gap0, o.a, o.e, o.dt
     n = U.size
     nc = cd.size
     dt2 = dt * dt
-    diag = sdiag.size > 0
-    rhs = np.empty(n)
-    tmp = np.empty(n)
-    X = np.empty(n)
-    w = np.empty(n)
-    work = np.empty(n)
-    gf = np.empty(nc)
-    mu = np.zeros(nc)
-    lam = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    was = False
-    k = 1
-    for step in range(1, nsteps + 2):
-        # S X = M (2 U^n - U^{n-1}) - dt^2 K ((1 - 2 beta) U^n + beta U^{n-1}) + dt^2 F
-        for i in range(n):
-            tmp[i] = 2.0 * U[i] - Um[i]
-        csr_matvec(Mp, Mi, Mx, tmp, rhs)
-        for i in range(n):
-            tmp[i] = (1.0 - 2.0 * beta) * U[i] + beta * Um[i]
-        csr_matvec(Kp, Ki, Kx, tmp, w)
-        for i in range(n):
-            rhs[i] += dt2 * (F[i] - w[i])
-        if diag:
-            for i in range(n):
-                X[i] = rhs[i] / sdiag[i]
-        else:
-            lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
-        pen = False
-        finite = True
-        for j in range(nc):  # the constrained combination g(X) + e g(U^{n-1})
-            gf[j] = gap0[j] + X[cd[j]] + e * (gap0[j] + Um[cd[j]])
-            pen = pen or gf[j] < 0.0
-            finite = finite and np.isfinite(gf[j])
-        if not finite:  # blown up between samples: no contact problem to solve
-            return k, step - 1, min_gap, step - 1
-        if pen:
-            if diag:  # W = diag(1 / s): the projection dof by dof
-                for j in range(nc):
-                    active[j] = gf[j] < 0.0
-                    mu[j] = -gf[j] * sdiag[cd[j]] if active[j] else 0.0
-            else:
-                lcp_solve(W, gf, mu, active, tol, was)
-                correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
-            for j in range(nc):
-                if active[j]:  # on the constraint exactly
-                    X[cd[j]] = -gap0[j] - e * (gap0[j] + Um[cd[j]])
-                lam[j] = mu[j] / dt2
-        else:
-            mu[:] = 0.0
-            lam[:] = 0.0
-        was = pen
-        lvl = step - 1  # level n = step - 1 is complete: its force is r^n
-        stats_update(stats, status, lam, lvl, dt)
-        # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
-        # level 0 by dt r^0 / 2 from the data V0 (sample 0) to the centred velocity
-        if lvl == 0:
-            stats[LAST_FORCE] = lam.sum()
-            stats[CONTACT_IMPULSE] = 0.5 * dt * stats[LAST_FORCE]
-        else:
-            impulse_update(stats, lam, dt, 0.5)
-        if lvl == 0:
-            s_out[0] = -lam.sum() / area
-        elif lvl % stride == 0 or lvl == nsteps:
-            for i in range(n):
-                tmp[i] = (X[i] - Um[i]) / (2.0 * dt)
-            en = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, tmp, offset, w)
-            blown = write_sample(k, lvl * dt, U, tmp, gap0, cd, -lam.sum() / area, en, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, lvl, min_gap, lvl
-        if step == nsteps + 1:
-            break
+    diag = o.sdiag.size > 0
+    if step > 0:  # level step - 1 is sampled: move on to level step
         for i in range(n):
             Um[i] = U[i]
             U[i] = X[i]
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-    return k, nsteps, min_gap, -1
+    # S X = M (2 U^n - U^{n-1}) - dt^2 K ((1 - 2 beta) U^n + beta U^{n-1}) + dt^2 F
+    for i in range(n):
+        tmp[i] = 2.0 * U[i] - Um[i]
+    matvec(o.M, tmp, rhs)
+    for i in range(n):
+        tmp[i] = (1.0 - 2.0 * beta) * U[i] + beta * Um[i]
+    matvec(o.K, tmp, w)
+    for i in range(n):
+        rhs[i] += dt2 * (o.F[i] - w[i])
+    if diag:
+        for i in range(n):
+            X[i] = rhs[i] / o.sdiag[i]
+    else:
+        lu(o.fac, rhs, X, s.work)
+    pen = False
+    finite = True
+    for j in range(nc):  # the constrained combination g(X) + e g(U^{n-1})
+        gf[j] = gap0[j] + X[cd[j]] + e * (gap0[j] + Um[cd[j]])
+        pen = pen or gf[j] < 0.0
+        finite = finite and np.isfinite(gf[j])
+    if not finite:  # blown up between samples: no contact problem to solve
+        return BLOWN
+    mu, lam, active = s.mu, s.force, s.active
+    if pen:
+        if diag:  # W = diag(1 / s): the projection dof by dof
+            for j in range(nc):
+                active[j] = gf[j] < 0.0
+                mu[j] = -gf[j] * o.sdiag[cd[j]] if active[j] else 0.0
+        else:
+            lcp_solve(o.W, gf, mu, active, o.tol, s.was[0])
+            correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, s.work)
+        for j in range(nc):
+            if active[j]:  # on the constraint exactly
+                X[cd[j]] = -gap0[j] - e * (gap0[j] + Um[cd[j]])
+            lam[j] = mu[j] / dt2
+    else:
+        mu[:] = 0.0
+        lam[:] = 0.0
+    s.was[0] = pen
+    return OK
+
+
+@njit(cache=True)
+def ps_sample(o, s):  # pragma: no cover - compiled
+    """Level n: U^n with the centred velocity (U^{n+1} - U^{n-1}) / 2 dt and force r^n."""
+    for i in range(s.U.size):
+        s.tmp[i] = (s.X[i] - s.Um[i]) / (2.0 * o.dt)
+    en = csr_energy(o.M, o.K, o.F, s.U, s.tmp, o.offset, s.w)
+    return en, -s.force.sum() / o.weights.sum(), s.tmp
+
+
+@njit(cache=True)
+def ps_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `ps_step`."""
+    return drive(ps_step, ps_sample, ops, st, rec, nsteps, stride)
 
 
 def _refuse_massless(p: SparseProblem, what: str) -> None:
@@ -159,9 +177,11 @@ def _refuse_massless(p: SparseProblem, what: str) -> None:
                          "this problem has massless dofs")
 
 
-class PaoliSchatzmanStepper(KernelStepper):
+class PaoliSchatzmanStepper(LoopStepper):
     """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
     matrix and the state (U^{-1}, U^0) computed once."""
+
+    loop = staticmethod(ps_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, beta: float) -> None:
         _refuse_massless(p, "restitution (Paoli-Schatzman)")
@@ -179,15 +199,31 @@ class PaoliSchatzmanStepper(KernelStepper):
             fac = Factor.of(S)
             Z, W, keep_z = contact_operators(fac, cd, n)
         U = p.U0.astype(float).copy()
-        self.state = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
-        self.kernel = _ps_kernel
-        self.tail = (1e-13 * max(float(np.max(np.abs(U))),
-                                 float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300),)
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          sd if diag else np.zeros(0), fac.arrays, cd,
-                          np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, Z, keep_z)
-        self.params = (beta, e, dt)
+        self.initial = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
+        # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
+        # level 0 by dt r^0 / 2 from the data V0 (sample 0) to the centred velocity
+        self.gamma = 0.5
+        self.start = START_LEVEL
+        tol = 1e-13 * max(float(np.max(np.abs(U))),
+                          float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
+        self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
+                             sd if diag else np.zeros(0), fac.arrays, cd,
+                             np.asarray(p.contact.gap0, float),
+                             np.asarray(p.contact.weights, float), W, Z, keep_z, beta, e, dt,
+                             float(p.energy_offset), tol)
+
+    def new_state(self) -> ImpactState:
+        Um, U = (a.copy() for a in self.initial)
+        return impact_state(Um, U, np.zeros(0), self.ops.cd.size)
+
+
+def impact_state(Um: np.ndarray, U: np.ndarray, V: np.ndarray, nc: int) -> ImpactState:
+    """A fresh `ImpactState` from (U^{-1}, U^0) or (U^0, V^0), zeroed scratch."""
+    n = U.size
+    return ImpactState(Um, U, V, np.empty(n), np.zeros(nc), np.zeros(nc),
+                       np.zeros(nc, np.bool_), np.zeros(1, np.bool_), np.empty(n),
+                       np.empty(n), np.empty(n), np.empty(n), np.empty(nc),
+                       np.empty(nc, np.int64))
 
 
 def prepare_paoli_schatzman(p: SparseProblem, dt: float, e: float, beta: float
@@ -204,87 +240,76 @@ def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int
 
 
 @njit(cache=True)
-def _mj_kernel(Mp, Mi, Mx, Kp, Ki, Kx, F, fac, cd, gap0, weights, W, Z, keep_z, U, V,
-               theta, e, dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out,
-               E_out, stats, tol):  # pragma: no cover - compiled
+def mj_step(o, s, step):  # pragma: no cover - compiled
     """Moreau-Jean on (U, V) in place (module docstring)."""
-    Lp, Li, Lx, Up, Ui, Ux, pr, pc = fac
+    U, V, X, rhs, ku, kv = s.U, s.V, s.X, s.rhs, s.tmp, s.w
+    cd, gap0, theta, e, dt = o.cd, o.gap0, o.a, o.e, o.dt
     n = U.size
     nc = cd.size
     c = theta * (1.0 - theta) * dt * dt
-    rhs = np.empty(n)
-    ku = np.empty(n)
-    kv = np.empty(n)
-    X = np.empty(n)
-    w = np.empty(n)
-    work = np.empty(n)
-    mu = np.zeros(nc)
-    lam = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    idx = np.empty(nc, np.int64)
-    area = weights.sum()
-    E0 = E_out[0]
-    min_gap = smallest_gap(gap0, U, cd)
-    k = 1
-    for step in range(1, nsteps + 1):
-        # S X = M V + dt (F - K U) - c K V: the free velocity
-        csr_matvec(Mp, Mi, Mx, V, rhs)
-        csr_matvec(Kp, Ki, Kx, U, ku)
-        csr_matvec(Kp, Ki, Kx, V, kv)
-        for i in range(n):
-            rhs[i] += dt * (F[i] - ku[i]) - c * kv[i]
-        lu_solve(Lp, Li, Lx, Up, Ui, Ux, pr, pc, rhs, X, work)
-        # the index set: predicted gap <= 0; Newton's law on its dofs
-        m = 0
-        pen = False
+    # S X = M V + dt (F - K U) - c K V: the free velocity
+    matvec(o.M, V, rhs)
+    matvec(o.K, U, ku)
+    matvec(o.K, V, kv)
+    for i in range(n):
+        rhs[i] += dt * (o.F[i] - ku[i]) - c * kv[i]
+    lu(o.fac, rhs, X, s.work)
+    # the index set: predicted gap <= 0; Newton's law on its dofs
+    idx, mu, active = s.idx, s.mu, s.active
+    m = 0
+    pen = False
+    for j in range(nc):
+        d = cd[j]
+        if not np.isfinite(X[d]):  # blown up between samples
+            return BLOWN
+        if gap0[j] + U[d] + 0.5 * dt * V[d] <= 0.0:
+            idx[m] = j
+            m += 1
+            pen = pen or X[d] + e * V[d] < 0.0
+    mu[:] = 0.0
+    active[:] = False
+    if pen:
+        Ws = np.empty((m, m))
+        qs = np.empty(m)
+        ms = np.zeros(m)
+        acts = np.zeros(m, np.bool_)
+        for a in range(m):
+            qs[a] = X[cd[idx[a]]] + e * V[cd[idx[a]]]
+            for b in range(m):
+                Ws[a, b] = o.W[idx[a], idx[b]]
+        lcp_solve(Ws, qs, ms, acts, o.tol, False)
+        for a in range(m):
+            mu[idx[a]] = ms[a]
+            active[idx[a]] = acts[a]
+        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, kv, s.work)
         for j in range(nc):
-            d = cd[j]
-            if not np.isfinite(X[d]):  # blown up between samples
-                return k, step, min_gap, step
-            if gap0[j] + U[d] + 0.5 * dt * V[d] <= 0.0:
-                idx[m] = j
-                m += 1
-                pen = pen or X[d] + e * V[d] < 0.0
-        mu[:] = 0.0
-        active[:] = False
-        if pen:
-            Ws = np.empty((m, m))
-            qs = np.empty(m)
-            ms = np.zeros(m)
-            acts = np.zeros(m, np.bool_)
-            for a in range(m):
-                qs[a] = X[cd[idx[a]]] + e * V[cd[idx[a]]]
-                for b in range(m):
-                    Ws[a, b] = W[idx[a], idx[b]]
-            lcp_solve(Ws, qs, ms, acts, tol, False)
-            for a in range(m):
-                mu[idx[a]] = ms[a]
-                active[idx[a]] = acts[a]
-            correct(fac, cd, Z, keep_z, mu, X, rhs, w, work)
-            for j in range(nc):
-                if active[j]:  # on the law exactly
-                    X[cd[j]] = -e * V[cd[j]]
-        for j in range(nc):
-            lam[j] = mu[j] / dt  # the impulse as a mean force over the step
-        for i in range(n):
-            U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
-            V[i] = X[i]
-        stats_update(stats, status, lam, step, dt)
-        impulse_update(stats, lam, dt, 1.0)  # the impulse P = dt lam itself
-        min_gap = smallest_gap(gap0, U, cd, min_gap)
-        if step % stride == 0 or step == nsteps:
-            en = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, cd, -lam.sum() / area, en, E0,
-                                  t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+            if active[j]:  # on the law exactly
+                X[cd[j]] = -e * V[cd[j]]
+    for j in range(nc):
+        s.force[j] = mu[j] / dt  # the impulse as a mean force over the step
+    for i in range(n):
+        U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
+        V[i] = X[i]
+    return OK
 
 
-class MoreauJeanStepper(KernelStepper):
+@njit(cache=True)
+def mj_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the mean contact force's stress and V."""
+    en = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return en, -s.force.sum() / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `mj_step`."""
+    return drive(mj_step, mj_sample, ops, st, rec, nsteps, stride)
+
+
+class MoreauJeanStepper(LoopStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
+
+    loop = staticmethod(mj_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
         _refuse_massless(p, "moreau_jean")
@@ -295,15 +320,18 @@ class MoreauJeanStepper(KernelStepper):
         fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
         Z, W, keep_z = contact_operators(fac, cd, n)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        self.state = (U, V)
+        self.initial = (U, V)
         # a velocity-level tolerance: round-off of the larger of the data's speeds
         vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
-        self.kernel = _mj_kernel
-        self.tail = (1e-13 * vscale,)
-        self.operators = (*csr_arrays(p.M), *csr_arrays(p.K), np.asarray(p.F, float),
-                          fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                          np.asarray(p.contact.weights, float), W, Z, keep_z)
-        self.params = (theta, e, dt)
+        self.gamma = 1.0  # the impulse P = dt lam itself
+        self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
+                             np.zeros(0), fac.arrays, cd, np.asarray(p.contact.gap0, float),
+                             np.asarray(p.contact.weights, float), W, Z, keep_z, theta, e, dt,
+                             float(p.energy_offset), 1e-13 * vscale)
+
+    def new_state(self) -> ImpactState:
+        U, V = (a.copy() for a in self.initial)
+        return impact_state(np.zeros(0), U, V, self.ops.cd.size)
 
 
 def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float

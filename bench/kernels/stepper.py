@@ -2,8 +2,9 @@
 
 A stepper's constructor does all the set-up of a scheme on a `SparseProblem` that does
 not depend on the number of steps (factorisations, Delassus matrices, contact laws,
-initial acceleration and predictors); `run(nsteps, stride)` copies the initial state,
-allocates the samples and statistics and calls the compiled kernel. A caller that
+initial acceleration and predictors); `run(nsteps, stride)` makes a fresh state,
+allocates the samples and statistics and calls the one compiled loop
+(`contact_bench.core.loop.drive`) with the scheme's step. A caller that
 times the stepping times `run` alone, and its set-up by timing the constructor. `run`
 starts from the same state every time, so two calls return the same trajectory.
 """
@@ -21,6 +22,8 @@ from contact_bench.api.plugin import Stepper, Trajectory
 from contact_bench.api.problem import banded
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.contact_stats import new_stats
+from contact_bench.core.loop import START_DATA, Record
+from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.recording import SampleBuffers
 
 
@@ -49,35 +52,37 @@ class SparseStepper(Stepper, ABC):
         the last one."""
 
 
-class KernelStepper(SparseStepper):
-    """A stepper whose `run` is one call of a compiled kernel with the sparse kernels'
-    argument layout:
-
-        kernel(*operators, *state, *params, nsteps, stride, energy offset,
-               t, U, V, gap, stress, energy, stats, *tail)
-            -> (samples written, steps done, smallest gap, blow-up step or -1)
-
-    `state` (the arrays the kernel advances in place) is copied at every run. A
-    subclass's constructor sets `kernel`, `operators`, `state`, `params`, `tail`, the
-    force at t = 0 `force0` (the statistics' start) and `sample0`, the entries of sample
-    0 it writes itself (e.g. {"energy": E0} with a contact law's energy).
+class LoopStepper(SparseStepper):
+    """A scheme prepared for the one compiled loop (`contact_bench.core.loop.drive`):
+    a subclass's constructor sets `ops` (its typed operators), `gamma` (the weight of a
+    step's end force in its impulse), `force0` (the force at t = 0, the statistics'
+    start), `sample0` (the entries of sample 0 it gives itself, e.g. {"energy": E0} with
+    a contact law's energy) and `start` (`loop.START_*`); the class gives its compiled
+    `loop` (a staticmethod: the scheme's cached `x_loop(ops, st, rec, nsteps, stride)`,
+    which calls `drive` with the scheme's step) and `new_state()`, a fresh state.
 
     `run_keeping(nsteps, stride, dofs)`: the same run keeping only the displacement
-    samples of `dofs` (`SampleBuffers`' keep), for a kernel that writes its samples with
-    `write_sample` only (`keeps_selection`)."""
+    samples of `dofs` (`SampleBuffers`' keep)."""
 
-    #: the kernel writes every sample through `write_sample` (a selection can be kept)
+    loop: Callable[..., tuple[int, int, float, int]]
+    #: the loop writes every sample (a selection of dofs can be kept)
     keeps_selection = True
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
         super().__init__(problem, dt)
-        self.kernel: Callable[..., tuple[int, int, float, int]]
-        self.operators: tuple[Any, ...] = ()
-        self.state: tuple[Any, ...] = ()
-        self.params: tuple[Any, ...] = ()
-        self.tail: tuple[Any, ...] = ()
+        self.ops: tuple[Any, ...] = ()
+        self.gamma = 1.0
         self.force0 = 0.0
         self.sample0: dict[str, float] = {}
+        self.start = START_DATA
+
+    def new_state(self) -> tuple[Any, ...]:
+        """A fresh state (the initial one, copied, and zeroed scratch) for one run."""
+        raise NotImplementedError
+
+    def gap_operator(self) -> CSR:
+        """The gap operator G (gaps = gap0 + G U) the loop's bookkeeping reads."""
+        return csr_arrays(self.problem.contact.gap_operator(self.problem.nfree))
 
     def run(self, nsteps: int, stride: int) -> Trajectory:
         traj = self._run(nsteps, stride, None)
@@ -97,23 +102,25 @@ class KernelStepper(SparseStepper):
     def run_keeping(self, nsteps: int, stride: int, dofs: np.ndarray) -> Trajectory:
         """`run` with only U[:, dofs] kept (V none), and the largest |U|, |V| of each
         sample in extra["U_absmax"], extra["V_absmax"]: the same steps, bit for bit."""
-        if not self.keeps_selection:
-            return keep_selection(self.run(nsteps, stride), dofs)
         return self._run(nsteps, stride, np.asarray(dofs, np.int64))
 
     def _run(self, nsteps: int, stride: int, keep: np.ndarray | None) -> Trajectory:
-        out = SampleBuffers(self.problem, nsteps, stride, keep)
+        p = self.problem
+        out = SampleBuffers(p, nsteps, stride, keep)
         for name, value in self.sample0.items():
             getattr(out, name)[0] = value
         stats = new_stats(self.force0, out.size)
-        k, done, min_gap, blow = self.kernel(
-            *self.operators, *(a.copy() for a in self.state), *self.params, int(nsteps),
-            int(stride), float(self.problem.energy_offset), *out.arrays(), stats, *self.tail)
+        t, U, V, gap, stress, energy = out.arrays()
+        rec = Record(t, U, V, gap, stress, energy, stats, np.zeros(p.contact.size, np.bool_),
+                     self.gap_operator(), np.asarray(p.contact.gap0, float), self.dt,
+                     float(self.gamma), int(self.start))
+        k, done, min_gap, blow = type(self).loop(self.ops, self.new_state(), rec, int(nsteps),
+                                                 int(stride))
         return out.trajectory(k, done, min_gap, blow, self.dt, stats)
 
 
 def keep_selection(traj: Trajectory, dofs: np.ndarray) -> Trajectory:
-    """A full trajectory reduced to what `KernelStepper.run_keeping` keeps: U[:, dofs],
+    """A full trajectory reduced to what `LoopStepper.run_keeping` keeps: U[:, dofs],
     no V, the largest |U| and |V| of each sample in extra."""
     extra = dict(traj.extra, U_absmax=np.max(np.abs(traj.U), axis=1, initial=0.0),
                  V_absmax=np.max(np.abs(traj.V), axis=1, initial=0.0))
@@ -124,7 +131,7 @@ def keep_selection(traj: Trajectory, dofs: np.ndarray) -> Trajectory:
 def run_keeping(stepper: Stepper, nsteps: int, stride: int, dofs: np.ndarray) -> Trajectory:
     """`stepper.run(nsteps, stride)` keeping only the displacement samples of `dofs` (and
     each sample's largest |U|, |V|): without the full samples in memory when the stepper
-    can (`KernelStepper.run_keeping`), else reduced after the run."""
-    if isinstance(stepper, KernelStepper):
+    can (`LoopStepper.run_keeping`), else reduced after the run."""
+    if isinstance(stepper, LoopStepper):
         return stepper.run_keeping(nsteps, stride, dofs)
     return keep_selection(stepper.run(nsteps, stride), dofs)

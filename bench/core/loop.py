@@ -1,0 +1,181 @@
+"""The one stepping loop of the compiled sparse schemes, and all of its bookkeeping.
+
+A compiled scheme gives two numba functions over its own typed structures (named tuples
+of arrays and numbers: its operators `ops`, read only, and its state `st`, advanced in
+place):
+
+* `step(ops, st, n) -> int`: advance from step n - 1 to step n; leave the step's contact
+  force of each contact point (>= 0, the one its velocity update feels) in `st.force`;
+  return `OK`, or `BLOWN` when the state is no longer finite (the run stops there);
+* `sample(ops, st) -> (energy, stress, V)`: the sampled energy, stress and velocity of
+  the state reached (a scheme whose velocity is not a state, or is staggered, computes
+  it here).
+
+`drive(step, sample, ops, st, rec, nsteps, stride)` makes the steps and does the
+bookkeeping, here and nowhere else: the contact statistics (chatter, first contact,
+peak force, impulse: `contact_bench.core.contact_stats`) after every step, the smallest
+gap over every step, a sample every `stride` steps and at the last one (time, U, V,
+smallest gap, stress, energy, the impulse so far), and the blow-up rule
+(`contact_bench.core.sampling.blown_up`) at each sample. Each distinct step function
+compiles its own specialisation of the loop (numba dispatchers as arguments), so the
+loop costs no indirect call. `drive` is inlined into (numba `inline="always"`) and
+cached with its caller: a scheme module calls it from its own cached entry point, three
+lines,
+
+    @njit(cache=True)
+    def run_x(ops, st, rec, nsteps, stride):
+        return drive(x_step, x_sample, ops, st, rec, nsteps, stride)
+
+whose cache holds the specialised loop. (Compiled as a function of its own, the loop
+would hold the dispatchers as Python objects, which numba cannot cache; a cached loop
+keyed on every scheme's dispatcher could not be read by a process that has not imported
+them all.)
+
+`Record` holds what the loop writes (the sample arrays of `SampleBuffers`, the
+statistics) and what it needs for it: the gap operator G (CSR, one row per contact
+point: gaps = gap0 + G U), the step, the impulse weight of the step's end force, and how
+the scheme starts (`START_*`). The plain-numpy `contact_bench.api.TrajectoryRecorder`
+calls the same `book_step` and `book_sample`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, types
+from numba.extending import overload
+
+from contact_bench.core.contact_stats import (
+    LAST_FORCE,
+    impulse_sample,
+    impulse_update,
+    stats_update,
+)
+from contact_bench.core.sampling import blown_up
+
+#: `step`'s return: the step is done
+OK = 0
+#: `step`'s return: the state is not finite any more; the run stops at this step
+BLOWN = 1
+
+#: the run starts from the problem's initial state, sample 0 written by `SampleBuffers`
+START_DATA = 0
+#: `step(ops, st, 0)` computes level 0's contact force (a two-step scheme that samples
+#: level n once it has made step n + 1): counted in the statistics, its stress sampled
+START_LEVEL = 1
+#: `step(ops, st, 0)` projects the initial state (massless dofs solved): sample 0 and
+#: the energy of reference are the projected state's, its force the impulse's start
+START_PROJECTED = 2
+
+
+class Record(NamedTuple):
+    """What `drive` writes and reads besides the scheme's own structures."""
+
+    t: np.ndarray
+    U: object  # (samples, n) array, or a kept selection (buf, dofs, absmax)
+    V: object
+    gap: np.ndarray
+    stress: np.ndarray
+    energy: np.ndarray
+    stats: np.ndarray  # `contact_bench.core.contact_stats.new_stats`
+    status: np.ndarray  # the contact status of each contact point (chatter)
+    G: tuple  # the gap operator as CSR arrays (indptr, indices, data): gaps = gap0 + G U
+    gap0: np.ndarray
+    dt: float
+    gamma: float  # the weight of the step's end force in its impulse
+    start: int  # START_DATA, START_LEVEL or START_PROJECTED
+
+
+def store_state(out, k, X):  # pragma: no cover - compiled through its overload
+    """Row k of a state's samples: `out[k, :] = X` for an array; for a kept selection
+    (buf, dofs, absmax) buf[k, :] = X[dofs] and absmax[k] = max |X| (NaN if X has one)."""
+    if isinstance(out, tuple):
+        buf, dofs, absmax = out
+        buf[k, :] = X[dofs]
+        absmax[k] = np.max(np.abs(X))
+    else:
+        out[k, :] = X
+
+
+@overload(store_state)
+def _store_state_compiled(out, k, X):  # pragma: no cover - compiled
+    if isinstance(out, types.Array):
+        def full(out, k, X):
+            out[k, :] = X
+        return full
+    if isinstance(out, types.BaseTuple):
+        def kept(out, k, X):
+            buf, dofs, absmax = out
+            for j in range(dofs.size):
+                buf[k, j] = X[dofs[j]]
+            absmax[k] = np.max(np.abs(X))
+        return kept
+    return None
+
+
+@njit(cache=True)
+def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
+    """min(start, min_j gap0[j] + G_j U): the smallest gap of the contact points (G as
+    its CSR arrays)."""
+    indptr, indices, data = G
+    g = start
+    for j in range(gap0.size):
+        acc = 0.0
+        for kk in range(indptr[j], indptr[j + 1]):
+            acc += data[kk] * U[indices[kk]]
+        g = min(g, gap0[j] + acc)
+    return g
+
+
+@njit(cache=True)
+def book_step(rec, force, n):  # pragma: no cover - compiled
+    """The statistics of step n from its contact forces (`stats_update`,
+    `impulse_update` with the record's weight)."""
+    stats_update(rec.stats, rec.status, force, n, rec.dt)
+    impulse_update(rec.stats, force, rec.dt, rec.gamma)
+
+
+@njit(cache=True)
+def book_sample(rec, k, t, U, V, stress, e):  # pragma: no cover - compiled
+    """Write sample k (time t, U, V, the smallest gap, stress, energy e, the impulse so
+    far). True when the run has blown up (e not finite or far above |E(0)|)."""
+    rec.t[k] = t
+    store_state(rec.U, k, U)
+    store_state(rec.V, k, V)
+    rec.gap[k] = smallest_gap(rec.G, rec.gap0, U, np.inf)
+    rec.stress[k] = stress
+    rec.energy[k] = e
+    impulse_sample(rec.stats, k)
+    return blown_up(e, rec.energy[0])
+
+
+@njit(inline="always")
+def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """`nsteps` steps of the scheme (`step`, `sample`) from its state `st`, a sample every
+    `stride` steps and at the last. Returns (samples written, steps done, smallest gap,
+    blow-up step or -1)."""
+    if rec.start == START_LEVEL:
+        step(ops, st, 0)
+        book_step(rec, st.force, 0)
+        rec.stress[0] = sample(ops, st)[1]
+    elif rec.start == START_PROJECTED:
+        step(ops, st, 0)
+        rec.stats[LAST_FORCE] = st.force.sum()
+        e, stress, V = sample(ops, st)
+        rec.energy[0] = e
+        book_sample(rec, 0, 0.0, st.U, V, stress, e)
+    min_gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
+    k = 1
+    for n in range(1, nsteps + 1):
+        if step(ops, st, n) == BLOWN:
+            return k, n, min_gap, n
+        book_step(rec, st.force, n)
+        min_gap = smallest_gap(rec.G, rec.gap0, st.U, min_gap)
+        if n % stride == 0 or n == nsteps:
+            e, stress, V = sample(ops, st)
+            blown = book_sample(rec, k, n * rec.dt, st.U, V, stress, e)
+            k += 1
+            if blown:
+                return k, n, min_gap, n
+    return k, nsteps, min_gap, -1
