@@ -51,9 +51,10 @@ UNSUPPORTED: dict[str, int] = {
 }
 #: smallest |det J| / h^dim of an element (h its longest edge) that is not degenerate
 DEGENERATE = 1e-10
-#: skfem's hexahedron node order from meshio's (VTK's), as scikit-fem's own loader does
-HEX_FROM_VTK = (0, 4, 7, 3, 1, 5, 6, 2)  # INV_HEX_MAPPING[:8] of skfem.io.meshio
+#: meshio's (VTK's) hexahedron node order from scikit-fem's, and back (HEX_MAPPING[:8]
+#: of `skfem.io.meshio` and its inverse)
 HEX_TO_VTK = (0, 3, 6, 2, 1, 5, 7, 4)
+HEX_FROM_VTK = tuple(HEX_TO_VTK.index(i) for i in range(8))
 
 
 class MeshFileError(BenchError):
@@ -153,7 +154,11 @@ def _jacobians(mesh: fe.Mesh) -> np.ndarray:
     ref = mesh.elem.refdom
     X, _ = get_quadrature(ref, 4)
     X = np.hstack([np.asarray(ref.p, float), X])
-    return np.asarray(mesh._mapping().detDF(X))  # noqa: SLF001 - skfem's public mapping
+    try:
+        with np.errstate(divide="ignore", invalid="ignore"):  # the affine inverse of a
+            return np.asarray(mesh._mapping().detDF(X))  # flat element: found below  # noqa: SLF001 - skfem's mapping
+    except Exception:  # noqa: BLE001 - scikit-fem refuses an exact zero: degenerate
+        return np.zeros((mesh.t.shape[1], X.shape[1]))
 
 
 def _check_elements(path: str, mesh: fe.Mesh, ctype: str) -> None:
@@ -298,8 +303,9 @@ def write_msh(mesh: fe.Mesh, path: str | Path, groups: dict[str, np.ndarray] | N
     """Write a scikit-fem mesh (P1/P2 triangles and tetrahedra, Q1 quadrilaterals and
     hexahedra) to Gmsh's .msh 2.2 (ASCII): the body's elements as physical group `body`,
     each of `groups` (name -> boundary facet indices) as a physical group of lines (2D) or
-    faces (3D). Elements are written positively oriented (as Gmsh makes them): a
-    scikit-fem P1 mesh keeps its element nodes sorted, in either orientation."""
+    faces (3D). Triangles and tetrahedra are written positively oriented (as Gmsh makes
+    them: a scikit-fem P1 mesh keeps its element nodes sorted, in either orientation);
+    quadrilaterals and hexahedra as they are (one orientation, or ValueError)."""
     import meshio
 
     types = {v[1]: k for k, v in BODY_CELLS.items()}
@@ -314,9 +320,10 @@ def write_msh(mesh: fe.Mesh, path: str | Path, groups: dict[str, np.ndarray] | N
     if np.any(flip):
         swap = {"triangle": [0, 2, 1], "triangle6": [0, 2, 1, 5, 4, 3],
                 "tetra": [0, 2, 1, 3], "tetra10": [0, 2, 1, 3, 6, 5, 4, 7, 9, 8]}.get(ctype)
-        if swap is None:
-            raise ValueError(f"write_msh: negatively oriented {ctype} elements")
-        t[:, flip] = t[swap][:, flip]
+        if swap is not None:
+            t[:, flip] = t[swap][:, flip]
+        elif not np.all(flip):  # quadrilaterals, hexahedra: one orientation, as given
+            raise ValueError(f"write_msh: {ctype} elements of both orientations")
     if ctype == "hexahedron":
         t = t[list(HEX_TO_VTK)]
     points = np.zeros((pts.shape[1], 3))
@@ -357,5 +364,44 @@ def _cached(key: tuple, path: str) -> MeshFile:
     return read_mesh(path)
 
 
+def refined_facets(coarse: fe.Mesh, facets: np.ndarray, fine: fe.Mesh) -> np.ndarray:
+    """The boundary facets of `fine` (a `refined` `coarse`) inside the coarse `facets`:
+    those whose vertices all lie among one coarse facet's nodes, edge midpoints and
+    centre (where refinement puts new vertices; P2 geometry: its edge nodes). scikit-fem
+    keeps named boundaries through `refined` for P1 triangles and Q1 quadrilaterals only.
+    """
+    scale = float(np.max(np.abs(coarse.doflocs))) or 1.0
+
+    def key(x: np.ndarray) -> tuple:
+        return tuple(np.round(np.asarray(x) / scale, 9).tolist())
+
+    owners: dict[tuple, set[int]] = {}
+    F = coarse.facets[:, facets]
+    pts = coarse.doflocs
+    for j in range(F.shape[1]):
+        nodes = list(F[:, j])
+        cand = [pts[:, v] for v in nodes]
+        for a in range(len(nodes)):
+            for b in range(a + 1, len(nodes)):
+                cand.append(0.5 * (pts[:, nodes[a]] + pts[:, nodes[b]]))
+        cand.append(np.mean(pts[:, nodes], axis=1))
+        dofs = getattr(coarse.dofs, "facet_dofs", None)
+        if dofs is not None and coarse.doflocs.shape[1] > coarse.p.shape[1]:
+            cand += [pts[:, d] for d in np.asarray(dofs)[:, facets[j]]]
+        for x in cand:
+            owners.setdefault(key(x), set()).add(j)
+    out = []
+    for f in fine.boundary_facets():
+        common: set[int] | None = None
+        for v in fine.facets[:, f]:
+            got = owners.get(key(fine.p[:, v]), set())
+            common = got if common is None else common & got
+            if not common:
+                break
+        if common:
+            out.append(int(f))
+    return np.array(out, np.int64)
+
+
 __all__ = ["BODY_CELLS", "MeshFile", "MeshFileError", "boundary_group", "cached_mesh",
-           "read_mesh", "write_msh"]
+           "read_mesh", "refined_facets", "write_msh"]

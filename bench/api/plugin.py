@@ -153,7 +153,9 @@ class StudyGrid:
     study's final time (None: the scene's). `small`, `small_nx`, `small_T`: one variant,
     its grids smallest first (a scheme whose mass variant the scene refuses on one takes
     the next) and a short final time after the first impact: the quick study and the
-    tests.
+    tests. `in_default_study`: the study without named scenes (`contact-bench study`,
+    results/study) runs the scene; False for a scene on a user's file (mesh_body), which
+    the tests still run on its bundled default and a study runs when named.
     """
 
     specs: tuple[str, ...]
@@ -162,6 +164,7 @@ class StudyGrid:
     small: str
     small_nx: tuple[int, ...]
     small_T: float
+    in_default_study: bool = True
 
 
 class Case(Plugin):

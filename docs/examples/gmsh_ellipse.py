@@ -1,9 +1,10 @@
 """An elliptic body meshed by Gmsh, for `mesh_body` (docs/mesh-files.md).
 
 The ellipse x^2 / a^2 + (y - b)^2 / b^2 <= 1 (a = 20, b = 12: it touches the plane y = 0
-at its lowest point), triangles of size about `h` (P2 with `--order 2`, the boundary's
-midpoints on the curve), its lower half boundary the physical group "contact", the
-surface "body". Needs the optional `gmsh` extra (pip install -e ".[gmsh]").
+at its lowest point), triangles of size about `h` (P1, or P2 with `--order 2`: the
+boundary's midpoints on the curve), its lower half boundary the physical group "contact",
+the surface "body". Needs the optional `gmsh` extra (pip install -e ".[gmsh]"). The
+bundled cases/meshes/ellipse.msh (mesh_body's default) is `ellipse.msh` of the defaults.
 
     python docs/examples/gmsh_ellipse.py OUT.msh [--h 4] [--order 1|2]
 """
@@ -14,7 +15,7 @@ import argparse
 import math
 
 
-def ellipse(out: str, h: float = 4.0, order: int = 2, a: float = 20.0, b: float = 12.0) -> str:
+def ellipse(out: str, h: float = 4.0, order: int = 1, a: float = 20.0, b: float = 12.0) -> str:
     """Mesh the ellipse into `out` (Gmsh's .msh 4.1); returns `out`."""
     import gmsh
 
@@ -45,6 +46,6 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("out")
     ap.add_argument("--h", type=float, default=4.0)
-    ap.add_argument("--order", type=int, default=2, choices=(1, 2))
+    ap.add_argument("--order", type=int, default=1, choices=(1, 2))
     args = ap.parse_args()
     print(ellipse(args.out, args.h, args.order))
