@@ -353,6 +353,13 @@ class BodyCase(Case):
     def declarations(self) -> dict[str, Any]:
         return {"size": self.size}
 
+    def body(self, nx: int) -> Any:
+        """The assembled body at resolution nx (`contact_bench.api.fem_nd.Elasticity`)
+        whose every vector dof is an unknown of `sparse_problem` in the same order, for
+        the fields and pictures of a run (`contact_bench.output.fields`); None (the
+        default): the scene gives none."""
+        return None
+
     def cannot_run(self, scheme: Scheme) -> str | None:
         if self.time_load and not scheme.adds_time_load():
             return ("the scene has a time-dependent load, which this scheme's stepper "
