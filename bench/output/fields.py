@@ -44,6 +44,8 @@ class BodyFields:
     zone_vertices: np.ndarray  # contact rows whose dof is at a vertex
     zone_vertex: np.ndarray  # ... and that vertex
     normal_stress: Any  # (n_c, n) sparse, or None
+    axis: int = -1  # the obstacle's normal axis (-1: none known)
+    level: float = 0.0  # the obstacle plane's coordinate along it
 
     @property
     def dim(self) -> int:
@@ -116,11 +118,11 @@ def body_fields(body: Any, problem: Any) -> BodyFields:
     mesh = body.mesh
     d = body.dim
     t = np.asarray(mesh.t, np.int64)
-    nv = int(mesh.p.shape[1])
+    nv = int(mesh.nvertices)  # a P2 mesh's `p` holds its edge nodes too
     ctype = _CELL_TYPES[(d, t.shape[0])]
     cells = (t[list(_HEX_TO_VTK)] if ctype == "hexahedron" else t).T
     if ctype in ("triangle", "tetra"):  # positively oriented, as ParaView draws them
-        P = mesh.p[:, t]
+        P = mesh.doflocs[:, t]
         E = np.stack([P[:, k] - P[:, 0] for k in range(1, d + 1)], axis=0)  # (d, d, e)
         flip = np.linalg.det(np.moveaxis(E, -1, 0)) < 0
         cells = cells.copy()
@@ -134,12 +136,17 @@ def body_fields(body: Any, problem: Any) -> BodyFields:
         np.zeros(0, np.int64)
     scalar = dofs // d
     rows = np.flatnonzero(scalar < nv)
-    return BodyFields(points=np.ascontiguousarray(mesh.p.T), cell_type=ctype,
+    axis, level = -1, 0.0
+    if problem.vertical is not None and dofs.size:
+        axis = int(np.argmax(np.abs(np.asarray(problem.vertical)[:d])))
+        X = np.asarray(body.dof_coordinates)[axis, scalar]
+        level = float(np.mean(X - np.asarray(problem.contact.gap0)))
+    return BodyFields(points=np.ascontiguousarray(mesh.doflocs[:, :nv].T), cell_type=ctype,
                       cells=np.ascontiguousarray(cells), vertex_dofs=vertex_dofs,
                       element_dofs=np.asarray(basis.element_dofs, np.int64), dgrad=dgrad,
                       corners=t, lam=float(body.lam), mu=float(body.mu),
                       zone_vertices=rows, zone_vertex=scalar[rows],
-                      normal_stress=problem.normal_stress)
+                      normal_stress=problem.normal_stress, axis=axis, level=level)
 
 
 def write_series(folder: str | Path, name: str, fields: BodyFields, t: np.ndarray,

@@ -65,11 +65,7 @@ def run_pictures(title: str, fields: BodyFields, problem: Any, traj: Any,
     snaps = first_contact(force)
     if snaps is None:
         return None
-    axis = int(np.argmax(np.abs(problem.vertical[:fields.dim])))
-    dofs = np.asarray(problem.contact.dofs)
-    X = fields.points[dofs // fields.dim, axis] if np.all(
-        dofs // fields.dim < fields.nvertices) else None
-    level = float(np.mean(X - problem.contact.gap0[:X.size])) if X is not None else 0.0
+    axis, level = max(fields.axis, 0), fields.level
     frames = (np.unique(np.linspace(0, traj.t.size - 1, min(MOVIE_FRAMES, traj.t.size))
                         .round().astype(int)) if movie else np.zeros(0, int))
     return RunPictures(title, fields, np.asarray(traj.t, float), force, axis, level,
@@ -172,7 +168,7 @@ def snapshot_figure(pics: RunPictures) -> Any:
         names[2] = "end of the run (in contact)"
     for j, (ax, k, name) in enumerate(zip(axes, pics.snapshots, names, strict=True)):
         m = _draw(ax, pics, pics.snap_U[j], vmax,
-                  f"{name}\nt = {pics.t[k]:.4g}, force {pics.force[k]:.3g}", bounds)
+                  f"{name}\nt = {pics.t[k]:.4g}, force {pics.force[k] + 0.0:.3g}", bounds)
     fig.colorbar(m, ax=list(axes), shrink=0.8, label="von Mises stress")
     fig.suptitle(pics.title, fontsize=10)
     return fig
