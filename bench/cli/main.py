@@ -234,7 +234,8 @@ def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]
         these = [r for r in runs if r.row["case"] == case_spec]
         T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
         exact = reference(case, T) if case.reference == "exact" else None
-        fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
+        fname = (case_spec.replace("[", "_").replace("]", "").replace(",", "_")
+                 .replace("=", "-").replace("/", "_"))
         with use_style(style):
             fig = contact_figure(these, exact, case.spec, contact_label=case.contact_label,
                                  force_label=case.force_label)
