@@ -222,3 +222,44 @@ def movie_formats() -> Sequence[str]:
         return out
     out.append("mp4")
     return out
+
+
+def scene_pictures(rows: Any) -> tuple[RunPictures, dict[str, Any]] | None:
+    """The snapshots of a 2D/3D scene for a report (the study's index.html): one of its
+    finished rows (a pandas DataFrame of one case) run again with its samples, the
+    scene's `reference_scheme` when it has one, else the first, at the coarsest grid of
+    the 'refine' group (or any); None when the scene gives no body, no row finished or
+    the run has no contact. Returns the pictures and the run's (scheme, nx, dt, T)."""
+    from contact_bench.api.registry import make_case
+    from contact_bench.harness.runner import run_one
+    from contact_bench.output.fields import body_fields
+
+    ok = rows[rows["status"] == "ok"]
+    if ok.empty:
+        return None
+    case = make_case(str(ok["case"].iloc[0]))
+    if case.form != "sparse" or case.body(int(ok["nx"].min())) is None:
+        return None
+    if "group" in ok:
+        refine = ok[ok["group"].astype(str).str.contains("refine")]
+        ok = refine if not refine.empty else ok
+    preferred = getattr(case, "reference_scheme", None)
+    names = ok["scheme"].astype(str).str.split("[").str[0]
+    if preferred is not None and (names == preferred).any():
+        ok = ok[names == preferred]
+    row = ok.sort_values(["nx", "dt"], ascending=[True, False]).iloc[0]
+    nx, dt, T = int(row["nx"]), float(row["dt"]), float(row["T"])
+    steps = max(1, int(round(T / dt)))
+    run = run_one(case, str(row["scheme"]), nx=nx, dt=dt, T=T,
+                  stride=max(1, steps // 400))
+    if run.trajectory is None:
+        return None
+    try:
+        fields = body_fields(case.body(nx), run.problem)
+    except ValueError:
+        return None
+    pics = run_pictures(f"{case.spec} / {row['scheme']} (nx {nx}, dt {dt:g})", fields,
+                        run.problem, run.trajectory)
+    if pics is None:
+        return None
+    return pics, {"scheme": str(row["scheme"]), "nx": nx, "dt": dt, "T": T}
