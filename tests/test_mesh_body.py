@@ -203,3 +203,40 @@ def test_every_bad_mesh_or_parameter_is_one_line_and_exit_2(tmp_path: Path, caps
                  "nitsche", "--T", "1", "--nx", "3"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "allowed: 2, 4, 8" in err[0], err
+
+
+# ------------------------------------------------------------------ the docs' examples
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
+
+
+def _example(name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_docs_disc_example_writes_and_reads_the_disc(tmp_path: Path) -> None:
+    spec = _example("disc_to_msh").disc_to_msh(str(tmp_path / "disc.msh"), nx=2)
+    a = run_one("disc_drop", "nitsche", nx=2, T=12.0, dt=0.02).row
+    b = run_one(spec, "nitsche", T=12.0, dt=0.02, stride=1).row
+    assert "peak_contact_force" in _same_columns(a, b)
+
+
+def test_the_docs_gmsh_example_meshes_an_ellipse_that_runs(tmp_path: Path) -> None:
+    pytest.importorskip("gmsh")
+    out = _example("gmsh_ellipse").ellipse(str(tmp_path / "e.msh"), h=6.0, order=2)
+    mf = read_mesh(out)
+    assert mf.cell_type == "triangle6" and mf.order == 2
+    bottom = boundary_group(mf, "contact")
+    X = mf.mesh.doflocs
+    nodes = np.unique(mf.mesh.facets[:, bottom])
+    assert np.all(mf.mesh.p[1, nodes] <= 12.0 + 1e-9)  # the lower half of the boundary
+    r = ((X[0] / 20.0) ** 2 + ((X[1] - 12.0) / 12.0) ** 2)  # every node in the ellipse,
+    assert np.all(r <= 1 + 1e-9) and np.isclose(r.max(), 1.0)  # edge nodes on the curve
+    for scheme in ("nitsche", "redistributed"):
+        row = run_one(f"mesh_body[file={out},lift=0.5]", scheme, T=5.0).row
+        assert row["status"] == "ok" and row["first_contact_start"] > 0
