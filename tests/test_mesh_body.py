@@ -240,3 +240,57 @@ def test_the_docs_gmsh_example_meshes_an_ellipse_that_runs(tmp_path: Path) -> No
     for scheme in ("nitsche", "redistributed"):
         row = run_one(f"mesh_body[file={out},lift=0.5]", scheme, T=5.0).row
         assert row["status"] == "ok" and row["first_contact_start"] > 0
+
+
+@pytest.mark.parametrize("kind", ["tetra10", "hexahedron", "quad", "triangle6"])
+def test_gmsh_meshes_read_with_their_node_order(tmp_path: Path, kind: str) -> None:
+    """Gmsh's own P2 tetrahedra, hexahedra, quadrilaterals and P2 triangles of a box (a
+    rectangle): the body's measure is the box's, every P2 edge node is its edge's
+    midpoint (a wrong node order would misplace them), the bottom group is the face
+    z = 0 (y = 0), and the body runs."""
+    gmsh = pytest.importorskip("gmsh")
+    dim = 3 if kind in ("tetra10", "hexahedron") else 2
+    out = str(tmp_path / f"{kind}.msh")
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        occ = gmsh.model.occ
+        if dim == 3:
+            occ.addBox(0, 0, 0, 2, 1, 1)
+        else:
+            occ.addRectangle(0, 0, 0, 2, 1)
+        occ.synchronize()
+        bottom = [t for d, t in gmsh.model.getEntities(dim - 1)
+                  if abs(gmsh.model.occ.getCenterOfMass(d, t)[dim - 1]) < 1e-9]
+        gmsh.model.addPhysicalGroup(dim - 1, bottom, name="contact")
+        gmsh.model.addPhysicalGroup(dim, [1], name="body")
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.4)
+        if kind in ("hexahedron", "quad"):
+            gmsh.model.mesh.setTransfiniteAutomatic()
+            gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.model.mesh.generate(dim)
+        if kind in ("tetra10", "triangle6"):
+            gmsh.model.mesh.setOrder(2)
+        gmsh.write(out)
+    finally:
+        gmsh.finalize()
+    mf = read_mesh(out)
+    assert mf.cell_type == kind
+    import skfem as fe
+
+    m = mf.mesh
+    elem = {"tetra10": fe.ElementTetP2, "hexahedron": fe.ElementHex1,
+            "quad": fe.ElementQuad1, "triangle6": fe.ElementTriP2}[kind]()
+    volume = fe.Functional(lambda w: 1.0 + 0.0 * w.x[0]).assemble(fe.Basis(m, elem))
+    assert np.isclose(volume, 2.0)
+    if mf.order == 2:
+        edges = m.edges if dim == 3 else m.facets
+        mid = 0.5 * (m.p[:, edges[0]] + m.p[:, edges[1]])
+        assert np.allclose(m.doflocs[:, m.nvertices:m.nvertices + edges.shape[1]], mid)
+    group = boundary_group(mf, "contact")
+    assert np.allclose(m.p[dim - 1, np.unique(m.facets[:, group])], 0.0)
+    one = fe.Functional(lambda w: 1.0 + 0.0 * w.x[0])
+    assert np.isclose(one.assemble(fe.FacetBasis(m, elem, facets=group)), 2.0)
+    row = run_one(f"mesh_body[file={out},lift=0.01,speed=0.5,young=100]", "nitsche", T=0.3,
+                  dt=1e-3).row
+    assert row["status"] == "ok" and row["first_contact_start"] > 0

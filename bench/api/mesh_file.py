@@ -261,6 +261,12 @@ def read_mesh(path: str | Path) -> MeshFile:
     order = 2 if ctype in ("triangle6", "tetra10") else 1
     groups = {}
     facet_kinds = FACET_CELLS[dim]
+    # scikit-fem numbers a P2 mesh's vertices 0.. in the order of their point indices
+    # (its edge nodes after them): the groups' vertices follow
+    vertex = np.full(P.shape[1], -1, np.int64)
+    corners = np.unique(t[:nvert])
+    vertex[corners] = np.arange(corners.size)
+    renumber = np.where(renumber >= 0, vertex[np.maximum(renumber, 0)], -1)
     key = {tuple(sorted(col)): f for f, col in enumerate(mesh.facets.T.tolist())}
     for name, blocks in _group_cells(m, dim).items():
         found: list[int] = []
