@@ -392,7 +392,10 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         f"<p>tolerances: {html.escape(tol)}</p><p>tables: {links(tabs)}</p>"
                         + _html_table(ver))
             if snapshots:  # a 2D/3D scene: the deformed body at its first contact
-                got = scene_pictures(df[df["case"] == case])
+                try:
+                    got = scene_pictures(df[df["case"] == case])
+                except Exception:  # noqa: BLE001 - a table from elsewhere: no snapshots
+                    got = None
                 if got is not None:
                     pics, how = got
                     body = figure(snapshot_figure(pics), f"snapshots_{s}",
