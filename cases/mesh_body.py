@@ -21,6 +21,7 @@ its 2D/3D kind as in disc_drop (lumped refused for P2).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from pathlib import Path
 from typing import Any
@@ -97,6 +98,10 @@ class MeshBody(BodyCase):
             + " or auto; a negative or slanted normal needs a general gap operator, which "
             "the compiled schemes take with the one-contact-solver work (the contact set "
             "is a selection of dofs today)")
+
+    def data_hash(self) -> str:
+        """SHA-256 of the mesh file's bytes (the sweep cache runs a changed file again)."""
+        return hashlib.sha256(Path(self.file or DEFAULT_MESH).read_bytes()).hexdigest()[:16]
 
     @property
     def mesh_file(self) -> mesh_file.MeshFile:

@@ -294,3 +294,20 @@ def test_gmsh_meshes_read_with_their_node_order(tmp_path: Path, kind: str) -> No
     row = run_one(f"mesh_body[file={out},lift=0.01,speed=0.5,young=100]", "nitsche", T=0.3,
                   dt=1e-3).row
     assert row["status"] == "ok" and row["first_contact_start"] > 0
+
+
+def test_a_changed_mesh_file_runs_again_in_a_cached_sweep(tmp_path: Path) -> None:
+    from contact_bench.sweeps.cache import Cache
+    from contact_bench.sweeps.sweep import Task, run_sweep
+
+    path = tmp_path / "body.msh"
+    _write(path, SQUARE, [("triangle", TRIS)], BOTTOM)
+    tasks = [Task(f"mesh_body[file={path},lift=0.01,speed=0.5]", "nitsche", T=0.1,
+                  dt=1e-3)]
+    cache = Cache(tmp_path / "cache")
+    first = run_sweep(tasks, cache=cache, repeats=0, quiet=True).table
+    again = run_sweep(tasks, cache=cache, repeats=0, quiet=True).table
+    _write(path, SQUARE, [("triangle", [[0, 1, 3], [1, 2, 3]])], BOTTOM)  # other diagonal
+    changed = run_sweep(tasks, cache=cache, repeats=0, quiet=True).table
+    assert not first["from_cache"].iloc[0] and again["from_cache"].iloc[0]
+    assert not changed["from_cache"].iloc[0]

@@ -237,6 +237,12 @@ class Case(Plugin):
         """A reason why this scene cannot be run by the scheme, or None."""
         return None
 
+    def data_hash(self) -> str:
+        """A digest of the data files the scene reads at run time (a mesh file), folded
+        into the sweep cache's keys so that a changed file runs again; "" (the default):
+        none beyond its code and parameters."""
+        return ""
+
     #: the problem form this scene produces (`contact_bench.api.sparse.FORMS`): the 1D
     #: bar's banded `Semidiscrete`, or a `SparseProblem` from `sparse_problem`
     form: ClassVar[str] = "banded1d"
