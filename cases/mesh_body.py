@@ -1,12 +1,12 @@
 """A body from a mesh file (Gmsh's .msh, or what meshio reads) dropped on a rigid plane.
 
 `file`: the mesh (P1/P2 triangles, Q1 quadrilaterals in 2D, plane strain; P1/P2
-tetrahedra, Q1 hexahedra in 3D; empty: the bundled ellipse of docs/mesh-files.md);
-`contact`: the named boundary group (a Gmsh physical group of lines in 2D, of faces in
-3D) that may touch the obstacle; `degree` 1 or 2 (0: the mesh's own order); young (E), nu, rho;
-the obstacle, the plane x . normal = offset with the body on its side x . normal >=
-offset (`normal` +x, +y or +z; `auto` the last axis); the initial displacement `lift`
-and velocity `speed` (towards the plane) and gravity `g` (per unit mass), all along the
+tetrahedra, Q1 hexahedra in 3D; empty: the bundled ellipse, docs/mesh-files.md);
+`contact`: the named boundary group (Gmsh physical lines in 2D, faces in 3D) that may
+touch the obstacle (`@facing`: the boundary facets facing it); `degree` 1 or 2 (0: the
+mesh's); young (E), nu, rho; the obstacle, the plane x . normal = offset, the body on
+x . normal >= offset (`normal` +x, +y, +z, `auto` the last axis); the initial
+displacement `lift`, velocity `speed` (towards the plane), gravity `g`, along the
 normal. `--nx`: 2 (the default, the harness's smallest) is the file's mesh; each doubling
 splits every element into 2^dim (scikit-fem's `refined`: the boundary stays the file's
 polygon), for P1/Q1 geometry only (scikit-fem straightens a refined P2 mesh).
@@ -46,7 +46,8 @@ class MeshBody(BodyCase):
     summary = "a body from a mesh file (Gmsh .msh or what meshio reads) dropped on a plane"
     params = {
         "file": Param("", "mesh file (empty: the bundled ellipse, docs/mesh-files.md)"),
-        "contact": Param("contact", "named boundary group that may touch the obstacle"),
+        "contact": Param("contact", "named boundary group that may touch the obstacle "
+                         "(@facing: the boundary facets facing it)"),
         "degree": Param(0, "polynomial degree (0: the mesh's own order)", choices=(0, 1, 2)),
         "young": Param(50.0, "Young's modulus E", low=0.0, low_open=True),
         "nu": Param(0.25, "Poisson's ratio", low=-1.0, high=0.5, low_open=True,
@@ -69,7 +70,9 @@ class MeshBody(BodyCase):
 
     def validate(self) -> None:
         mf = self.mesh_file
-        self.facets = mesh_file.boundary_group(mf, self.contact)
+        self.axis = self._axis(mf.dim)
+        self.facets = (mesh_file.facing_facets(mf, self.axis) if self.contact == "@facing"
+                       else mesh_file.boundary_group(mf, self.contact))
         order = int(self.degree) or mf.order
         try:
             fem_nd.element_for(mf.mesh, order)
@@ -77,7 +80,6 @@ class MeshBody(BodyCase):
             raise BenchError(f"{self.name}[degree={self.degree}]: no degree-{order} element "
                              f"on {mf.cell_type} (allowed: degree 1 or the mesh's order "
                              f"{mf.order})") from None
-        self.axis = self._axis(mf.dim)
         X = mf.mesh.doflocs[self.axis]
         low = int(np.argmin(X))
         if X[low] < float(self.offset) - 1e-9 * self.size:

@@ -311,3 +311,23 @@ def test_a_changed_mesh_file_runs_again_in_a_cached_sweep(tmp_path: Path) -> Non
     changed = run_sweep(tasks, cache=cache, repeats=0, quiet=True).table
     assert not first["from_cache"].iloc[0] and again["from_cache"].iloc[0]
     assert not changed["from_cache"].iloc[0]
+
+
+def test_a_vtu_without_groups_takes_the_facets_facing_the_obstacle(tmp_path: Path) -> None:
+    """The disc as a VTU file (no named groups): contact=@facing picks the boundary
+    facets whose outward normal points down, the disc's own zone (its lower half)."""
+    disc = make_case("disc_drop[degree=1]")
+    nx = 3
+    m = disc.mesh(nx)
+    path = tmp_path / "disc.vtu"
+    write_msh(m, tmp_path / "disc.msh")
+    meshio.write(path, meshio.read(tmp_path / "disc.msh"))
+    mine = make_case(f"mesh_body[file={path},contact=@facing,degree=1,"
+                     f"h_contact={disc.R / nx!r}]")
+    zone = disc.body(nx).boundary_facets(lambda x: x[1] < disc.centre_y - 0.01 * disc.R)
+    assert np.array_equal(mine.facets, np.sort(zone))
+    a = run_one(disc, make_scheme("nitsche"), nx=nx, T=12.0, dt=0.02, stride=1).row
+    b = run_one(mine, make_scheme("nitsche"), T=12.0, dt=0.02, stride=1).row
+    assert "peak_contact_force" in _same_columns(a, b)
+    with pytest.raises(Exception, match="no group named 'contact'"):
+        make_case(f"mesh_body[file={path}]")

@@ -370,6 +370,27 @@ def _cached(key: tuple, path: str) -> MeshFile:
     return read_mesh(path)
 
 
+#: the outward normal's component along the obstacle's normal below which a boundary
+#: facet faces the obstacle (`facing_facets`; GetFEM's disc demo takes n_y < -0.01)
+FACING = -0.01
+
+
+def facing_facets(mesh_file: MeshFile, axis: int) -> np.ndarray:
+    """The boundary facets whose mean outward unit normal has its `axis` component below
+    `FACING` (they face an obstacle below them along that axis): the contact zone of a
+    mesh without named groups (a VTU file). MeshFileError when there are none."""
+    m = mesh_file.mesh
+    facets = m.boundary_facets()
+    fb = fe.FacetBasis(m, m.elem(), facets=facets)
+    n = np.asarray(fb.normals).mean(axis=2)  # (dim, facets)
+    n = n / np.linalg.norm(n, axis=0)
+    out = np.sort(facets[n[axis] < FACING])
+    if out.size == 0:
+        raise _fail(mesh_file.path, f"no boundary facet faces the obstacle (outward normal "
+                    f"component {FACING} or less along axis {axis})")
+    return out
+
+
 def refined_facets(coarse: fe.Mesh, facets: np.ndarray, fine: fe.Mesh) -> np.ndarray:
     """The boundary facets of `fine` (a `refined` `coarse`) inside the coarse `facets`:
     those whose vertices all lie among one coarse facet's nodes, edge midpoints and
@@ -410,4 +431,4 @@ def refined_facets(coarse: fe.Mesh, facets: np.ndarray, fine: fe.Mesh) -> np.nda
 
 
 __all__ = ["BODY_CELLS", "MeshFile", "MeshFileError", "boundary_group", "cached_mesh",
-           "read_mesh", "refined_facets", "write_msh"]
+           "facing_facets", "read_mesh", "refined_facets", "write_msh"]
