@@ -379,6 +379,9 @@ class BodyPictures:
             return
         body = case.body(int(run.row["nx"]))
         if body is None:
+            self.skipped.append(f"no fields or pictures of {run.row['case']} / "
+                                f"{run.row['scheme']}: the scene gives no body "
+                                "(BodyCase.body)")
             return
         try:
             fields = body_fields(body, run.problem)
