@@ -87,6 +87,11 @@ class SphereDrop(BodyCase):
         m = fe.MeshTet.init_ball(nrefs)
         return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
 
+    def body(self, nx: int) -> fem_nd.Elasticity:
+        return fem_nd.assemble(self.mesh(nx), self.mu * (3 * self.lam + 2 * self.mu)
+                               / (self.lam + self.mu), self.lam / (2 * (self.lam + self.mu)),
+                               self.rho, degree=int(self.degree))
+
     def cannot_run(self, scheme) -> str | None:
         if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
@@ -96,9 +101,7 @@ class SphereDrop(BodyCase):
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
             raise ValueError(f"grading = {grading!r}: the ball's mesh is uniform (allowed: 1)")
-        body = fem_nd.assemble(self.mesh(nx), self.mu * (3 * self.lam + 2 * self.mu)
-                               / (self.lam + self.mu), self.lam / (2 * (self.lam + self.mu)),
-                               self.rho, degree=int(self.degree))
+        body = self.body(nx)
         facets = body.boundary_facets(lambda x: x[2] < self.centre_z - 0.01 * self.R)
         scalar = np.unique(body.scalar.get_dofs(facets).flatten())  # for the mass
         kind = canonical_mass(mass_kind)

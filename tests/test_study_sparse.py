@@ -97,3 +97,9 @@ def test_report_draws_every_error_column_of_a_scene(quick: pd.DataFrame, tmp_pat
             assert f"{stem}.png" in written, (case, col, sorted(written))
         if make_case(case).quantities:
             assert cols, f"{case}: no error column filled"
+        if make_case(case).body(int(rows["nx"].min())) is not None:  # index.html shows
+            assert f"snapshots_{slug(case)}.png" in written, case  # the deformed body
+    page = (tmp_path / "index.html").read_text()
+    assert page.count('<img src="snapshots_') == sum(
+        make_case(c).body(int(table[table["case"] == c]["nx"].min())) is not None
+        for c in several)

@@ -153,7 +153,9 @@ class StudyGrid:
     study's final time (None: the scene's). `small`, `small_nx`, `small_T`: one variant,
     its grids smallest first (a scheme whose mass variant the scene refuses on one takes
     the next) and a short final time after the first impact: the quick study and the
-    tests.
+    tests. `in_default_study`: the study without named scenes (`contact-bench study`,
+    results/study) runs the scene; False for a scene on a user's file (mesh_body), which
+    the tests still run on its bundled default and a study runs when named.
     """
 
     specs: tuple[str, ...]
@@ -162,6 +164,7 @@ class StudyGrid:
     small: str
     small_nx: tuple[int, ...]
     small_T: float
+    in_default_study: bool = True
 
 
 class Case(Plugin):
@@ -233,6 +236,12 @@ class Case(Plugin):
     def cannot_run(self, scheme: Scheme) -> str | None:
         """A reason why this scene cannot be run by the scheme, or None."""
         return None
+
+    def data_hash(self) -> str:
+        """A digest of the data files the scene reads at run time (a mesh file), folded
+        into the sweep cache's keys so that a changed file runs again; "" (the default):
+        none beyond its code and parameters."""
+        return ""
 
     #: the problem form this scene produces (`contact_bench.api.sparse.FORMS`): the 1D
     #: bar's banded `Semidiscrete`, or a `SparseProblem` from `sparse_problem`
@@ -349,6 +358,13 @@ class BodyCase(Case):
 
     def declarations(self) -> dict[str, Any]:
         return {"size": self.size}
+
+    def body(self, nx: int) -> Any:
+        """The assembled body at resolution nx (`contact_bench.api.fem_nd.Elasticity`)
+        whose every vector dof is an unknown of `sparse_problem` in the same order, for
+        the fields and pictures of a run (`contact_bench.output.fields`); None (the
+        default): the scene gives none."""
+        return None
 
     def cannot_run(self, scheme: Scheme) -> str | None:
         if self.time_load and not scheme.adds_time_load():

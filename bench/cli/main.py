@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -206,16 +207,19 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 
 def _write_outputs(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
-                   formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
+                   formats: Sequence[str] = ("png",), style: str | None = None,
+                   pictures: BodyPictures | None = None) -> list[Path]:
     """The result set (tables, figures, README.md), written as one (`folder_set`)."""
     with folder_set(out) as tmp:
-        names = [p.name for p in _write_set(tmp, df, runs, argv, formats, style)]
+        names = [p.name for p in _write_set(tmp, df, runs, argv, formats, style, pictures)]
     return [out / n for n in names]
 
 
 def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str],
-               formats: Sequence[str] = ("png",), style: str | None = None) -> list[Path]:
+               formats: Sequence[str] = ("png",), style: str | None = None,
+               pictures: BodyPictures | None = None) -> list[Path]:
     from contact_bench.output.figures import contact_figure, save_figure, use_style
+    from contact_bench.output.pictures import snapshot_figure, write_movie
 
     prov = provenance(argv)
     written = [
@@ -230,11 +234,18 @@ def _write_set(out: Path, df: pd.DataFrame, runs: list[Run], argv: Sequence[str]
         these = [r for r in runs if r.row["case"] == case_spec]
         T = max((r.row["T"] for r in these if r.trajectory is not None), default=case.T)
         exact = reference(case, T) if case.reference == "exact" else None
-        fname = case_spec.replace("[", "_").replace("]", "").replace(",", "_").replace("=", "-")
+        fname = (case_spec.replace("[", "_").replace("]", "").replace(",", "_")
+                 .replace("=", "-").replace("/", "_"))
         with use_style(style):
             fig = contact_figure(these, exact, case.spec, contact_label=case.contact_label,
                                  force_label=case.force_label)
         written += save_figure(fig, out / fname, formats, prov)
+    for stem, pics in pictures.pictures if pictures is not None else ():
+        with use_style(style):  # the deformed body at contact start, peak force, release
+            written += save_figure(snapshot_figure(pics), out / f"snapshots_{stem}",
+                                   formats, prov)
+        if pictures.movie:
+            written.append(write_movie(pics, out / f"movie_{stem}.{pictures.movie}"))
     tables = [r.trajectory.extra["impact_table"].assign(
         case=r.row["case"], scheme=r.row["scheme"], nx=r.row["nx"], dt=r.row["dt"])
         for r in runs if r.trajectory is not None and "impact_table" in r.trajectory.extra]
@@ -291,15 +302,25 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     out = args.out if args.out is not None else (DEFAULT_OUT if default_job else None)
     if out is not None:
         out_folder(out)  # before any run: a bad --out is not found after the work
+    if args.movie and not out:
+        raise BenchError("--movie needs --out (the movies are written with the results)")
+    if args.fields:
+        out_folder(args.fields)
     runs: list[Run] = []
     progress = Progress(not args.quiet and (args.progress or sys.stderr.isatty()))
-    try:
-        df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None], args.T,
-                       args.stride, args.grading, args.allow_unstable, keep=runs,
-                       explicit_pair=bool(args.case and args.scheme), keep_samples=False,
-                       progress=progress, time_error=args.time_error)
-    finally:
-        progress.done()
+    with contextlib.ExitStack() as stack:
+        fields_tmp = (stack.enter_context(folder_set(Path(args.fields)))
+                      if args.fields else None)
+        pictures = BodyPictures(fields_tmp, movie=args.movie, draw=bool(out))
+        try:
+            df = run_table(case_names, scheme_names, args.nx or [None], args.dt or [None],
+                           args.T, args.stride, args.grading, args.allow_unstable, keep=runs,
+                           explicit_pair=bool(args.case and args.scheme),
+                           keep_samples=False, progress=progress,
+                           time_error=args.time_error,
+                           after_run=pictures if pictures.wanted else None)
+        finally:
+            progress.done()
     if args.format == "csv":
         sys.stdout.write(df.to_csv(index=False))
     elif args.format == "json":
@@ -317,11 +338,70 @@ def cmd_run(args: argparse.Namespace, argv: Sequence[str]) -> int:
     elif errors and args.format == "table":  # machine formats keep stderr for real errors
         print(f"contact-bench: {len(errors)} error row(s); --traceback shows where they "
               "were raised", file=sys.stderr)
+    for line in pictures.skipped:
+        print(f"contact-bench: {line}", file=sys.stderr)
+    if args.fields and args.format == "table":
+        print(f"\nfields: {', '.join(str(Path(args.fields) / n) for n in pictures.series)}"
+              if pictures.series else f"\nfields: none written to {args.fields}")
     if out:
-        written = _write_outputs(Path(out), df, runs, argv, args.fig_format, args.style)
+        written = _write_outputs(Path(out), df, runs, argv, args.fig_format, args.style,
+                                 pictures)
         if args.format == "table":
             print(f"\nwrote {', '.join(str(p) for p in written)}")
     return 0
+
+
+class BodyPictures:
+    """`run_table`'s `after_run` of `contact-bench run --fields DIR / --out / --movie`:
+    for each body run whose scene gives its body (`BodyCase.body`), the VTU series of
+    its fields into DIR (`contact_bench.output.fields`) and the picture data of its
+    snapshots and movie (`contact_bench.output.pictures.RunPictures`), kept small so
+    that the run's samples can go. A run it cannot draw is named in `skipped`."""
+
+    def __init__(self, fields_dir: Path | None, movie: str | None, draw: bool) -> None:
+        self.fields_dir = fields_dir
+        self.movie = movie
+        self.draw = draw
+        self.series: list[str] = []
+        self.pictures: list = []
+        self.skipped: list[str] = []
+
+    @property
+    def wanted(self) -> bool:
+        return bool(self.fields_dir is not None or self.draw)
+
+    def __call__(self, run: Run) -> None:
+        from contact_bench.output.fields import body_fields, file_stem, write_series
+        from contact_bench.output.pictures import run_pictures
+
+        case = make_case(run.row["case"])
+        if case.form != "sparse" or run.problem is None:
+            return
+        body = case.body(int(run.row["nx"]))
+        if body is None:
+            self.skipped.append(f"no fields or pictures of {run.row['case']} / "
+                                f"{run.row['scheme']}: the scene gives no body "
+                                "(BodyCase.body)")
+            return
+        try:
+            fields = body_fields(body, run.problem)
+        except ValueError as exc:
+            self.skipped.append(f"no fields or pictures of {run.row['case']} / "
+                                f"{run.row['scheme']}: {exc}")
+            return
+        tr = run.trajectory
+        stem = file_stem(run.row["case"], run.row["scheme"])
+        if self.fields_dir is not None:
+            write_series(self.fields_dir, stem, fields, tr.t, tr.U, tr.V)
+            self.series.append(f"{stem}.pvd")
+        if self.draw:
+            pics = run_pictures(f"{run.row['case']} / {run.row['scheme']}", fields,
+                                run.problem, tr, movie=bool(self.movie))
+            if pics is None:
+                self.skipped.append(f"no snapshots of {run.row['case']} / "
+                                    f"{run.row['scheme']}: no contact in the run")
+            else:
+                self.pictures.append((stem, pics))
 
 
 def _print_reference_costs(runs: list[Run]) -> None:
@@ -386,6 +466,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fig-format", default="png", metavar="FORMATS",
                    help="figure formats, comma-separated among png, pdf, svg (default png)")
     r.add_argument("--style", metavar="FILE_OR_NAME", help="matplotlib style for the figures")
+    r.add_argument("--fields", metavar="DIR",
+                   help="2D/3D runs: displacement, velocity, von Mises stress and contact "
+                        "pressure at the samples, as a VTU series and its .pvd per run "
+                        "(open the .pvd in ParaView)")
+    r.add_argument("--movie", choices=["gif", "mp4"], default=None,
+                   help="with --out: a movie of each 2D/3D run beside its contact force "
+                        "(imageio; mp4 also needs imageio-ffmpeg)")
     r.add_argument("--traceback", action="store_true",
                    help="print the full traceback of every 'error' row on stderr")
     add_sweep_commands(sub)  # sweep, report, study (bench/sweep_cli.py)
@@ -425,6 +512,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         args.fig_format = check_formats(args.fig_format)
         check_style(args.style)
+        if args.movie:
+            from contact_bench.output.pictures import movie_formats
+
+            if args.movie not in movie_formats():
+                raise BenchError(f"--movie {args.movie} needs imageio"
+                                 + (" and imageio-ffmpeg" if args.movie == "mp4" else "")
+                                 + " (pip install -e \".[movie]\"); this installation "
+                                 f"writes: {', '.join(movie_formats()) or 'none'}")
         return cmd_run(args, argv)
     except (BenchError, UsageError) as exc:
         print(f"contact-bench: error: {' '.join(str(exc).split())}", file=sys.stderr)

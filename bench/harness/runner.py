@@ -700,7 +700,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
               keep: list[Run] | None = None, *, explicit_pair: bool = False,
               keep_samples: bool = True,
               progress: Callable[[int, int, Case, Scheme], None] | None = None,
-              time_error: int = 0) -> pd.DataFrame:
+              time_error: int = 0,
+              after_run: Callable[[Run], None] | None = None) -> pd.DataFrame:
     """The product cases x schemes x nx x dt as one DataFrame (one row per run).
 
     Every configuration is checked before any is run, so a bad input (BenchError) fails
@@ -711,7 +712,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
     `keep_samples` False they are kept `Run.without_samples()`, so that memory does not
     grow with the number of runs (one run's samples at a time). `progress(i, total,
     case, scheme)` is called before each run (the CLI's progress line). `time_error`: as
-    `run_one`'s.
+    `run_one`'s. `after_run(run)` is called after each run that stepped, with its
+    samples (before `keep_samples` drops them): the CLI's fields and pictures.
     """
     case_objs = [make_case(c) if isinstance(c, str) else c for c in cases]
     scheme_objs = [make_scheme(s) if isinstance(s, str) else s for s in schemes]
@@ -760,6 +762,8 @@ def run_table(cases: Iterable[str], schemes: Iterable[str], nxs: Iterable[int | 
                 run = _error_row(plan.case, plan.scheme, plan.row["nx"], plan.row["dt"],
                                  plan.row["T"], plan.row["stride"], plan.row["grading"], exc,
                                  before)
+        if after_run is not None and run.trajectory is not None:
+            after_run(run)
         rows.append(run.row)
         if keep is not None:
             keep.append(run if keep_samples else run.without_samples())

@@ -35,6 +35,7 @@ from contact_bench.output.figures import (
     use_style,
     work_precision_figure,
 )
+from contact_bench.output.pictures import scene_pictures, snapshot_figure
 from contact_bench.sweeps import analysis
 from contact_bench.sweeps.sweep import STABILITY_CLASSES, check_error_column
 
@@ -267,8 +268,12 @@ def command_title(argv: Sequence[str] | None) -> str:
 def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None = None,
                  error: str = "err_u_linf_l2", fig_format: str | Sequence[str] = "png",
                  style: str | None = None, energy_runs: str = "finest",
-                 time_orders: pd.DataFrame | None = None) -> list[Path]:
+                 time_orders: pd.DataFrame | None = None,
+                 snapshots: bool = True) -> list[Path]:
     """All tables, figures and index.html for the table df, into out.
+
+    `snapshots`: each 2D/3D scene's snapshot figure (`contact_bench.output.pictures.
+    scene_pictures`: one of its runs again, with its samples).
 
     Options are checked first (`check_report_options`): a bad one writes nothing.
     time_orders: the declared and measured orders away from impacts
@@ -386,6 +391,20 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         "grid; relative errors; within: how many within the tolerance)",
                         f"<p>tolerances: {html.escape(tol)}</p><p>tables: {links(tabs)}</p>"
                         + _html_table(ver))
+            if snapshots:  # a 2D/3D scene: the deformed body at its first contact
+                try:
+                    got = scene_pictures(df[df["case"] == case])
+                except Exception:  # noqa: BLE001 - a table from elsewhere: no snapshots
+                    got = None
+                if got is not None:
+                    pics, how = got
+                    body = figure(snapshot_figure(pics), f"snapshots_{s}",
+                                  f"snapshots {case}")
+                    section(case, "snapshots",
+                            f"Snapshots ({how['scheme']} at nx {how['nx']}, dt "
+                            f"{how['dt']:g}, rerun with its samples: the deformed body "
+                            "coloured by the von Mises stress at the first contact's start, "
+                            "peak force and release)", body)
             en = energy_all[energy_all["case"] == case]
             if not en.empty:
                 fig = energy_figure(energy_rows[energy_rows["case"] == case], case,

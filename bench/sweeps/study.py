@@ -120,7 +120,8 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     scenes = [s for s in given if s not in sparse and not make_case(s).published]
     if not case_specs:
         scenes = [n for n, c in cases().plugins.items() if c.in_default_run]
-        sparse = [n for n, c in cases().plugins.items() if c.form != "banded1d"]
+        sparse = [n for n, c in cases().plugins.items() if c.form != "banded1d"
+                  and (c.study is None or c.study.in_default_study)]
     stiff = ([n for n, c in cases().plugins.items() if c.stiff and n not in scenes]
              if scenes else [])
     tasks: list[Task] = []

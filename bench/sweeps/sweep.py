@@ -44,6 +44,7 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import gc
+import hashlib
 import io
 import json
 import math
@@ -540,6 +541,8 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
             raise BenchError(f"task {task}: give dt or cfl, not both")
         inputs = canon.inputs()
         code = code_hash(type(case), type(scheme))
+        if data := case.data_hash():  # the scene's data files (mesh_body's mesh)
+            code = hashlib.sha256(f"{code}{data}".encode()).hexdigest()[:16]
         key = run_key(inputs, code)
         if key in meta:  # the same run asked twice (e.g. by two parts of a study)
             groups = meta[key]["group"].split(";")
