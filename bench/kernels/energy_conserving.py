@@ -45,16 +45,20 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
+from contact_bench.kernels.contact import (
+    ContactOps,
+    apply_gt,
+    contact_ops,
+    gaps,
+    hold,
+    push,
+    row_dot,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.sparse import (
-    Factor,
-    contact_operators,
-    correct,
-    delassus,
-    lcp_solve,
-)
+from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
 
 #: Laursen-Chawla: the persistency condition on the dofs closed at t_n
@@ -74,12 +78,9 @@ class MidpointOps(NamedTuple):
     K: CSR
     F: np.ndarray
     fac: LU
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps  # the gaps with S's factor
+    at_contact: np.ndarray  # -gap0
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
-    keep_z: bool
     mfac: LU
     Y: np.ndarray
     keep_y: bool
@@ -91,10 +92,12 @@ class MidpointOps(NamedTuple):
 
 class MidpointState(NamedTuple):
     """(U, V), the obstacle's force lambda and the step's force with Laursen-Love's update
-    (`force`), the LCP's unknowns and active set, scratch."""
+    (`force`), the LCP's unknowns and active set, the gaps at t_n and t_{n+1}, scratch."""
 
     U: np.ndarray
     V: np.ndarray
+    g0: np.ndarray
+    g1: np.ndarray
     force: np.ndarray
     lam: np.ndarray
     mu: np.ndarray
@@ -112,10 +115,11 @@ class MidpointState(NamedTuple):
 def midpoint_step(o, s, step):  # pragma: no cover - compiled
     """The midpoint step with the contact condition `o.mode` (module docstring)."""
     U, V, X, rhs, w, work, qg = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg
-    mu, lam, push, active, y = s.mu, s.lam, s.force, s.active, s.y
-    cd, gap0, dt, mode, tol = o.cd, o.gap0, o.dt, o.mode, o.tol
+    mu, lam, kick, active, y, g0, g1 = s.mu, s.lam, s.force, s.active, s.y, s.g0, s.g1
+    ct, dt, mode, tol = o.ct, o.dt, o.mode, o.tol
+    sel = ct.sel
     n = U.size
-    nc = cd.size
+    nc = sel.size
     q = 0.25 * dt * dt
     to_force = 2.0 / (dt * dt)
     for i in range(n):
@@ -125,37 +129,43 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         rhs[i] += q * (2.0 * o.F[i] - w[i])
     lu(o.fac, rhs, X, work)
+    gaps(ct, U, g0)
+    gaps(ct, X, g1)
     pen = False
     for j in range(nc):
-        d = cd[j]
-        if mode == PERSISTENCY:  # the increment on the dofs closed at t_n, else free
-            qg[j] = X[d] - U[d] if gap0[j] + U[d] <= tol else np.inf
+        d = sel[j]
+        if mode == PERSISTENCY:  # the increment on the points closed at t_n, else free
+            if g0[j] <= tol:
+                qg[j] = X[d] - U[d] if d >= 0 else g1[j] - g0[j]
+            else:
+                qg[j] = np.inf
         else:  # the gap at t_{n+1}
-            qg[j] = gap0[j] + X[d]
+            qg[j] = g1[j]
         pen = pen or qg[j] < 0.0
     if pen:
         for j in range(nc):
-            active[j] = active[j] and qg[j] < np.inf  # a free dof is never active
-        lcp_solve(o.W, qg, mu, active, tol, s.was[0])
-        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, work)
-        for j in range(nc):
-            if active[j]:  # exactly: no increment (persistency), or gap 0 (Signorini)
-                X[cd[j]] = U[cd[j]] if mode == PERSISTENCY else -gap0[j]
+            active[j] = active[j] and qg[j] < np.inf  # a free point is never active
+        lcp_solve(ct.W, qg, mu, active, tol, s.was[0])
+        push(ct, o.fac, mu, X, (rhs, w, work))
+        # exactly: no increment (persistency), or gap 0 (Signorini)
+        hold(ct, active, X, U[np.maximum(sel, 0)] if mode == PERSISTENCY else o.at_contact)
     else:
         mu[:] = 0.0
     s.was[0] = pen
     loss = 0.0  # lambda . (g0 - g1): the energy the contact took this step
     for j in range(nc):
         lam[j] = to_force * mu[j]
-        if gap0[j] + U[cd[j]] > tol:  # arrived from an open gap (beyond round-off)
-            loss += lam[j] * (U[cd[j]] - X[cd[j]])
+        if g0[j] > tol:  # arrived from an open gap (beyond round-off)
+            d = sel[j]
+            loss += lam[j] * ((U[d] - X[d]) if d >= 0 else (row_dot(ct.G, j, U)
+                                                            - row_dot(ct.G, j, X)))
     for i in range(n):
         V[i] = (X[i] - U[i]) * (2.0 / dt) - V[i]
         U[i] = X[i]
     for j in range(nc):
-        push[j] = lam[j]
+        kick[j] = lam[j]
     if mode == SIGNORINI_VELOCITY_UPDATE and loss > 0.0:
-        # y = M^-1 C^T lambda; a = 1/2 lambda.D_M.lambda; b = lambda.(C V1)
+        # y = M^-1 G^T lambda; a = 1/2 lambda.D_M.lambda; b = lambda.(G V1)
         if o.keep_y:
             for i in range(n):
                 acc = 0.0
@@ -163,15 +173,19 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
                     acc += o.Y[i, j] * lam[j]
                 y[i] = acc
         else:
-            rhs[:] = 0.0
-            for j in range(nc):
-                rhs[cd[j]] = lam[j]
+            if np.all(sel >= 0):
+                rhs[:] = 0.0
+                for j in range(nc):
+                    rhs[sel[j]] = lam[j]
+            else:
+                apply_gt(ct, lam, rhs)
             lu(o.mfac, rhs, y, work)
         a = 0.0
         b = 0.0
         for j in range(nc):
-            a += 0.5 * lam[j] * y[cd[j]]
-            b += lam[j] * V[cd[j]]
+            d = sel[j]
+            a += 0.5 * lam[j] * (y[d] if d >= 0 else row_dot(ct.G, j, y))
+            b += lam[j] * (V[d] if d >= 0 else row_dot(ct.G, j, V))
         if a > 0.0:
             # the root s >= 0: the obstacle's impulse pushes (lambda >= 0)
             root = np.sqrt(b * b + 4.0 * a * loss)
@@ -179,7 +193,7 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
             for i in range(n):
                 V[i] += sv * y[i]
             for j in range(nc):
-                push[j] += sv * lam[j] / dt
+                kick[j] += sv * lam[j] / dt
     return OK
 
 
@@ -202,6 +216,7 @@ class MidpointContactStepper(LoopStepper):
     M factored (M^-1 C^T kept when Z is). ValueError for a mass with massless dofs (the midpoint
     velocity and the update's M^-1 need inertia on every dof)."""
 
+    any_gap_operator = True
     loop = staticmethod(midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, mode: int) -> None:
@@ -213,31 +228,32 @@ class MidpointContactStepper(LoopStepper):
         super().__init__(p, dt)
         dt = self.dt
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
+        G = sp.csr_matrix(p.contact.gap_operator(n))
+        gap0 = np.asarray(p.contact.gap0, float)
         fac = Factor.of(p.M + (0.25 * dt * dt) * p.K)
-        Z, W, keep_z = contact_operators(fac, cd, n)
-        keep_y = mode == SIGNORINI_VELOCITY_UPDATE and keep_z
+        ct = contact_ops(fac, G, gap0)
+        keep_y = mode == SIGNORINI_VELOCITY_UPDATE and ct.keep_z
         Y, marrays = np.zeros((1, 1)), fac.arrays
-        if mode == SIGNORINI_VELOCITY_UPDATE:  # M^-1 C^T kept, or a solve per update
+        if mode == SIGNORINI_VELOCITY_UPDATE:  # M^-1 G^T kept, or a solve per update
             mfac = Factor.of(sp.csr_matrix(p.M))
             marrays = mfac.arrays
             if keep_y:
-                Y = delassus(mfac, cd, n)[0]
+                Y = contact_ops(mfac, G, gap0, keep=True).Z
         self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
         self.ops = MidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
-                               fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                               np.asarray(p.contact.weights, float), W, np.ascontiguousarray(Z),
-                               keep_z, marrays, np.ascontiguousarray(Y), keep_y, dt, int(mode),
+                               fac.arrays, ct, -gap0, np.asarray(p.contact.weights, float),
+                               marrays, np.ascontiguousarray(Y), keep_y, dt, int(mode),
                                float(p.energy_offset), tol)
 
     def new_state(self) -> MidpointState:
-        n, nc = self.problem.nfree, self.ops.cd.size
+        n, nc = self.problem.nfree, self.ops.at_contact.size
         U, V = (a.copy() for a in self.initial)
-        return MidpointState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc),
-                             np.zeros(nc, np.bool_), np.zeros(1, np.bool_), np.empty(nc),
-                             np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n))
+        return MidpointState(U, V, np.empty(nc), np.empty(nc), np.zeros(nc), np.zeros(nc),
+                             np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
+                             np.empty(nc), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                             np.empty(n))
 
 
 def prepare_midpoint_contact(p: SparseProblem, dt: float, mode: int) -> MidpointContactStepper:

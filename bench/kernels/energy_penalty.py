@@ -42,10 +42,11 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, drive
+from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, push
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.sparse import Factor, correct, delassus_only
+from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
 
 #: Newton iterations of `discrete_gradient_solve` before it gives up
@@ -141,11 +142,9 @@ class PenaltyMidpointOps(NamedTuple):
     K: CSR
     F: np.ndarray
     fac: LU
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps  # the gaps and W = G S^-1 G^T (Z not kept: the correction is a solve)
     weights: np.ndarray
     kappa: np.ndarray
-    W: np.ndarray
     dt: float
     offset: float
 
@@ -175,9 +174,9 @@ def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     """Advance (U, V) in place (module docstring); a step whose Newton iteration does not
     converge stops the run as blown up."""
     U, V, X, rhs, mv, ku = s.U, s.V, s.X, s.rhs, s.mv, s.ku
-    gf, gn, lam, mu, cd, gap0, dt = s.gf, s.gn, s.force, s.mu, o.cd, o.gap0, o.dt
+    gf, gn, lam, mu, dt = s.gf, s.gn, s.force, s.mu, o.dt
     n = U.size
-    nc = cd.size
+    nc = gf.size
     a = 0.5 * dt * dt
     q = 0.25 * dt * dt
     for i in range(n):
@@ -187,18 +186,15 @@ def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         rhs[i] += a * o.F[i] - q * ku[i]
     lu(o.fac, rhs, X, s.work)
-    pen = False
-    for j in range(nc):
-        gn[j] = gap0[j] + U[cd[j]]
-        gf[j] = gap0[j] + X[cd[j]]
-        pen = pen or gn[j] < 0.0 or gf[j] < 0.0
+    pen = gaps(o.ct, U, gn)
+    pen = gaps(o.ct, X, gf) or pen
     if pen:
-        if discrete_gradient_solve(gf, gn, o.kappa, o.W, a, s.g, s.phi) < 0:
+        if discrete_gradient_solve(gf, gn, o.kappa, o.ct.W, a, s.g, s.phi) < 0:
             return BLOWN  # no converged step
         for j in range(nc):
             mu[j] = -a * s.phi[j]
             lam[j] = -s.phi[j]
-        correct(o.fac, cd, o.W, False, mu, X, rhs, s.w, s.work)
+        push(o.ct, o.fac, mu, X, (rhs, s.w, s.work))
     else:
         lam[:] = 0.0
     for i in range(n):
@@ -211,9 +207,10 @@ def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
 def penalty_midpoint_sample(o, s):  # pragma: no cover - compiled
     """The energy with the springs' at t_{n+1}, their stress and V."""
     e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    gaps(o.ct, s.U, s.gn)
     st = 0.0
-    for j in range(o.cd.size):
-        y = min(0.0, o.gap0[j] + s.U[o.cd[j]])
+    for j in range(o.kappa.size):
+        y = min(0.0, s.gn[j])
         e += 0.5 * o.kappa[j] * y * y
         st += o.kappa[j] * y
     return e, st / o.weights.sum(), s.V
@@ -229,35 +226,36 @@ class MidpointPenaltyStepper(LoopStepper):
     """`prepare_midpoint_penalty` prepared: S = M + dt^2/4 K factored, W = C S^-1 C^T
     (n_c solves, only its n_c x n_c values kept), sample 0's energy and stress."""
 
+    any_gap_operator = True
     loop = staticmethod(penalty_midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, kappa: np.ndarray) -> None:
         super().__init__(p, dt)
         dt = self.dt
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
         kappa = np.asarray(kappa, float)
-        if kappa.shape != cd.shape or not np.all(kappa > 0.0):
+        if kappa.shape != (p.contact.size,) or not np.all(kappa > 0.0):
             raise ValueError("the midpoint penalty needs one positive stiffness per contact dof")
         S = sp.csr_matrix(p.M + 0.25 * dt * dt * p.K)
         fac = Factor.of(S)
-        W = delassus_only(fac, cd, n)
         gap0 = np.asarray(p.contact.gap0, float)
+        G = sp.csr_matrix(p.contact.gap_operator(n))
+        ct = contact_ops(fac, G, gap0, keep=False)
         weights = np.asarray(p.contact.weights, float)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        y = np.minimum(0.0, gap0 + U[cd])
+        y = np.minimum(0.0, p.gaps(U))
         self.sample0 = {"energy": float(p.energy(U, V) + 0.5 * np.sum(kappa * y * y)),
                         "stress": float(np.sum(kappa * y) / np.sum(weights))}
-        self.force0 = float(np.sum(kappa * np.maximum(0.0, -(gap0 + U[cd]))))
+        self.force0 = float(np.sum(kappa * np.maximum(0.0, -p.gaps(U))))
         self.gamma = 1.0  # the step's force acts over the whole step
         self.ops = PenaltyMidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
-                                      fac.arrays, cd, gap0, weights, kappa, W, dt,
+                                      fac.arrays, ct, weights, kappa, dt,
                                       float(p.energy_offset))
         self.initial = (U, V)
-        self.springs = (cd, gap0, kappa)
+        self.springs = kappa
 
     def new_state(self) -> PenaltyMidpointState:
-        n, nc = self.problem.nfree, self.ops.cd.size
+        n, nc = self.problem.nfree, self.ops.kappa.size
         U, V = (a.copy() for a in self.initial)
         return PenaltyMidpointState(U, V, np.zeros(nc), np.empty(nc), np.empty(nc),
                                     np.empty(nc), np.empty(nc), np.zeros(nc), np.empty(n),
@@ -266,9 +264,8 @@ class MidpointPenaltyStepper(LoopStepper):
 
     def law_energy(self, U: np.ndarray) -> float:
         """The springs' energy sum_i kappa_i/2 min(0, g_i)^2 in state U."""
-        cd, gap0, kappa = self.springs
-        y = np.minimum(0.0, gap0 + np.asarray(U)[cd])
-        return float(0.5 * np.sum(kappa * y * y))
+        y = np.minimum(0.0, self.problem.gaps(np.asarray(U)))
+        return float(0.5 * np.sum(self.springs * y * y))
 
 
 def prepare_midpoint_penalty(p: SparseProblem, dt: float, kappa: np.ndarray

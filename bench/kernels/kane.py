@@ -47,15 +47,12 @@ from contact_bench.core.loop import OK, drive
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, hold, push, signorini
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.sparse import (
-    Factor,
-    contact_operators,
-    correct,
-    lcp_solve,
-)
+from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
 
 #: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
@@ -72,16 +69,11 @@ class KaneOps(NamedTuple):
     K: CSR
     F: np.ndarray
     fac: LU
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps  # the gaps with S's factor: W = G S^-1 G^T, Z = S^-1 G^T
+    at_contact: np.ndarray  # -gap0
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
-    keep_z: bool
     mfac: LU
-    WM: np.ndarray
-    ZM: np.ndarray
-    keep_zm: bool
+    ctm: ContactOps  # the gaps with M's factor (the projected predictors')
     dt: float
     predictor: int
     offset: float
@@ -111,25 +103,20 @@ class KaneState(NamedTuple):
 def kane_step(o, s, step):  # pragma: no cover - compiled
     """Kane's step, with the predictor `o.predictor` (module docstring)."""
     U, V, Ut, X, rhs, w, work, gf = s.U, s.V, s.Ut, s.X, s.rhs, s.w, s.work, s.gf
-    mu, mup, lam, cd, gap0, dt, predictor = s.mu, s.mup, s.force, o.cd, o.gap0, o.dt, o.predictor
+    mu, mup, lam, dt, predictor = s.mu, s.mup, s.force, o.dt, o.predictor
     n = U.size
-    nc = cd.size
+    nc = o.at_contact.size
     c = 0.25 * dt * dt
     idt2 = 1.0 / (dt * dt)
     for i in range(n):  # 1. the predictor U^n + h V^n ...
         Ut[i] = U[i] + dt * V[i]
     mup[:] = 0.0
     if predictor > 0:  # ... projected onto the admissible set in the M norm
-        pen = False
-        for j in range(nc):
-            gf[j] = gap0[j] + Ut[cd[j]]
-            pen = pen or gf[j] < 0.0
+        pen = gaps(o.ctm, Ut, gf)
         if pen:
-            lcp_solve(o.WM, gf, mup, s.activep, o.tol, s.was[1])
-            correct(o.mfac, cd, o.ZM, o.keep_zm, mup, Ut, rhs, w, work)
-            for j in range(nc):
-                if s.activep[j]:
-                    Ut[cd[j]] = -gap0[j]
+            lcp_solve(o.ctm.W, gf, mup, s.activep, o.tol, s.was[1])
+            push(o.ctm, o.mfac, mup, Ut, (rhs, w, work))
+            hold(o.ctm, s.activep, Ut, o.at_contact)
         s.was[1] = pen
     # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu
     matvec(o.M, Ut, rhs)
@@ -137,19 +124,7 @@ def kane_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         rhs[i] += c * (2.0 * o.F[i] - w[i])
     lu(o.fac, rhs, X, work)
-    pen = False
-    for j in range(nc):
-        gf[j] = gap0[j] + X[cd[j]]
-        pen = pen or gf[j] < 0.0
-    if pen:
-        lcp_solve(o.W, gf, mu, s.active, o.tol, s.was[0])
-        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, work)
-        for j in range(nc):
-            if s.active[j]:
-                X[cd[j]] = -gap0[j]  # in contact: the gap is 0 exactly
-    else:
-        mu[:] = 0.0
-    s.was[0] = pen
+    s.was[0] = signorini(o.ct, o.fac, X, mu, s.active, s.was[0], o.tol, (gf, rhs, w, work))
     for j in range(nc):
         lam[j] = 2.0 * mu[j] * idt2
         if predictor == 2:
@@ -179,6 +154,7 @@ class KaneStepper(LoopStepper):
     """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
     matrix and, with a projected predictor, M factored with C M^-1 C^T."""
 
+    any_gap_operator = True
     loop = staticmethod(kane_loop)
 
     def __init__(self, p: SparseProblem, dt: float, predictor: str = "none") -> None:
@@ -189,26 +165,25 @@ class KaneStepper(LoopStepper):
         if np.any(p.massless):
             raise ValueError("Kane's step needs mass on every dof (the predictor projects "
                              "in the mass norm)")
-        cd = np.asarray(p.contact.dofs, np.int64)
+        G = sp.csr_matrix(p.contact.gap_operator(n))
+        gap0 = np.asarray(p.contact.gap0, float)
         M, K = sp.csr_matrix(p.M), sp.csr_matrix(p.K)
         fac = Factor.of(M + (0.25 * h * h) * K)
-        Z, W, keep_z = contact_operators(fac, cd, n)
+        ct = contact_ops(fac, G, gap0)
         if PREDICTORS[predictor]:
             mfac = Factor.of(M)
-            ZM, WM, keep_zm = contact_operators(mfac, cd, n)
+            ctm = contact_ops(mfac, G, gap0)
         else:  # no projection: placeholders the step never reads
-            mfac, ZM, WM, keep_zm = fac, np.zeros((1, 1)), np.zeros((1, 1)), True
+            mfac, ctm = fac, ct
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
-        self.ops = KaneOps(csr_arrays(M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
-                           np.asarray(p.contact.gap0, float),
-                           np.asarray(p.contact.weights, float), W, Z, keep_z, mfac.arrays,
-                           WM, ZM, keep_zm, h, PREDICTORS[predictor], float(p.energy_offset),
-                           tol)
+        self.ops = KaneOps(csr_arrays(M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, ct,
+                           -gap0, np.asarray(p.contact.weights, float), mfac.arrays, ctm, h,
+                           PREDICTORS[predictor], float(p.energy_offset), tol)
         self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
 
     def new_state(self) -> KaneState:
-        n, nc = self.problem.nfree, self.ops.cd.size
+        n, nc = self.problem.nfree, self.ops.at_contact.size
         U, V = (a.copy() for a in self.initial)
         return KaneState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
                          np.zeros(nc, np.bool_), np.zeros(2, np.bool_), np.empty(n),

@@ -47,145 +47,23 @@ from numba import cfunc, float64, int64, njit
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
+from contact_bench.kernels.contact import (
+    ContactOps,
+    add_response,
+    contact_ops,
+    gaps,
+    hold,
+    push,
+    row_dot,
+    selection_rows,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
-from contact_bench.kernels.linalg import LU, Factor, lu, lu_solve
+from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.solvers import lcp_solve, penalty_solve
 from contact_bench.kernels.stepper import LoopStepper
 
-#: largest n x n_c response matrix Z = S^-1 C^T kept (values); beyond, a second solve
-KEEP_Z_ENTRIES = 10_000_000
-#: pivoting steps of `lcp_solve` before it gives up (a multiple of n_c)
-LCP_MAX_PIVOTS = 50
-
-
 # ------------------------------------------------------------------------ CSR kernels
-
-
-@njit(cache=True)
-def add_response(Z, mu, X):  # pragma: no cover - compiled
-    """X += Z mu over the nonzero entries of mu (the contact dofs that push; Z's rows
-    contiguous)."""
-    on = np.flatnonzero(mu)
-    for i in range(X.size):
-        acc = 0.0
-        for j in on:
-            acc += Z[i, j] * mu[j]
-        X[i] += acc
-
-
-@njit(cache=True)
-def correct(fac, cd, Z, keep_z, mu, X, rhs, w, work):  # pragma: no cover - compiled
-    """X += S^-1 C^T mu: with Z = S^-1 C^T if kept (`keep_z`), else one more solve with
-    S's factor `fac` (rhs, w, work: scratch of X's size)."""
-    if keep_z:
-        add_response(Z, mu, X)
-    else:
-        rhs[:] = 0.0
-        for j in range(cd.size):
-            rhs[cd[j]] = mu[j]
-        lu_solve(fac[0], fac[1], fac[2], fac[3], fac[4], fac[5], fac[6], fac[7], rhs, w, work)
-        for i in range(X.size):
-            X[i] += w[i]
-
-
-# ------------------------------------------------------------------------------ LCP
-
-
-@njit(cache=True)
-def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
-    idx = np.flatnonzero(active)
-    mu[:] = 0.0
-    if idx.size:
-        sub = np.empty((idx.size, idx.size))
-        rhs = np.empty(idx.size)
-        for a in range(idx.size):
-            rhs[a] = -q[idx[a]]
-            for b in range(idx.size):
-                sub[a, b] = W[idx[a], idx[b]]
-        sol = np.linalg.solve(sub, rhs)
-        for a in range(idx.size):
-            mu[idx[a]] = sol[a]
-
-
-@njit(cache=True)
-def lcp_solve(W, q, mu, active, tol, warm=False):  # pragma: no cover - compiled
-    """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
-
-    Principal pivoting from the active set {q < 0} (`warm`: from the given `active`, the
-    previous step's, usually the answer already): block pivots (every violator
-    changes side) while they reduce the number of violators, then Murty's least-index
-    rule (one pivot at a time, finite for a P-matrix). `tol` is the gap violation
-    ignored (round-off, a length); mu's is tol / max W_ii. Returns the number of pivots
-    (-1 if it gave up).
-    """
-    n = q.size
-    wmax = 0.0
-    for i in range(n):
-        wmax = max(wmax, W[i, i])
-    tol_mu = tol / wmax if wmax > 0.0 else tol
-    if not warm:
-        for i in range(n):
-            active[i] = q[i] < 0.0
-    best = n + 1
-    murty = False
-    for it in range(LCP_MAX_PIVOTS * (n + 1)):
-        _solve_active(W, q, active, mu)
-        g = q + W @ mu
-        nviol = 0
-        first = -1
-        for i in range(n):
-            bad = (mu[i] < -tol_mu) if active[i] else (g[i] < -tol)
-            if bad:
-                nviol += 1
-                if first < 0:
-                    first = i
-        if nviol == 0:
-            for i in range(n):
-                if mu[i] < 0.0:
-                    mu[i] = 0.0
-            return it
-        if not murty and nviol < best:
-            best = nviol
-            for i in range(n):
-                if (mu[i] < -tol_mu) if active[i] else (g[i] < -tol):
-                    active[i] = not active[i]
-        else:
-            murty = True
-            active[first] = not active[first]
-    return -1
-
-
-@njit(cache=True)
-def penalty_solve(W, q, c, mu, active):  # pragma: no cover - compiled
-    """mu = c max(0, -g) with g = q + W mu (penalty springs of stiffness c on the
-    contact dofs, W symmetric positive definite): the piecewise-linear system solved by
-    active-set iteration from {q < 0} (each set's linear system exactly). Returns the
-    number of iterations (-1 if it gave up)."""
-    n = q.size
-    for i in range(n):
-        active[i] = q[i] < 0.0
-    for it in range(LCP_MAX_PIVOTS * (n + 1)):
-        idx = np.flatnonzero(active)
-        mu[:] = 0.0
-        if idx.size:
-            sub = np.empty((idx.size, idx.size))
-            rhs = np.empty(idx.size)
-            for a in range(idx.size):  # (I + W_AA C_A) g_A = q_A
-                rhs[a] = q[idx[a]]
-                for b in range(idx.size):
-                    sub[a, b] = W[idx[a], idx[b]] * c[idx[b]] + (1.0 if a == b else 0.0)
-            gA = np.linalg.solve(sub, rhs)
-            for a in range(idx.size):
-                mu[idx[a]] = -c[idx[a]] * gA[a]
-        g = q + W @ mu
-        same = True
-        for i in range(n):
-            if (g[i] < 0.0) != active[i]:
-                same = False
-                active[i] = g[i] < 0.0
-        if same:
-            return it
-    return -1
 
 
 # -------------------------------------------------------------------------- Newmark
@@ -199,12 +77,9 @@ class NewmarkOps(NamedTuple):
     K: CSR
     F: np.ndarray
     fac: LU
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps  # the gaps (or a law's y = P X + y0: G = P, G^T = Q^T) and W, Z
+    at_contact: np.ndarray  # -gap0: where an active selection row's dof is held
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
-    keep_z: bool
     massless: np.ndarray
     beta: float
     gamma: float
@@ -213,8 +88,6 @@ class NewmarkOps(NamedTuple):
     tol: float
     kappa: np.ndarray  # a law's stiffnesses (empty: exact contact)
     cpen: np.ndarray  # kappa beta dt^2
-    P: CSR
-    y0: np.ndarray
     ew: float
     sc: np.ndarray
     fscale: float
@@ -258,7 +131,7 @@ def NO_LOAD(x, y, z, t, code):  # pragma: no cover - compiled
 def newmark_step(o, s, step):  # pragma: no cover - compiled
     """One Newmark step (module docstring; `loop.drive`'s step)."""
     n = s.U.size
-    nc = o.cd.size
+    nc = o.ct.gap0.size
     beta, gamma, dt = o.beta, o.gamma, o.dt
     U, V, P, Q, X, rhs, w, gf = s.U, s.V, s.P, s.Q, s.X, s.rhs, s.w, s.gf
     bdt2 = beta * dt * dt
@@ -286,21 +159,17 @@ def newmark_step(o, s, step):  # pragma: no cover - compiled
         for i in range(n):
             rhs[i] += bdt2 * Fn[i]
     lu(o.fac, rhs, X, s.work)
-    pen = False
-    matvec(o.P, X, gf)
-    for i in range(nc):
-        gf[i] += o.y0[i]
-        pen = pen or gf[i] < 0.0
+    pen = gaps(o.ct, X, gf)
     lam, mu, active = s.force, s.mu, s.active
     if pen:
         if penalty:
-            penalty_solve(o.W, gf, o.cpen, mu, active)
+            penalty_solve(o.ct.W, gf, o.cpen, mu, active)
         else:
-            lcp_solve(o.W, gf, mu, active, o.tol, s.was[0])
-        correct(o.fac, o.cd, o.Z, o.keep_z, mu, X, rhs, w, s.work)
+            lcp_solve(o.ct.W, gf, mu, active, o.tol, s.was[0])
+        push(o.ct, o.fac, mu, X, (rhs, w, s.work))
+        if not penalty:
+            hold(o.ct, active, X, o.at_contact)  # in contact: the gap is 0 exactly
         for j in range(nc):
-            if active[j] and not penalty:
-                X[o.cd[j]] = -o.gap0[j]  # in contact: the gap is 0 exactly
             lam[j] = o.fscale * mu[j] / bdt2
     else:
         mu[:] = 0.0
@@ -329,10 +198,10 @@ def newmark_sample(o, s):  # pragma: no cover - compiled
     if o.kappa.size == 0:
         return e, -s.force.sum() / area, s.V
     # the law's energy, ew sum_i kappa_i / 2 min(0, y_i)^2, and its stress
-    matvec(o.P, s.U, s.y)
+    matvec(o.ct.G, s.U, s.y)
     st = 0.0
-    for i in range(o.cd.size):
-        yi = min(0.0, s.y[i] + o.y0[i])
+    for i in range(o.kappa.size):
+        yi = min(0.0, s.y[i] + o.ct.gap0[i])
         e += 0.5 * o.ew * o.kappa[i] * yi * yi
         st += o.sc[i] * yi
     return e, st / area, s.V
@@ -384,13 +253,6 @@ def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.nd
     return A
 
 
-def delassus(fac: Factor, cd: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Z = S^-1 C^T (n x n_c, rows contiguous) and W = C Z, the n_c right-hand sides C^T
-    solved in blocks (`response_rows`)."""
-    Z, W = response_rows(fac, selection(cd, n), cd, True)
-    return Z, np.ascontiguousarray(0.5 * (W + W.T))
-
-
 def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
                   ) -> tuple[np.ndarray, np.ndarray]:
     """(Z, Z[rows]) for Z = S^-1 rhs (S's factor `fac`, block solves `Factor.solve_blocks`):
@@ -405,27 +267,12 @@ def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
     return Z, Zr
 
 
-def contact_operators(fac: Factor, cd: np.ndarray, n: int
-                      ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """(Z, W, keep_z) of a factored S: the Delassus matrix W = C S^-1 C^T and the response
-    Z = S^-1 C^T when it fits in `KEEP_Z_ENTRIES` values (else a placeholder, and keep_z
-    False: the kernel's correction is a second solve with C^T mu)."""
-    if n * cd.size <= KEEP_Z_ENTRIES:
-        Z, W = delassus(fac, cd, n)
-        return np.ascontiguousarray(Z), W, True
-    return np.zeros((1, 1)), delassus_only(fac, cd, n), False
-
-
-def selection(cd: np.ndarray, n: int) -> sp.csc_matrix:
-    """C^T: the n x n_c matrix whose column j is the unit vector of contact dof cd[j]."""
-    return sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))
-
-
 class NewmarkStepper(LoopStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
 
     adds_time_load = True
+    any_gap_operator = True
     loop = staticmethod(newmark_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
@@ -437,29 +284,25 @@ class NewmarkStepper(LoopStepper):
         super().__init__(p, dt)
         dt, beta, gamma = self.dt, float(beta), float(gamma)
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
-        C = sp.csr_matrix((np.ones(cd.size), (np.arange(cd.size), cd)), shape=(cd.size, n))
+        G = sp.csr_matrix(p.contact.gap_operator(n))
         if kappa is not None:
             kappa = np.asarray(kappa, float)
-            law = ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+            law = ContactLaw(G, G, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
         K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
         fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
-        keep_z = n * cd.size <= KEEP_Z_ENTRIES or law is not None
         if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
             Z = fac.solve_many(sp.csc_matrix(law.Q.T))
             W = np.ascontiguousarray(law.P @ Z)
             Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
             lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
             fscale = float(law.fscale)
+            ct = ContactOps(csr_arrays(Pm), csr_arrays(sp.csr_matrix(law.Q).T), y0,
+                            selection_rows(Pm), W, np.ascontiguousarray(Z), True)
         else:
-            Pm, y0 = C, np.asarray(p.contact.gap0, float)
+            Pm, y0 = G, np.asarray(p.contact.gap0, float)
             lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
             fscale = 1.0
-            if keep_z:
-                Z, W = delassus(fac, cd, n)
-            else:
-                W = delassus_only(fac, cd, n)
-                Z = np.zeros((1, 1))
+            ct = contact_ops(fac, G, y0)
         if law is not None:  # the sampled energy at t = 0 with the law's terms
             y = np.minimum(0.0, Pm @ p.U0 + y0)
             self.sample0["energy"] = float(p.energy(p.U0, p.V0)
@@ -484,17 +327,17 @@ class NewmarkStepper(LoopStepper):
         ld = p.load
         self.gamma = gamma
         self.ops = NewmarkOps(
-            csr_arrays(p.M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, cd,
-            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W, Z,
-            keep_z, p.massless, beta, gamma, dt, float(p.energy_offset), tol, lk,
-            lk * (beta * dt * dt), csr_arrays(Pm), y0, ew, sc, fscale, float(alpha),
+            csr_arrays(p.M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, ct,
+            -np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
+            p.massless, beta, gamma, dt, float(p.energy_offset), tol, lk,
+            lk * (beta * dt * dt), ew, sc, fscale, float(alpha),
             ld is not None, NO_LOAD if ld is None else ld.density,
             csr_arrays(sp.csr_matrix((n, 0)) if ld is None else ld.B),
             np.zeros((3, 0)) if ld is None else np.ascontiguousarray(ld.points, float),
             np.zeros(0, np.int64) if ld is None else np.asarray(ld.codes, np.int64))
 
     def new_state(self) -> NewmarkState:
-        n, nc = self.problem.nfree, self.ops.cd.size
+        n, nc = self.problem.nfree, self.ops.ct.gap0.size
         U, V, P, Q = (a.copy() for a in self.initial)
         return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
                             np.zeros(1, np.bool_), np.asarray(self.ops.F, float).copy(),
@@ -521,47 +364,38 @@ def newmark_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int, beta: 
     return prepare_newmark(p, dt, beta, gamma, kappa, law, alpha).run(nsteps, stride)
 
 
-def delassus_only(fac: Factor, cd: np.ndarray, n: int) -> np.ndarray:
-    """W = C S^-1 C^T without keeping Z (`response_rows`: each block's solution reduced
-    to its contact rows)."""
-    W = response_rows(fac, selection(cd, n), cd, False)[1]
-    return np.ascontiguousarray(0.5 * (W + W.T))
-
-
 @dataclass
 class MasslessSplit:
     """The arrays of the split into dofs with mass (hv) and massless dofs (mv), for the
-    compiled kernels: the massless rows K_mm factored with the Delassus matrix of the
-    contact dofs among them, M_hh factored unless diagonal (`quasistatic_sparse`,
-    `contact_bench.kernels.sparse_family`). ValueError unless every contact dof is
-    massless and some dof has mass."""
+    compiled kernels: the massless rows K_mm factored with the contact operators of the
+    gap operator restricted to them (G_m = G[:, mv]: W = G_m K_mm^-1 G_m^T, Z = K_mm^-1
+    G_m^T), M_hh factored unless diagonal (`quasistatic_sparse`,
+    `contact_bench.kernels.sparse_family`). ValueError unless every dof in a contact row
+    is massless and some dof has mass."""
 
     hv: np.ndarray
     mv: np.ndarray
-    cl: np.ndarray  # the contact dofs' positions in mv
     Kh: CSR  # CSR rows K[hv] (all columns)
     Kmh: CSR  # CSR rows K[mv] with the massless columns dropped
     mfac: LU  # K_mm factored
     hfac: LU  # M_hh factored (unless diagonal)
     diag_h: np.ndarray  # M_hh's diagonal when it is diagonal, else empty
-    W: np.ndarray  # C K_mm^-1 C^T
-    Z: np.ndarray  # K_mm^-1 C^T (nm x nc)
+    ct: ContactOps  # G_m with K_mm's factor (Z kept)
+    at_contact: np.ndarray  # -gap0
     tol: float
 
     @classmethod
     def of(cls, p: SparseProblem) -> MasslessSplit:
         massless = p.massless
         hv, mv = np.flatnonzero(~massless), np.flatnonzero(massless)
-        pos = np.full(p.nfree, -1)
-        pos[mv] = np.arange(mv.size)
-        cd = np.asarray(p.contact.dofs, np.int64)
-        if np.any(pos[cd] < 0) or hv.size == 0:
+        G = sp.csr_matrix(p.contact.gap_operator(p.nfree))
+        if G[:, hv].nnz or hv.size == 0:
             raise ValueError("the massless-contact ODE needs massless contact dofs "
                              "(a redistributed mass) and dofs with mass")
-        cl = pos[cd]
         K = sp.csr_matrix(p.K)
         mfac = Factor.of(K[mv][:, mv])
-        Z, W = delassus(mfac, cl, mv.size)
+        gap0 = np.asarray(p.contact.gap0, float)
+        ct = contact_ops(mfac, G[:, mv], gap0, keep=True)
         keep = np.ones(p.nfree)
         keep[mv] = 0.0
         Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
@@ -571,14 +405,8 @@ class MasslessSplit:
         hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
-        return cls(hv, mv, np.asarray(cl, np.int64), csr_arrays(K[hv]), csr_arrays(Kmh),
-                   mfac.arrays, hfac.arrays,
-                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), W,
-                   np.ascontiguousarray(Z), tol)
-
-    def args(self) -> tuple:
-        return (self.hv, self.mv, self.cl, *self.Kh, *self.Kmh, self.mfac, self.hfac,
-                self.diag_h, self.W, self.Z, self.tol)
+        return cls(hv, mv, csr_arrays(K[hv]), csr_arrays(Kmh), mfac.arrays, hfac.arrays,
+                   np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), ct, -gap0, tol)
 
 
 # ------------------------------------------------------- explicit central difference
@@ -592,7 +420,9 @@ class CentralOps(NamedTuple):
     c: np.ndarray  # dt / m
     K: CSR
     F: np.ndarray
-    cd: np.ndarray
+    G: CSR
+    sel: np.ndarray  # per contact point: the dof its row selects, or -1 (a general row)
+    meff: np.ndarray  # per contact point: 1 / (G_j M^-1 G_j^T), the mass along its row
     gap0: np.ndarray
     weights: np.ndarray
     dt: float
@@ -612,8 +442,9 @@ class CentralState(NamedTuple):
 @njit(cache=True)
 def central_step(o, s, step):  # pragma: no cover - compiled
     """Kick-drift central difference with a diagonal mass m (> 0 everywhere), carrying
-    (U^n, V^{n-1/2}); a contact dof whose predicted gap is negative gets the force
-    lambda = max(0, -m V^{n+1/2} / dt) that stops it (Taylor-Flanagan)."""
+    (U^n, V^{n-1/2}); a contact point whose predicted gap is negative gets the force
+    lambda = max(0, -m_j G_j V^{n+1/2} / dt) that stops it (Taylor-Flanagan; m_j the mass
+    along its row, a selected dof's own mass)."""
     U, Vh, Un, lam, c, dt = s.U, s.Vh, s.Un, s.force, o.c, o.dt
     n = U.size
     Kp, Ki, Kx = o.K
@@ -628,15 +459,25 @@ def central_step(o, s, step):  # pragma: no cover - compiled
     else:
         for i in range(n):
             Un[i] = U[i] + dt * Vh[i]
-    for j in range(o.cd.size):
-        d = o.cd[j]
+    Gp, Gi, Gx = o.G
+    for j in range(o.sel.size):
+        d = o.sel[j]
         lam[j] = 0.0
-        if o.gap0[j] + Un[d] < 0.0:
-            lj = -Vh[d] * o.m[d] / dt
+        if d >= 0:
+            if o.gap0[j] + Un[d] < 0.0:
+                lj = -Vh[d] * o.m[d] / dt
+                if lj > 0.0:
+                    lam[j] = lj
+                    Un[d] += dt * c[d] * lj
+                    Vh[d] += c[d] * lj
+        elif o.gap0[j] + row_dot(o.G, j, Un) < 0.0:  # stop the normal velocity G_j V
+            lj = -row_dot(o.G, j, Vh) * o.meff[j] / dt
             if lj > 0.0:
                 lam[j] = lj
-                Un[d] += dt * c[d] * lj
-                Vh[d] += c[d] * lj
+                for kk in range(Gp[j], Gp[j + 1]):
+                    i = Gi[kk]
+                    Un[i] += dt * c[i] * Gx[kk] * lj
+                    Vh[i] += c[i] * Gx[kk] * lj
     U[:] = Un
     return OK
 
@@ -665,6 +506,7 @@ def central_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 class CentralStepper(LoopStepper):
     """`central_sparse` prepared: the diagonal mass and the initial half-step velocity."""
 
+    any_gap_operator = True
     loop = staticmethod(central_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -677,8 +519,10 @@ class CentralStepper(LoopStepper):
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         A = initial_acceleration(p)
         self.initial = (U, V + 0.5 * self.dt * A)  # (U^0, V^{1/2})
+        G = sp.csr_matrix(p.contact.gap_operator(p.nfree))
+        meff = 1.0 / np.asarray(G.multiply(G) @ (1.0 / m)).ravel()
         self.ops = CentralOps(m, self.dt / m, csr_arrays(p.K), np.asarray(p.F, float),
-                              np.asarray(p.contact.dofs, np.int64),
+                              csr_arrays(G), selection_rows(G), meff,
                               np.asarray(p.contact.gap0, float),
                               np.asarray(p.contact.weights, float), self.dt,
                               float(p.energy_offset))
@@ -686,7 +530,7 @@ class CentralStepper(LoopStepper):
     def new_state(self) -> CentralState:
         n = self.problem.nfree
         U, Vh = (a.copy() for a in self.initial)
-        return CentralState(U, Vh, np.zeros(self.ops.cd.size), np.empty(n), np.empty(n))
+        return CentralState(U, Vh, np.zeros(self.ops.sel.size), np.empty(n), np.empty(n))
 
 
 def prepare_central(p: SparseProblem, dt: float) -> CentralStepper:
@@ -719,11 +563,9 @@ class QuasistaticOps(NamedTuple):
     mfac: LU
     hfac: LU
     diag_h: np.ndarray
-    cl: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps  # G restricted to the massless dofs, with K_mm's factor
+    at_contact: np.ndarray
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
     dt: float
     gamma: float
     offset: float
@@ -754,9 +596,9 @@ def quasistatic_step(o, s, step):  # pragma: no cover - compiled
     """Central differences on the dofs with mass (hv), the massless ones (mv) solved
     from their own rows each step, with exact contact on the contact dofs among them."""
     U, V, A, mu, dt, gamma = s.U, s.V, s.A, s.force, o.dt, o.gamma
-    hv, mv, cl, gap0 = o.hv, o.mv, o.cl, o.gap0
+    hv, mv = o.hv, o.mv
     rm, um, rh, ah, gf = s.rm, s.um, s.rh, s.ah, s.gf
-    nh, nm, nc = hv.size, mv.size, cl.size
+    nh, nm = hv.size, mv.size
     for a in range(nh):
         i = hv[a]
         U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
@@ -764,16 +606,11 @@ def quasistatic_step(o, s, step):  # pragma: no cover - compiled
     for b in range(nm):
         rm[b] = o.F[mv[b]] - rm[b]
     lu(o.mfac, rm, um, s.wm)
-    pen = False
-    for j in range(nc):
-        gf[j] = gap0[j] + um[cl[j]]
-        pen = pen or gf[j] < 0.0
+    pen = gaps(o.ct, um, gf)
     if pen:
-        lcp_solve(o.W, gf, mu, s.active, o.tol, s.was[0])
-        add_response(o.Z, mu, um)
-        for j in range(nc):
-            if s.active[j]:
-                um[cl[j]] = -gap0[j]
+        lcp_solve(o.ct.W, gf, mu, s.active, o.tol, s.was[0])
+        add_response(o.ct.Z, mu, um)
+        hold(o.ct, s.active, um, o.at_contact)
     else:
         mu[:] = 0.0
     s.was[0] = pen
@@ -813,11 +650,11 @@ class QuasistaticStepper(LoopStepper):
     """`quasistatic_sparse` prepared: K_mm and M_hh factored, the Delassus matrix and the
     initial acceleration computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(quasistatic_loop)
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float = 0.5) -> None:
-        massless = p.massless
-        if not np.all(massless[np.asarray(p.contact.dofs, np.int64)]):
+        if p.contact.gap_operator(p.nfree)[:, np.flatnonzero(~p.massless)].nnz:
             raise ValueError("the explicit quasi-static path needs massless contact dofs")
         super().__init__(p, dt)
         split = MasslessSplit.of(p)
@@ -826,13 +663,13 @@ class QuasistaticStepper(LoopStepper):
                         initial_acceleration(p))
         self.ops = QuasistaticOps(
             csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
-            split.Kh, split.Kmh, split.mfac, split.hfac, split.diag_h, split.cl,
-            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
-            split.W, split.Z, self.dt, float(gamma), float(p.energy_offset), split.tol)
+            split.Kh, split.Kmh, split.mfac, split.hfac, split.diag_h, split.ct,
+            split.at_contact, np.asarray(p.contact.weights, float), self.dt, float(gamma),
+            float(p.energy_offset), split.tol)
 
     def new_state(self) -> QuasistaticState:
         n, nh, nm = self.problem.nfree, self.ops.hv.size, self.ops.mv.size
-        nc = self.ops.cl.size
+        nc = self.ops.at_contact.size
         U, V, A = (a.copy() for a in self.initial)
         return QuasistaticState(U, V, A, np.zeros(nc), np.zeros(nc, np.bool_),
                                 np.zeros(1, np.bool_), np.empty(nm), np.empty(nm),

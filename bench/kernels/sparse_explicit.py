@@ -233,6 +233,7 @@ class ExplicitLawStepper(LoopStepper):
     """`explicit_law_sparse` prepared: K'_mm and M_hh factored, the massless elimination's
     matrices, the initial acceleration and sample 0's energy and stress computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(explicit_law_loop)
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float, law: ContactLaw) -> None:
@@ -245,8 +246,7 @@ class ExplicitLawStepper(LoopStepper):
         massless = p.massless
         hv = np.flatnonzero(~massless).astype(np.int64)
         mv = np.flatnonzero(massless).astype(np.int64)
-        cd = np.asarray(p.contact.dofs, np.int64)
-        nc = cd.size
+        nc = p.contact.size
         keep_z = keeps_response(mv.size, nc)
         if mv.size:
             Kmm = K[mv][:, mv]

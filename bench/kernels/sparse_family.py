@@ -56,15 +56,12 @@ from contact_bench.core.contact_stats import (
 )
 from contact_bench.core.loop import OK, START_PROJECTED, drive
 from contact_bench.core.sampling import blown_up, n_samples
+from contact_bench.kernels.contact import ContactOps, add_response, gaps, hold, row_dot
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.sparse import (
-    Factor,
-    MasslessSplit,
-    add_response,
-    lcp_solve,
-)
+from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse import Factor, MasslessSplit
 from contact_bench.kernels.stepper import LoopStepper, SparseStepper
 
 
@@ -77,23 +74,21 @@ class MasslessOps(NamedTuple):
     F: np.ndarray
     hv: np.ndarray
     mv: np.ndarray
-    cl: np.ndarray
     Kh: CSR
     Km: CSR
     mfac: LU
     hfac: LU
     diag_h: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
+    ct: ContactOps  # G restricted to the massless dofs, with K_mm's factor
+    at_contact: np.ndarray  # -gap0
     tol: float
-    gap0: np.ndarray
 
 
 def massless_ops(split: MasslessSplit, p: SparseProblem) -> MasslessOps:
     """`MasslessOps` of a problem's split."""
-    return MasslessOps(np.asarray(p.F, float), split.hv, split.mv, split.cl, split.Kh,
-                       split.Kmh, split.mfac, split.hfac, split.diag_h, split.W, split.Z,
-                       split.tol, np.asarray(p.contact.gap0, float))
+    return MasslessOps(np.asarray(p.F, float), split.hv, split.mv, split.Kh, split.Kmh,
+                       split.mfac, split.hfac, split.diag_h, split.ct, split.at_contact,
+                       split.tol)
 
 
 @njit(cache=True)
@@ -103,22 +98,17 @@ def massless_solve(o, U, mu, active, warm, scr):  # pragma: no cover - compiled
     (rm, um, wm of the massless dofs' size, gf of the contact's). Returns whether any
     contact dof would penetrate without the obstacle (the LCP ran)."""
     rm, um, wm, gf = scr
-    mv, cl, gap0 = o.mv, o.cl, o.gap0
-    nm, nc = mv.size, cl.size
+    mv = o.mv
+    nm = mv.size
     matvec(o.Km, U, rm)  # K_mh u_h
     for b in range(nm):
         rm[b] = o.F[mv[b]] - rm[b]
     lu(o.mfac, rm, um, wm)
-    pen = False
-    for j in range(nc):
-        gf[j] = gap0[j] + um[cl[j]]
-        pen = pen or gf[j] < 0.0
+    pen = gaps(o.ct, um, gf)
     if pen:
-        lcp_solve(o.W, gf, mu, active, o.tol, warm)
-        add_response(o.Z, mu, um)
-        for j in range(nc):
-            if active[j]:
-                um[cl[j]] = -gap0[j]  # on the obstacle: the gap is 0 exactly
+        lcp_solve(o.ct.W, gf, mu, active, o.tol, warm)
+        add_response(o.ct.Z, mu, um)
+        hold(o.ct, active, um, o.at_contact)  # on the obstacle: the gap is 0 exactly
     else:
         mu[:] = 0.0
         active[:] = False
@@ -143,9 +133,10 @@ def heavy_acceleration(o, U, rh, ah, wh):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def massless_velocity(o, V, active, rm, vm, wm):  # pragma: no cover - compiled
-    """V[mv] <- d u_m / dt: K_mm v_m = -K_mh v_h, with v = 0 on the active contact dofs
-    (a correction Z nu, W_AA nu = -v_A)."""
-    mv, cl, W, Z = o.mv, o.cl, o.W, o.Z
+    """V[mv] <- d u_m / dt: K_mm v_m = -K_mh v_h, with G_A v_m = 0 on the active contact
+    points (a correction Z nu, W_AA nu = -(G v)_A)."""
+    ct, mv = o.ct, o.mv
+    W, Z, sel = ct.W, ct.Z, ct.sel
     nm = mv.size
     matvec(o.Km, V, rm)
     for b in range(nm):
@@ -156,7 +147,8 @@ def massless_velocity(o, V, active, rm, vm, wm):  # pragma: no cover - compiled
         sub = np.empty((idx.size, idx.size))
         rhs = np.empty(idx.size)
         for a in range(idx.size):
-            rhs[a] = -vm[cl[idx[a]]]
+            d = sel[idx[a]]
+            rhs[a] = -vm[d] if d >= 0 else -row_dot(ct.G, idx[a], vm)
             for b in range(idx.size):
                 sub[a, b] = W[idx[a], idx[b]]
         nu = np.linalg.solve(sub, rhs)
@@ -166,7 +158,8 @@ def massless_velocity(o, V, active, rm, vm, wm):  # pragma: no cover - compiled
                 acc += Z[b, idx[a]] * nu[a]
             vm[b] += acc
         for a in range(idx.size):
-            vm[cl[idx[a]]] = 0.0
+            if sel[idx[a]] >= 0:
+                vm[sel[idx[a]]] = 0.0
     for b in range(nm):
         V[mv[b]] = vm[b]
 
@@ -240,6 +233,7 @@ class VerletStepper(LoopStepper):
     """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
     factored, the Delassus matrix) computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(verlet_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -253,7 +247,7 @@ class VerletStepper(LoopStepper):
 
     def new_state(self) -> VerletState:
         p, o = self.problem, self.ops.ode
-        n, nh, nm, nc = p.nfree, o.hv.size, o.mv.size, o.cl.size
+        n, nh, nm, nc = p.nfree, o.hv.size, o.mv.size, o.at_contact.size
         return VerletState(p.U0.astype(float).copy(), p.V0.astype(float).copy(),
                            np.empty(nh), np.zeros(nc), np.zeros(nc, np.bool_),
                            np.zeros(1, np.bool_),
@@ -280,7 +274,9 @@ def massless_ode_omega(p: SparseProblem) -> float:
     massless = p.massless
     hv = np.flatnonzero(~massless)
     free = massless.copy()
-    free[np.asarray(p.contact.dofs, np.int64)] = False  # pinned on the obstacle
+    # pinned on the obstacle: every dof in a contact row (for a general row, its
+    # tangential dofs too: a stiffer state still, so the limit stays a bound)
+    free[np.unique(sp.csr_matrix(p.contact.gap_operator(p.nfree)).indices)] = False
     iv = np.flatnonzero(free)
     K = sp.csr_matrix(p.K)
     Khh = sp.csr_matrix(K[hv][:, hv])
@@ -314,7 +310,7 @@ def ode_rhs(y, U, o, mu, active):  # pragma: no cover - compiled
     full displacement), mu and active are scratch (active: the last evaluation's
     contact set, the LCP's warm start)."""
     hv = o.hv
-    nh, nm, nc = hv.size, o.mv.size, o.cl.size
+    nh, nm, nc = hv.size, o.mv.size, o.at_contact.size
     for a in range(nh):
         U[hv[a]] = y[a]
     massless_solve(o, U, mu, active, True,
@@ -332,7 +328,7 @@ def ode_samples(Ys, o, U_out, V_out, lam_out):  # pragma: no cover - compiled
     """The full samples from the integrator's (u_h, v_h) columns: u_m(u_h), its
     derivative and the obstacle's forces (lam_out, n_c per sample)."""
     hv = o.hv
-    nh, nm, nc = hv.size, o.mv.size, o.cl.size
+    nh, nm, nc = hv.size, o.mv.size, o.at_contact.size
     scr = (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
     mu = np.zeros(nc)
     active = np.zeros(nc, np.bool_)
@@ -361,6 +357,8 @@ class AdaptiveStepper(SparseStepper):
     """`adaptive_sparse` prepared: the massless split (`MasslessSplit`) and the absolute
     tolerances computed once; `run` integrates from t = 0 with fresh scratch arrays (the
     LCP's warm start included), so that two runs take the same steps."""
+
+    any_gap_operator = True
 
     def __init__(self, p: SparseProblem, dt: float, rtol: float) -> None:
         self.split = MasslessSplit.of(p)

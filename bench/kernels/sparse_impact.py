@@ -43,36 +43,38 @@ from numba import njit
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, START_LEVEL, drive
+from contact_bench.kernels.contact import (
+    ContactOps,
+    contact_ops,
+    gaps,
+    hold,
+    push,
+    row_dot,
+    selection_rows,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.sparse import (
-    Factor,
-    contact_operators,
-    correct,
-    initial_acceleration,
-    lcp_solve,
-)
+from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse import Factor, initial_acceleration
 from contact_bench.kernels.stepper import LoopStepper
 
 
 class ImpactOps(NamedTuple):
     """An impact law's operators: M, K, F, S's factor (or S's diagonal `sdiag`, non-empty
-    when S is diagonal), the contact dofs and gaps, W = C S^-1 C^T and Z = S^-1 C^T (kept
-    or not), the scheme's two parameters (Paoli-Schatzman: beta, e; Moreau-Jean: theta,
-    e), dt, the energy's offset and the LCP's tolerance."""
+    when S is diagonal, with each contact row's 1 / (G_j S^-1 G_j^T), `sw`), the gaps and
+    W = G S^-1 G^T, Z = S^-1 G^T (kept or not), the scheme's two parameters
+    (Paoli-Schatzman: beta, e; Moreau-Jean: theta, e), dt, the energy's offset and the
+    LCP's tolerance."""
 
     M: CSR
     K: CSR
     F: np.ndarray
     sdiag: np.ndarray
+    sw: np.ndarray
     fac: LU
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
-    keep_z: bool
     a: float  # beta (Paoli-Schatzman) or theta (Moreau-Jean)
     e: float
     dt: float
@@ -97,6 +99,7 @@ class ImpactState(NamedTuple):
     w: np.ndarray
     work: np.ndarray
     gf: np.ndarray
+    gm: np.ndarray
     idx: np.ndarray
 
 
@@ -104,10 +107,11 @@ class ImpactState(NamedTuple):
 def ps_step(o, s, step):  # pragma: no cover - compiled
     """Paoli-Schatzman: level `step`'s contact force r^n and U^{n+1} (in X) from
     (U^{n-1}, U^n) (module docstring); level 0 from the start (`loop.START_LEVEL`)."""
-    Um, U, X, rhs, tmp, w, gf = s.Um, s.U, s.X, s.rhs, s.tmp, s.w, s.gf
-    cd, gap0, beta, e, dt = o.cd, o.gap0, o.a, o.e, o.dt
+    Um, U, X, rhs, tmp, w, gf, gm = s.Um, s.U, s.X, s.rhs, s.tmp, s.w, s.gf, s.gm
+    ct, beta, e, dt = o.ct, o.a, o.e, o.dt
+    sel = ct.sel
     n = U.size
-    nc = cd.size
+    nc = sel.size
     dt2 = dt * dt
     diag = o.sdiag.size > 0
     if step > 0:  # level step - 1 is sampled: move on to level step
@@ -128,26 +132,36 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
             X[i] = rhs[i] / o.sdiag[i]
     else:
         lu(o.fac, rhs, X, s.work)
+    gaps(ct, X, gf)
+    gaps(ct, Um, gm)
     pen = False
     finite = True
     for j in range(nc):  # the constrained combination g(X) + e g(U^{n-1})
-        gf[j] = gap0[j] + X[cd[j]] + e * (gap0[j] + Um[cd[j]])
+        gf[j] = gf[j] + e * gm[j]
         pen = pen or gf[j] < 0.0
         finite = finite and np.isfinite(gf[j])
     if not finite:  # blown up between samples: no contact problem to solve
         return BLOWN
     mu, lam, active = s.mu, s.force, s.active
     if pen:
-        if diag:  # W = diag(1 / s): the projection dof by dof
+        if diag:  # W diagonal (rows on distinct dofs): the projection row by row
+            Gp, Gi, Gx = ct.G
             for j in range(nc):
                 active[j] = gf[j] < 0.0
-                mu[j] = -gf[j] * o.sdiag[cd[j]] if active[j] else 0.0
+                d = sel[j]
+                if d >= 0:
+                    mu[j] = -gf[j] * o.sdiag[d] if active[j] else 0.0
+                else:
+                    mu[j] = -gf[j] * o.sw[j] if active[j] else 0.0
+                    for kk in range(Gp[j], Gp[j + 1]):
+                        X[Gi[kk]] += Gx[kk] * mu[j] / o.sdiag[Gi[kk]]
         else:
-            lcp_solve(o.W, gf, mu, active, o.tol, s.was[0])
-            correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, w, s.work)
+            lcp_solve(ct.W, gf, mu, active, o.tol, s.was[0])
+            push(ct, o.fac, mu, X, (rhs, w, s.work))
+        for j in range(nc):  # on the constraint exactly
+            gm[j] = -ct.gap0[j] - e * gm[j]
+        hold(ct, active, X, gm)
         for j in range(nc):
-            if active[j]:  # on the constraint exactly
-                X[cd[j]] = -gap0[j] - e * (gap0[j] + Um[cd[j]])
             lam[j] = mu[j] / dt2
     else:
         mu[:] = 0.0
@@ -181,6 +195,7 @@ class PaoliSchatzmanStepper(LoopStepper):
     """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
     matrix and the state (U^{-1}, U^0) computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(ps_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, beta: float) -> None:
@@ -188,16 +203,23 @@ class PaoliSchatzmanStepper(LoopStepper):
         super().__init__(p, dt)
         dt, e, beta = self.dt, float(e), float(beta)
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
+        G = sp.csr_matrix(p.contact.gap_operator(n))
+        gap0 = np.asarray(p.contact.gap0, float)
         S = sp.csr_matrix(p.M + (beta * dt * dt) * p.K)
         sd = np.asarray(S.diagonal(), float)
         diag = S.nnz == np.count_nonzero(sd)
-        if diag:  # no factor, no Delassus matrix: W = diag(1 / s) on the contact dofs
+        if diag:  # no factor, no Delassus matrix: W = diag(G_j S^-1 G_j^T)
+            if (abs(G) @ abs(G).T).nnz > G.shape[0]:
+                raise ValueError("restitution with a diagonal S needs contact rows on "
+                                 "distinct dofs")
             fac = Factor.of(sp.identity(1, format="csc"))
-            keep_z, Z, W = False, np.zeros((1, 1)), np.zeros((1, 1))
+            ct = ContactOps(csr_arrays(G), csr_arrays(G.T), gap0, selection_rows(G),
+                            np.zeros((1, 1)), np.zeros((1, 1)), False)
+            sw = 1.0 / np.asarray(G.multiply(G) @ (1.0 / sd)).ravel()
         else:
             fac = Factor.of(S)
-            Z, W, keep_z = contact_operators(fac, cd, n)
+            ct = contact_ops(fac, G, gap0)
+            sw = np.zeros(0)
         U = p.U0.astype(float).copy()
         self.initial = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
         # the centred momentum changes by dt (r^{n-1} + r^n) / 2 from level n-1 to n; at
@@ -207,14 +229,13 @@ class PaoliSchatzmanStepper(LoopStepper):
         tol = 1e-13 * max(float(np.max(np.abs(U))),
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
         self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
-                             sd if diag else np.zeros(0), fac.arrays, cd,
-                             np.asarray(p.contact.gap0, float),
-                             np.asarray(p.contact.weights, float), W, Z, keep_z, beta, e, dt,
+                             sd if diag else np.zeros(0), sw, fac.arrays, ct,
+                             np.asarray(p.contact.weights, float), beta, e, dt,
                              float(p.energy_offset), tol)
 
     def new_state(self) -> ImpactState:
         Um, U = (a.copy() for a in self.initial)
-        return impact_state(Um, U, np.zeros(0), self.ops.cd.size)
+        return impact_state(Um, U, np.zeros(0), self.ops.ct.gap0.size)
 
 
 def impact_state(Um: np.ndarray, U: np.ndarray, V: np.ndarray, nc: int) -> ImpactState:
@@ -222,7 +243,7 @@ def impact_state(Um: np.ndarray, U: np.ndarray, V: np.ndarray, nc: int) -> Impac
     n = U.size
     return ImpactState(Um, U, V, np.empty(n), np.zeros(nc), np.zeros(nc),
                        np.zeros(nc, np.bool_), np.zeros(1, np.bool_), np.empty(n),
-                       np.empty(n), np.empty(n), np.empty(n), np.empty(nc),
+                       np.empty(n), np.empty(n), np.empty(n), np.empty(nc), np.empty(nc),
                        np.empty(nc, np.int64))
 
 
@@ -243,9 +264,10 @@ def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int
 def mj_step(o, s, step):  # pragma: no cover - compiled
     """Moreau-Jean on (U, V) in place (module docstring)."""
     U, V, X, rhs, ku, kv = s.U, s.V, s.X, s.rhs, s.tmp, s.w
-    cd, gap0, theta, e, dt = o.cd, o.gap0, o.a, o.e, o.dt
+    ct, theta, e, dt = o.ct, o.a, o.e, o.dt
+    sel = ct.sel
     n = U.size
-    nc = cd.size
+    nc = sel.size
     c = theta * (1.0 - theta) * dt * dt
     # S X = M V + dt (F - K U) - c K V: the free velocity
     matvec(o.M, V, rhs)
@@ -254,18 +276,23 @@ def mj_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         rhs[i] += dt * (o.F[i] - ku[i]) - c * kv[i]
     lu(o.fac, rhs, X, s.work)
-    # the index set: predicted gap <= 0; Newton's law on its dofs
-    idx, mu, active = s.idx, s.mu, s.active
+    # the index set: predicted gap <= 0; Newton's law on its points
+    idx, mu, active, held = s.idx, s.mu, s.active, s.gm
     m = 0
     pen = False
     for j in range(nc):
-        d = cd[j]
-        if not np.isfinite(X[d]):  # blown up between samples
+        d = sel[j]
+        if d >= 0:
+            xn, vn, un = X[d], V[d], U[d]
+        else:
+            xn, vn, un = row_dot(ct.G, j, X), row_dot(ct.G, j, V), row_dot(ct.G, j, U)
+        if not np.isfinite(xn):  # blown up between samples
             return BLOWN
-        if gap0[j] + U[d] + 0.5 * dt * V[d] <= 0.0:
+        held[j] = -e * vn  # an active selection row's velocity, exactly
+        if ct.gap0[j] + un + 0.5 * dt * vn <= 0.0:
             idx[m] = j
             m += 1
-            pen = pen or X[d] + e * V[d] < 0.0
+            pen = pen or xn + e * vn < 0.0
     mu[:] = 0.0
     active[:] = False
     if pen:
@@ -274,17 +301,18 @@ def mj_step(o, s, step):  # pragma: no cover - compiled
         ms = np.zeros(m)
         acts = np.zeros(m, np.bool_)
         for a in range(m):
-            qs[a] = X[cd[idx[a]]] + e * V[cd[idx[a]]]
+            j = idx[a]
+            d = sel[j]
+            qs[a] = (X[d] + e * V[d]) if d >= 0 else (row_dot(ct.G, j, X)
+                                                       + e * row_dot(ct.G, j, V))
             for b in range(m):
-                Ws[a, b] = o.W[idx[a], idx[b]]
+                Ws[a, b] = ct.W[j, idx[b]]
         lcp_solve(Ws, qs, ms, acts, o.tol, False)
         for a in range(m):
             mu[idx[a]] = ms[a]
             active[idx[a]] = acts[a]
-        correct(o.fac, cd, o.Z, o.keep_z, mu, X, rhs, kv, s.work)
-        for j in range(nc):
-            if active[j]:  # on the law exactly
-                X[cd[j]] = -e * V[cd[j]]
+        push(ct, o.fac, mu, X, (rhs, kv, s.work))
+        hold(ct, active, X, held)  # on the law exactly
     for j in range(nc):
         s.force[j] = mu[j] / dt  # the impulse as a mean force over the step
     for i in range(n):
@@ -309,6 +337,7 @@ def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 class MoreauJeanStepper(LoopStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(mj_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
@@ -316,22 +345,21 @@ class MoreauJeanStepper(LoopStepper):
         super().__init__(p, dt)
         dt, e, theta = self.dt, float(e), float(theta)
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
         fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
-        Z, W, keep_z = contact_operators(fac, cd, n)
+        ct = contact_ops(fac, p.contact.gap_operator(n), np.asarray(p.contact.gap0, float))
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         self.initial = (U, V)
         # a velocity-level tolerance: round-off of the larger of the data's speeds
         vscale = max(float(np.max(np.abs(V))), float(np.max(np.abs(U))) / dt, 1e-300)
         self.gamma = 1.0  # the impulse P = dt lam itself
         self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
-                             np.zeros(0), fac.arrays, cd, np.asarray(p.contact.gap0, float),
-                             np.asarray(p.contact.weights, float), W, Z, keep_z, theta, e, dt,
+                             np.zeros(0), np.zeros(0), fac.arrays, ct,
+                             np.asarray(p.contact.weights, float), theta, e, dt,
                              float(p.energy_offset), 1e-13 * vscale)
 
     def new_state(self) -> ImpactState:
         U, V = (a.copy() for a in self.initial)
-        return impact_state(np.zeros(0), U, V, self.ops.cd.size)
+        return impact_state(np.zeros(0), U, V, self.ops.ct.gap0.size)
 
 
 def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float

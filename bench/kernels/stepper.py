@@ -30,16 +30,19 @@ from contact_bench.kernels.recording import SampleBuffers
 class SparseStepper(Stepper, ABC):
     """A scheme prepared on `problem` with step `dt`; `run` steps it from t = 0.
 
-    The compiled kernels step contact dof by contact dof: a problem whose gap operator
-    is general (a slanted or curved obstacle) is refused here in one line, and so is a
-    time-dependent load (`SparseProblem.load`) unless the stepper adds it
-    (`adds_time_load`)."""
+    A stepper that steps contact dof by contact dof refuses a problem whose gap operator
+    is general (a slanted or curved obstacle, two bodies) in one line unless it declares
+    `any_gap_operator` (its contact goes through `contact_bench.kernels.contact`), and a
+    time-dependent load (`SparseProblem.load`) unless it adds it (`adds_time_load`)."""
 
     #: the kernel adds `SparseProblem.load` at each step's time level
     adds_time_load: bool = False
+    #: the kernel takes any gap operator G (else only dof selections)
+    any_gap_operator: bool = False
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
-        problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
+        if not self.any_gap_operator:
+            problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
         if getattr(problem, "load", None) is not None and not self.adds_time_load:
             raise ValueError(f"the compiled {type(self).__name__} does not add a "
                              "time-dependent load (SparseProblem.load)")
