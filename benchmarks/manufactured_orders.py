@@ -2,7 +2,7 @@
 (`manufactured[dim=2]` and `[dim=3]`, P1 or P2), space-time refinement at fixed CFL.
 
 dt = CFL h / c_p (h = 1 / nx, c_p = sqrt(3)), T = 1; errors against the closed form
-(`cases/manufactured.py`: err_u, err_gap, err_contact_force); pairwise orders
+(`cases/manufactured.py`: err_u_l2_l2, err_gap, err_contact_force); pairwise orders
 log(e_coarse / e_fine) / log(2) between successive grids (nx doubles). Schemes whose
 stepper does not add a time-dependent load are listed as not applicable.
 
@@ -23,7 +23,7 @@ import pandas as pd
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness.runner import run_one
 
-ERRORS = ("err_u", "err_gap", "err_contact_force")
+ERRORS = ("err_u_l2_l2", "err_gap", "err_contact_force")
 
 
 def measure(dim: int, nxs: list[int], cfl: float, names: list[str],
