@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.harness.io import write_text
 from contact_bench.harness.runner import run_one
 
 ERRORS = ("err_u_l2_l2", "err_gap", "err_contact_force")
@@ -82,10 +83,7 @@ def main(argv: list[str] | None = None) -> int:
             "errors against the closed form (cases/manufactured.py), pairwise orders "
             "between successive grids. Derivation: docs/manufactured.md.", "",
             df.to_markdown(index=False, floatfmt=".4g"), ""]
-    out = Path(args.out)
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text("\n".join(text))
-    tmp.replace(out)
+    write_text(Path(args.out), "\n".join(text))  # atomic; under results/: source recorded
     print("\n".join(text))
     return 0
 
