@@ -83,7 +83,10 @@ def test_the_hash_of_a_commit_is_read_from_git_blob_ids():
     if any(line[3:].endswith(".py") for line in changed.stdout.splitlines()):
         pytest.skip("uncommitted code changes")
     assert sources.source_hash_at("HEAD") == sources.source_hash()
-    assert sources.blob_id(b"") == "e69de29bb2d1d6484b8b813ef2e03d2d2ec2b30c"  # git's empty
+    data = b"one\ntwo \x00 three\n"
+    by_git = subprocess.run(["git", "hash-object", "--stdin"], input=data, cwd=ROOT,
+                            capture_output=True, check=True).stdout.decode().strip()
+    assert sources.blob_id(data) == by_git
 
 
 def test_writing_under_results_records_the_hash(tmp_path: Path, monkeypatch):
