@@ -27,7 +27,7 @@ import skfem as fe
 from skfem.models import laplace
 
 from contact_bench.api import fem_nd
-from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.sparse import SparseProblem, TimeLoad
@@ -60,7 +60,7 @@ class ManufacturedContact(BodyCase):
         return Manufactured(int(self.dim))
 
     def cannot_run(self, scheme) -> str | None:
-        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
+        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) in LUMPED_KINDS:
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use manufactured[degree=1] or the scheme's mass=consistent")
         return super().cannot_run(scheme)
