@@ -387,6 +387,14 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, "stability", "Stability (worst class per scheme and CFL)",
                         body + f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
+            for (name, pname), pmap in analysis.parameter_maps(stab_rows, case).items():
+                tab = pmap.reset_index()
+                tab.columns = [pname, *(f"CFL {c:g}" for c in pmap.columns)]
+                tabs = write_tables(tab, out, f"stability_{slug(name)}_{slug(pname)}_{s}", prov)
+                written.extend(tabs)
+                section(case, f"stability-{slug(name)}-{slug(pname)}",
+                        f"Stability of {name}: CFL against {pname} (worst class per cell)",
+                        f"<p>tables: {links(tabs)}</p>" + _html_table(tab))
             tolerances = _published_tolerances(case)
             ver = analysis.verification_table(df[df["case"] == case], tolerances)
             if not ver.empty:
