@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from contact_bench.api.fem import LUMPED_MASSLESS
 from contact_bench.api.plugin import CallStepper, Contact, Energy, Family, Scheme, Stepper, Traits
-from contact_bench.api.problem import banded
+from contact_bench.api.problem import BarScale, banded
 from contact_bench.kernels.common import massless_drift_bound
 from contact_bench.kernels.semi_explicit import bar_limit, body_limit, prepare_body, run_bar
 
@@ -37,6 +37,8 @@ class SemiExplicit(Scheme):
 
     def stability_limit(self, problem) -> float | None:
         semi = banded(problem)
+        if isinstance(semi, BarScale):  # a bar known by h and c alone: the uniform bar's
+            return problem.hmin / problem.c_max  # lumped central differences, h / c
         return bar_limit(semi) if semi is not None else body_limit(problem)
 
     def energy_drift_bound(self, problem, dt: float) -> float | None:
