@@ -101,3 +101,18 @@ def test_writing_under_results_records_the_hash(tmp_path: Path, monkeypatch):
                                          "a_set/": sources.source_hash()}
     assert sources.stale_entries(results) == []
     assert sources.stale_entries(results, current="0" * 16) == ["a_set/", "one.md"]
+
+
+def test_docs_schemes_tables_list_every_scheme():
+    """docs/schemes.md's comparison table and its measured table (results/clamped_nx80)
+    each have one row per registered scheme."""
+    from contact_bench.api.registry import schemes
+
+    text = (ROOT / "docs" / "schemes.md").read_text(encoding="utf-8")
+    main = text.split("| scheme | what it is |", 1)[1].split("\n\n", 1)[0]
+    listed = re.findall(r"^\| `(\w+)", main, flags=re.M)
+    measured = text.split("## Measured on the clamped bar", 1)[1].split("\n## ", 1)[0]
+    rows = re.findall(r"^\| clamped_bar \| (\w+) ", measured, flags=re.M)
+    names = sorted(schemes().plugins)
+    assert sorted(listed) == names, "docs/schemes.md's main table is not the registry"
+    assert sorted(rows) == names, "docs/schemes.md's measured table is not the registry"
