@@ -46,6 +46,9 @@ class SemiExplicit(Scheme):
         return None if semi is None else massless_drift_bound(semi, dt,
                                                               self.stability_limit(problem))
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's kernel adds problem.load at each step's end
+
     def prepare(self, problem, dt: float) -> Stepper:
         semi = banded(problem)
         if semi is not None:

@@ -2,7 +2,8 @@
 2D/3D body.
 
 The mass is lumped (diagonal) with massless contact dofs, the total mass kept
-(`contact_bench.api.fem.LUMPED_MASSLESS`, `contact_bench.api.fem_nd.lumped_massless`).
+(`contact_bench.api.fem.LUMPED_MASSLESS`, `contact_bench.api.fem_nd.lumped_massless`). On a
+body a time-dependent load (`contact_bench.api.sparse.TimeLoad`) is added at each step's end.
 A step is central differences in velocity-Verlet form on the dofs with mass h, one
 division by their lumped mass each, no mass solve:
 
@@ -123,14 +124,17 @@ def run_bar(semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajecto
 
 @njit(cache=True)
 def body_kernel(Mp, Mi, Mx, Kp, Ki, Kx, m, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac,
-                W, Z, gap0, weights, U, V, A, dt, nsteps, stride, offset, t_out, U_out, V_out,
-                cu_out, s_out, E_out, stats, tol):  # pragma: no cover - compiled
+                W, Z, gap0, weights, load, Bp, Bi, Bx, BX, bcodes, U, V, A, dt, nsteps, stride,
+                offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats,
+                tol):  # pragma: no cover - compiled
     """A body (module docstring): hv the dofs with mass (their lumped mass m[hv]), mv the
     massless ones, cl the contact dofs' positions in mv; Kh = K[hv] (all columns), Kmh
     = K[mv] without the massless columns, K_mm factored (`mfac`), W and Z its Delassus
-    and response matrices. U, V, A (A on hv, at t = 0) advanced in place; the massless
-    dofs of U are solved at t = 0 by the caller (sample 0, written by the caller, is the
-    given initial state). Returns (samples, steps, smallest gap,
+    and response matrices; `load` None, or a time-dependent load's density (a cfunc) with
+    its B (CSR), points BX and codes: the load at t_{n+1} is F + B v(t_{n+1})
+    (`contact_bench.api.sparse.TimeLoad`). U, V, A (A on hv, at t = 0) advanced in place;
+    the massless dofs of U are solved at t = 0 by the caller (sample 0, written by the
+    caller, is the given initial state). Returns (samples, steps, smallest gap,
     blow-up step or -1)."""
     n = U.size
     nh, nm, nc = hv.size, mv.size, cl.size
@@ -150,16 +154,25 @@ def body_kernel(Mp, Mi, Mx, Kp, Ki, Kx, m, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
     for j in range(nc):
         gdofs[j] = mv[cl[j]]
     min_gap = smallest_gap(gap0, U, gdofs)
+    Fn = F.copy()  # the load at the step's end (F plus the time-dependent one)
+    vals = np.empty(bcodes.size)
     was = False
     k = 1
     for step in range(1, nsteps + 1):
+        if load is not None:
+            tl = step * dt
+            for j in range(bcodes.size):
+                vals[j] = load(BX[0, j], BX[1, j], BX[2, j], tl, bcodes[j])
+            csr_matvec(Bp, Bi, Bx, vals, Fn)
+            for i in range(n):
+                Fn[i] += F[i]
         for a in range(nh):
             i = hv[a]
             V[i] += h * A[i]
             U[i] += dt * V[i]
         csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh U_h
         for b in range(nm):
-            rm[b] = F[mv[b]] - rm[b]
+            rm[b] = Fn[mv[b]] - rm[b]
         lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
                  rm, um, wm)
         pen = False
@@ -186,7 +199,7 @@ def body_kernel(Mp, Mi, Mx, Kp, Ki, Kx, m, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Km
         csr_matvec(Khp, Khi, Khx, U, rh)  # (K U)_h
         for a in range(nh):
             i = hv[a]
-            A[i] = (F[i] - rh[a]) / m[i]
+            A[i] = (Fn[i] - rh[a]) / m[i]
             V[i] += h * A[i]
         stats_update(stats, status, mu, step, dt)
         impulse_update(stats, mu, dt, 0.5)
@@ -255,9 +268,8 @@ class BodyStepper(Stepper):
     massless dofs solved at t = 0 and the initial acceleration, once."""
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
-        if getattr(p, "load", None) is not None:
-            raise ValueError("the semi-explicit kernel does not add a time-dependent load")
         self.problem, self.dt = p, float(dt)
+        ld = getattr(p, "load", None)
         m, hv, mv, cl = split(p)
         K = sp.csr_matrix(p.K)
         fac = Factor.of(K[mv][:, mv])
@@ -273,7 +285,8 @@ class BodyStepper(Stepper):
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))), float(np.max(np.abs(gap0), initial=0.0)),
                           1e-300)
         U = np.asarray(p.U0, float).copy()
-        um = fac.solve(p.F[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
+        F0 = np.asarray(p.F, float) + (0.0 if ld is None else ld.at(0.0))  # the load at t = 0
+        um = fac.solve(F0[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
         gf = gap0 + um[cl]
         mu = np.zeros(cl.size)
         if np.any(gf < 0.0):
@@ -281,11 +294,15 @@ class BodyStepper(Stepper):
             um += Z @ mu
         U[mv] = um
         A = np.zeros(p.nfree)
-        A[hv] = (p.F[hv] - K[hv] @ U) / m[hv]
+        A[hv] = (F0[hv] - K[hv] @ U) / m[hv]
         self.U0, self.A0, self.V0 = U, A, np.asarray(p.V0, float).copy()
         self.operators = (*csr_arrays(p.M), *csr_arrays(K), m, np.asarray(p.F, float), hv, mv,
                           cl, *csr_arrays(K[hv]), *csr_arrays(Kmh), fac.arrays, W, Z, gap0,
-                          np.asarray(p.contact.weights, float))
+                          np.asarray(p.contact.weights, float),
+                          *((None, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                             np.zeros((3, 0)), np.zeros(0, np.int64)) if ld is None else
+                            (ld.density, *csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
+                             np.asarray(ld.codes, np.int64))))
         self.tol = tol
 
     def run(self, nsteps: int, stride: int) -> Trajectory:
