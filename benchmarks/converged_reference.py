@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import platform
 import shlex
 import sys
@@ -33,6 +32,7 @@ import numpy as np
 
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.exact.converged import SCALARS, observables, richardson, richardson_history
+from contact_bench.harness.io import write_text
 
 VERSION = 1
 
@@ -140,9 +140,7 @@ def markdown(art: dict) -> str:
 
 
 def write_whole(path: Path, text: str) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    write_text(path, text)  # atomic; under results/: the source hash recorded
 
 
 def main(argv: list[str] | None = None) -> None:

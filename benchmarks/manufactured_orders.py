@@ -2,7 +2,7 @@
 (`manufactured[dim=2]` and `[dim=3]`, P1 or P2), space-time refinement at fixed CFL.
 
 dt = CFL h / c_p (h = 1 / nx, c_p = sqrt(3)), T = 1; errors against the closed form
-(`cases/manufactured.py`: err_u, err_gap, err_contact_force); pairwise orders
+(`cases/manufactured.py`: err_u_l2_l2, err_gap, err_contact_force); pairwise orders
 log(e_coarse / e_fine) / log(2) between successive grids (nx doubles). Schemes whose
 stepper does not add a time-dependent load are listed as not applicable.
 
@@ -21,9 +21,10 @@ import numpy as np
 import pandas as pd
 
 from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.harness.io import write_text
 from contact_bench.harness.runner import run_one
 
-ERRORS = ("err_u", "err_gap", "err_contact_force")
+ERRORS = ("err_u_l2_l2", "err_gap", "err_contact_force")
 
 
 def measure(dim: int, nxs: list[int], cfl: float, names: list[str],
@@ -82,10 +83,7 @@ def main(argv: list[str] | None = None) -> int:
             "errors against the closed form (cases/manufactured.py), pairwise orders "
             "between successive grids. Derivation: docs/manufactured.md.", "",
             df.to_markdown(index=False, floatfmt=".4g"), ""]
-    out = Path(args.out)
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text("\n".join(text))
-    tmp.replace(out)
+    write_text(Path(args.out), "\n".join(text))  # atomic; under results/: source recorded
     print("\n".join(text))
     return 0
 

@@ -27,7 +27,7 @@ import numpy as np
 import skfem as fe
 
 from contact_bench.api import fem_nd
-from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.reference_run import ReferenceRun, ReferenceSamples
@@ -159,7 +159,7 @@ class DiscDrop(BodyCase):
         return fem_nd.assemble(self.mesh(nx), E, nu, self.rho, degree=int(self.degree))
 
     def cannot_run(self, scheme) -> str | None:
-        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) == "lumped":
+        if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) in LUMPED_KINDS:
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use disc_drop[degree=1] or the scheme's mass=consistent")
         return None

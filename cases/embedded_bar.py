@@ -23,7 +23,7 @@ import scipy.sparse as sp
 import skfem as fe
 
 from contact_bench.api import fem_nd
-from contact_bench.api.fem import MASS_KINDS, mesh_nodes
+from contact_bench.api.fem import LUMPED_MASSLESS, MASS_KINDS, mesh_nodes
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BarCase, BodyCase, StudyGrid
 from contact_bench.api.registry import make_case
@@ -91,9 +91,9 @@ class EmbeddedBar(BodyCase):
                              shape=(face.size, int(np.count_nonzero(index >= 0))))
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
-        if mass_kind not in MASS_KINDS:
+        if mass_kind not in (*MASS_KINDS, LUMPED_MASSLESS):
             raise ValueError(f"mass {mass_kind!r} has no tensor form; allowed: "
-                             f"{', '.join(MASS_KINDS)}")
+                             f"{', '.join((*MASS_KINDS, LUMPED_MASSLESS))}")
         bar, dim = self.bar, int(self.dim)
         x = mesh_nodes(float(bar.L), int(nx), grading)
         y = np.linspace(0.0, 1.0, int(self.cells) + 1)

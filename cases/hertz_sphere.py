@@ -29,7 +29,7 @@ import skfem as fe
 from skfem.helpers import ddot, sym_grad, trace
 
 from contact_bench.api import fem_nd
-from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.sparse import SparseProblem
@@ -122,7 +122,7 @@ class HertzSphere(BodyCase):
         return replace(m, doflocs=loc)
 
     def cannot_run(self, scheme) -> str | None:
-        if canonical_mass(scheme.mass_kind()) == "lumped":
+        if canonical_mass(scheme.mass_kind()) in LUMPED_KINDS:
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use the scheme's mass=consistent")
         return None

@@ -1,8 +1,8 @@
 """armero_petocz (energy-conserving penalty) and semi_explicit (Doyen-Ern-Piperno's
 modified mass central difference): every scene form runs, the embedded bar gives the 1D
 rows, armero_petocz conserves its discrete energy to round-off, its Newton step solves
-the discrete-gradient system (checked against scipy's root finder), and semi_explicit's
-declared step limit is its stability edge."""
+the discrete-gradient system (checked against scipy's root finder). semi_explicit's own
+checks: tests/test_semi_explicit.py."""
 
 from __future__ import annotations
 
@@ -10,16 +10,13 @@ import numpy as np
 import pytest
 import scipy.optimize as so
 
-from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.plugin import Family
-from contact_bench.api.problem import discretise
-from contact_bench.api.registry import make_case, make_scheme
+from contact_bench.api.registry import make_scheme
 from contact_bench.harness.runner import run_one
 from contact_bench.kernels.energy_penalty import discrete_gradient_solve, secant_force
 
 SCHEMES = ("armero_petocz", "semi_explicit")
-#: (scene, nx, T): small grids, each through a first impact (the sphere's redistributed
-#: mass needs nx 8: on coarser balls its non-contact block is not positive definite)
+#: (scene, nx, T): small grids, each through a first impact
 SCENES = [("clamped_bar", 20, 3.0), ("dropped_bar", 20, 2.5), ("disc_drop[degree=1]", 3, 12.0),
           ("sphere_drop[lift=0.1]", 4, 2.0), ("embedded_bar", 8, 3.0)]
 
@@ -27,8 +24,6 @@ SCENES = [("clamped_bar", 20, 3.0), ("dropped_bar", 20, 2.5), ("disc_drop[degree
 @pytest.mark.parametrize("scheme", SCHEMES)
 @pytest.mark.parametrize(("case", "nx", "T"), SCENES)
 def test_runs_every_scene_form(scheme, case, nx, T):
-    if case.startswith("sphere_drop") and scheme == "semi_explicit":
-        nx = 8
     run = run_one(case, scheme, nx=nx, T=T, step_repeats=1)
     row = run.row
     assert row["status"] == "ok", row["notes"]
@@ -125,29 +120,7 @@ def test_newton_step_matches_scipy_root():
         assert g == pytest.approx(ref, abs=1e-11)
 
 
-@pytest.mark.parametrize("nx", [20, 40])
-def test_semi_explicit_limit_is_the_stability_edge(nx):
-    """clamped_bar, T 12: stable at 0.95 x the declared limit, blown up at 1.05 x."""
-    scheme, case = make_scheme("semi_explicit"), make_case("clamped_bar")
-    limit = scheme.stability_limit(discretise(case, mesh_nodes(case.L, nx), scheme.mass_kind()))
-    below = run_one(case, scheme, nx=nx, T=12.0, dt=0.95 * limit, step_repeats=1).row
-    above = run_one(case, scheme, nx=nx, T=12.0, dt=1.05 * limit, allow_unstable=True,
-                    step_repeats=1).row
-    assert below["status"] == "ok" and below["energy_drift_max"] < 0.2
-    assert above["status"] == "unstable" or above["energy_drift_max"] > 1.0
-
-
 def test_declared_classes():
     assert make_scheme("armero_petocz").traits().family == Family.PENALTY
     assert make_scheme("semi_explicit").traits().family == Family.MODIFIED_MASS
     assert make_scheme("semi_explicit").traits().implicit is False
-
-
-@pytest.mark.parametrize(("case", "nx", "T"), [("clamped_bar", 40, 3.0),
-                                               ("disc_drop[degree=1]", 3, 12.0)])
-def test_semi_explicit_is_redistributed_central_difference(case, nx, T):
-    """The reading documented in schemes/semi_explicit.py: the same trajectory as
-    redistributed[beta=0] (explicit Newmark, gamma 1/2) on the bar and on a body."""
-    a = run_one(case, "semi_explicit", nx=nx, T=T, step_repeats=1).trajectory
-    b = run_one(case, "redistributed[beta=0]", nx=nx, T=T, step_repeats=1).trajectory
-    assert np.array_equal(a.U, b.U) and np.array_equal(a.energy, b.energy)

@@ -10,10 +10,9 @@ agree to round-off, and the template's errors must shrink under refinement.
 
 from __future__ import annotations
 
-import csv
 import importlib.util
-import io
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -120,18 +119,52 @@ def _cli_has_plugins_option() -> bool:
     return "--plugins" in out
 
 
-def test_readme_template_runs_from_a_plugins_folder(tmp_path: Path):
-    """The README's command: `contact-bench --plugins DIR run --scheme NAME ...`."""
+def readme_plugin_commands() -> list[str]:
+    """The ```bash block that follows the template: the commands a user types."""
+    section = README.read_text(encoding="utf-8").split(HEADING, 1)[1].split("\n## ", 1)[0]
+    block = re.findall(r"```bash\n(.*?)```", section, flags=re.S)[0]
+    return [line.split("#")[0].strip() for line in block.splitlines()
+            if line.startswith("contact-bench ")]
+
+
+def test_readme_plugin_commands_run_as_printed(tmp_path: Path):
+    """The README's commands, word for word, with its folder `my_schemes` holding the
+    template as the README says to save it: each exits 0; `list` names the P2 scenes
+    the template declares it cannot run, and the run's row is ok."""
     if not _cli_has_plugins_option():
         pytest.skip("this checkout's CLI has no --plugins option yet")
-    cls, path = load_template(tmp_path)
-    cmd = [sys.executable, "-m", "contact_bench", "--plugins", str(path.parent), "run",
-           "--scheme", cls.name, "--case", "clamped_bar", "--nx", "20", "--T", "1.5",
-           "--format", "csv"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
-    assert done.returncode == 0, done.stderr
-    rows = list(csv.DictReader(io.StringIO(done.stdout)))
-    assert [(r["scheme"], r["status"]) for r in rows] == [(cls.name, "ok")]
+    commands = readme_plugin_commands()
+    assert len(commands) == 2 and all("--plugins my_schemes" in c for c in commands)
+    folder = tmp_path / "my_schemes"
+    folder.mkdir()
+    cls, _ = load_template(folder)
+    outputs = []
+    for command in commands:
+        argv = shlex.split(command)
+        assert argv[0] == "contact-bench"
+        done = subprocess.run([sys.executable, "-m", "contact_bench", *argv[1:]],
+                              capture_output=True, text=True, timeout=600, cwd=tmp_path)
+        assert done.returncode == 0, (command, done.stderr)
+        outputs.append(done.stdout)
+    run_out, list_out = outputs
+    row = next(line for line in run_out.splitlines() if cls.name in line and "disc_drop" in line)
+    assert row.split()[-1] == "ok", row
+    cannot = re.search(r"cannot run \(defaults\): (.*)", list_out)
+    assert cannot and set(cannot.group(1).replace(",", " ").split()) == {"disc_drop",
+                                                                        "hertz_sphere"}
+
+
+def test_readme_template_runs_the_time_dependent_load(tmp_path: Path):
+    """The template adds problem.load: on the manufactured scene (closed form, a
+    time-dependent load) it runs, and its displacement error shrinks under space-time
+    refinement."""
+    cls, _ = load_template(tmp_path)
+    errs = []
+    for nx in (4, 8):
+        row = run_one("manufactured", cls(), nx=nx, dt=0.02 * 4 / nx, T=0.2).row
+        assert row["status"] == "ok", row["notes"]
+        errs.append(row["err_u_linf_l2"])
+    assert errs[1] < 0.6 * errs[0] < 0.1, errs
 
 
 def test_readme_template_declares_the_compiled_schemes_stability_limit(tmp_path: Path):

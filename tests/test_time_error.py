@@ -43,3 +43,15 @@ def test_time_reference_is_cached_and_works_on_the_bar():
     assert b["notes"] == a["notes"] and b["time_ref_compute_s"] == a["time_ref_compute_s"]
     plain = run_one("clamped_bar", "standard", nx=20, T=1.0, dt=0.01).row
     assert plain.get("err_time_u") is None  # opt-in
+
+
+@pytest.mark.parametrize("bad", ["0", "-1", "1", "1.5", "abc", ""])
+def test_time_error_refuses_what_is_not_an_integer_of_two_or_more(bad, capsys):
+    from contact_bench.cli.main import main
+
+    code = main(["run", "--case", "clamped_bar", "--scheme", "standard", "--nx", "4",
+                 "--T", "0.1", "--time-error", bad, "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and "--time-error must be an integer >= 2" in err
+    assert (repr(bad) if bad not in ("0", "-1", "1") else f"got {bad}") in err or not bad

@@ -16,6 +16,10 @@ getfem                  M11 += M00 + M01, then row and column 0 zeroed (GetFEM's
 mass_conserving         M11 += M00 + 2 M01, row and column 0 zeroed: total mass kept
 singular                first element's local mass [[0, 0], [0, rho h / 4]]
                         (M11 = 7h/12, Renard 2010)
+lumped_massless         row sums on the diagonal, node 0's (rho h / 2) moved to node
+                        1: a diagonal mass with a massless contact node, total mass
+                        kept (Doyen, Ern, Piperno's semi-explicit scheme; not one of
+                        the other schemes' `MASS_KINDS` choices)
 ======================  ========================================================
 
 Older spellings still parse (`MASS_ALIASES`): ``seed`` is ``first_element_massless`` and
@@ -39,7 +43,12 @@ Coefficient = float | Callable[[np.ndarray], np.ndarray]
 
 MASS_KINDS = ("consistent", "lumped", "first_element_massless", "getfem", "mass_conserving",
               "singular")
-MASSLESS_KINDS = frozenset({"first_element_massless", "getfem", "mass_conserving", "singular"})
+#: the lumped mass with a massless contact node (module docstring; semi_explicit's)
+LUMPED_MASSLESS = "lumped_massless"
+MASSLESS_KINDS = frozenset({"first_element_massless", "getfem", "mass_conserving", "singular",
+                            LUMPED_MASSLESS})
+#: the diagonal (row-sum) masses: refused on P2 elements, whose row sums are negative
+LUMPED_KINDS = frozenset({"lumped", LUMPED_MASSLESS})
 #: the redistributed variants (massless contact node, no singular mass)
 REDISTRIBUTED_KINDS = ("first_element_massless", "getfem", "mass_conserving")
 #: older names of mass kinds, accepted wherever a kind is parsed: (old, canonical)
@@ -201,14 +210,22 @@ def assemble(x: np.ndarray, rho: Coefficient, E: Coefficient) -> Assembly:
 def mass_variant(asm: Assembly, kind: str) -> Tridiag:
     """The mass matrix of the given kind (see the module docstring) as bands."""
     kind = canonical_mass(kind)
-    if kind not in MASS_KINDS:
-        raise ValueError(f"mass must be one of {', '.join(MASS_KINDS)}; got {kind!r}")
+    if kind not in MASS_KINDS and kind != LUMPED_MASSLESS:
+        raise ValueError(f"mass must be one of {', '.join(MASS_KINDS)}, {LUMPED_MASSLESS}; "
+                         f"got {kind!r}")
     d = asm.M.diag.copy()
     o = asm.M.off.copy()
     if kind == "consistent":
         return Tridiag(d, o)
-    if kind == "lumped":
-        return Tridiag(asm.M.matvec(np.ones_like(d)), np.zeros_like(o))
+    if kind in LUMPED_KINDS:
+        d = asm.M.matvec(np.ones_like(d))
+        if kind == LUMPED_MASSLESS:
+            if d.size < 2:
+                raise ValueError("a massless contact node needs at least one element "
+                                 "besides the first")
+            d[1] += d[0]
+            d[0] = 0.0
+        return Tridiag(d, np.zeros_like(o))
     m00, m01, m11 = (
         asm.first_element_mass[0, 0],
         asm.first_element_mass[0, 1],

@@ -19,6 +19,9 @@ redistributed      Khenous, Laborde and Renard: zero rows and columns at the con
                    neighbourhoods of the contact zone so that the total mass, first and
                    second moments are kept (least-squares change; the rest of the mass
                    is the consistent one and stays SPD, or it is refused)
+lumped_massless    the lumped mass with each contact node's mass moved to its
+                   neighbours off the contact zone (`lumped_massless`; P1, Q1): diagonal,
+                   massless contact nodes, total mass kept
 =================  =================================================================
 
 Boundaries (`constrain`): Dirichlet (chosen components prescribed on boundary facets)
@@ -41,12 +44,13 @@ import scipy.sparse as sp
 import skfem as fe
 from skfem.helpers import ddot, sym_grad, trace
 
+from contact_bench.api.fem import LUMPED_KINDS, LUMPED_MASSLESS
 from contact_bench.api.fem import assemble as assemble_1d
 from contact_bench.api.fem import mass_variant as mass_variant_1d
 from contact_bench.api.sparse import ContactSet
 from contact_bench.core.ordering import is_spd
 
-ND_MASS_KINDS = ("consistent", "lumped", "redistributed")
+ND_MASS_KINDS = ("consistent", "lumped", "redistributed", LUMPED_MASSLESS)
 #: mesh type -> (degree -> scalar element)
 _ELEMENTS: dict[type, dict[int, Callable[[], fe.Element]]] = {
     fe.MeshTri1: {1: fe.ElementTriP1, 2: fe.ElementTriP2},
@@ -196,6 +200,32 @@ def lumped(body: Elasticity) -> sp.csr_matrix:
     return sp.diags(np.asarray(body.Ms.sum(axis=1)).ravel(), format="csr")
 
 
+def lumped_massless(body: Elasticity, contact_scalar: np.ndarray) -> sp.csr_matrix:
+    """The row-sum lumped mass with massless contact dofs (Doyen, Ern, Piperno's
+    semi-explicit scheme): each contact dof's lumped mass is moved to its neighbours
+    that are not contact dofs (the dofs it shares an element with), in proportion to
+    their consistent-mass coupling M_ij > 0, and its row is zeroed. Diagonal; the total
+    mass is kept exactly; the first moments along the contact face are kept where the
+    neighbours sit symmetrically about the dof (a structured face), the moment normal to
+    the face is not (the mass moves one element inwards). P1/Q1 only (`lumped`);
+    ValueError when a contact dof has no non-contact neighbour."""
+    m = np.asarray(lumped(body).diagonal(), float).copy()
+    Ms = sp.csr_matrix(body.Ms)
+    contact = np.zeros(m.size, bool)
+    contact[np.asarray(contact_scalar, np.int64)] = True
+    gained = np.zeros(m.size)
+    for i in np.flatnonzero(contact):
+        cols = Ms.indices[Ms.indptr[i]:Ms.indptr[i + 1]]
+        vals = Ms.data[Ms.indptr[i]:Ms.indptr[i + 1]]
+        keep = ~contact[cols] & (vals > 0.0)
+        if not np.any(keep):
+            raise ValueError(f"contact dof {i} has no neighbour off the contact zone to "
+                             "take its mass")
+        gained[cols[keep]] += m[i] * vals[keep] / vals[keep].sum()
+    m = np.where(contact, 0.0, m + gained)
+    return sp.diags(m, format="csr")
+
+
 def tensor_mass(body: Elasticity, kind: str) -> sp.csr_matrix:
     """On a Q1 tensor mesh (first axis x, the others across): the 1D variant `kind`
     along x (its node 0 at the smallest x), Kronecker product with the consistent 1D
@@ -210,7 +240,7 @@ def tensor_mass(body: Elasticity, kind: str) -> sp.csr_matrix:
         raise ValueError("kron mass needs a tensor mesh (every node on the axes' grid)")
     idx = [np.searchsorted(a, P[k]) for k, a in enumerate(axes)]
     mats = [mass_variant_1d(assemble_1d(axes[0], body.rho, 1.0), kind).to_sparse()]
-    across = "lumped" if kind == "lumped" else "consistent"
+    across = "lumped" if kind in LUMPED_KINDS else "consistent"
     mats += [mass_variant_1d(assemble_1d(a, 1.0, 1.0), across).to_sparse() for a in axes[1:]]
     T = mats[0]
     for A in mats[1:]:
@@ -312,10 +342,11 @@ def mass_matrix(body: Elasticity, kind: str, contact_scalar: np.ndarray | None =
         Ms = body.Ms
     elif kind == "lumped":
         Ms = lumped(body)
-    elif kind == "redistributed":
+    elif kind in ("redistributed", LUMPED_MASSLESS):
         if contact_scalar is None:
-            raise ValueError("redistributed mass needs the contact dofs")
-        Ms = redistributed(body, contact_scalar)
+            raise ValueError(f"{kind} mass needs the contact dofs")
+        Ms = (redistributed(body, contact_scalar) if kind == "redistributed"
+              else lumped_massless(body, contact_scalar))
     elif kind.startswith("kron:"):
         Ms = tensor_mass(body, kind[5:])
     else:

@@ -123,6 +123,8 @@ class BarProblem:
 
     dim = 1
     equal_groups: tuple[np.ndarray, ...] = ()
+    #: no time-dependent load on a bar (`SparseProblem.load`: the same attribute)
+    load = None
 
     def __init__(self, semi: Semidiscrete, mass_kind: str = "consistent") -> None:
         self.banded = semi

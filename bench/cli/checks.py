@@ -13,7 +13,8 @@ from pathlib import Path
 from contact_bench.core.errors import BenchError, shown, shown_repr
 
 _ALLOWED = {"nx": "an integer >= 2", "dt": "a number > 0", "T": "a number > 0",
-            "cfl": "a number > 0", "stride": "an integer >= 1", "max-samples": "an integer >= 1"}
+            "cfl": "a number > 0", "stride": "an integer >= 1", "max-samples": "an integer >= 1",
+            "time-error": "an integer >= 2"}
 #: longest path the CLI accepts (Linux PATH_MAX)
 PATH_MAX = 4096
 
@@ -55,6 +56,18 @@ def positive_int(value: int | None, name: str) -> None:
     if value is not None and value < 1:
         raise BenchError(f"--{name} must be {_ALLOWED.get(name, 'an integer >= 1')}, "
                          f"got {value}")
+
+
+def time_error_factor(value: str | None) -> int:
+    """--time-error K: absent gives 0 (no time-error columns); given, K must be an integer
+    >= 2 (the reference runs at dt / K), so 0, -1, 1.5 and 'abc' are refused, not read as
+    absent."""
+    if value is None:
+        return 0
+    k = int(numbers([value], int, "time-error")[0])
+    if k < 2:
+        raise BenchError(f"--time-error must be {_ALLOWED['time-error']}, got {k}")
+    return k
 
 
 def _name_max(folder: Path) -> int:

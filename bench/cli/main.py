@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, NoReturn
 from contact_bench import __version__
 from contact_bench.api.problem import BarScale
 from contact_bench.api.registry import PLUGINS_ENV, cases, checked_plugin_dirs, make_case, schemes
-from contact_bench.cli.checks import numbers, out_folder
+from contact_bench.cli.checks import numbers, out_folder, time_error_factor
 from contact_bench.cli.sweep_cli import COMMANDS as SWEEP_COMMANDS
 from contact_bench.cli.sweep_cli import add_commands as add_sweep_commands
 from contact_bench.cli.sweep_cli import run_command as run_sweep_command
@@ -451,9 +451,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--stride", type=str, default=None,
                    help="keep a sample every K steps (default: the case's, 1 for most)")
     r.add_argument("--grading", type=float, default=1.0, help="mesh grading towards x=0 (>= 1)")
-    r.add_argument("--time-error", type=int, default=0, metavar="K",
+    r.add_argument("--time-error", type=str, default=None, metavar="K",
                    help="also err_time_u, err_time_stress: the error against the same scheme, "
-                        "mesh and mass at dt / K (the time integrator's own; cached)")
+                        "mesh and mass at dt / K, K an integer >= 2 (the time integrator's "
+                        "own; cached)")
     r.add_argument("--allow-unstable", action="store_true",
                    help="run an explicit scheme above its stability limit (row is marked)")
     r.add_argument("--format", choices=["table", "csv", "json", "markdown"], default="table")
@@ -508,6 +509,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args.T = numbers([args.T], float, "T")[0] if args.T is not None else None
         args.stride = (numbers([args.stride], int, "stride")[0]
                        if args.stride is not None else None)
+        args.time_error = time_error_factor(args.time_error)
         from contact_bench.output.figures import check_formats, check_style
 
         args.fig_format = check_formats(args.fig_format)

@@ -242,6 +242,25 @@ def errors(reference: dict[str, Any], problem: Any, traj: Any, dt: float
     return out
 
 
-__all__ = ["QUANTITIES", "REFERENCES", "SCALARS", "drop_errors", "errors", "first_contact",
-           "load", "observables", "richardson", "richardson_history", "stored_errors",
-           "total_force"]
+def error_floor(case: Any, column: str, folder: Path | None = None) -> float | None:
+    """The stored reference's own estimated error in the units of the error column
+    `column` (err_<q>: relative, as `errors` computes it) for scene `case` (a Case), or
+    None when the scene's variant has no stored reference or the column is not one of
+    its quantities. A run's error below it is not resolved by the reference."""
+    if not column.startswith("err_"):
+        return None
+    stored = load(case.name, folder)
+    if stored is None or stored["case"] != case.spec:
+        return None
+    q = column[4:]
+    if q == "force_history":
+        return float(stored["force_history"]["error"])
+    entry = stored["scalars"].get(q)
+    if q not in SCALARS or entry is None or not entry["value"]:
+        return None
+    return float(abs(entry["error"] / entry["value"]))
+
+
+__all__ = ["QUANTITIES", "REFERENCES", "SCALARS", "drop_errors", "error_floor", "errors",
+           "first_contact", "load", "observables", "richardson", "richardson_history",
+           "stored_errors", "total_force"]

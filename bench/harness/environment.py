@@ -18,6 +18,8 @@ from functools import cache
 from importlib import metadata
 from pathlib import Path
 
+from contact_bench.core.sources import source_hash
+
 #: distribution name -> column suffix
 PACKAGES = {
     "contact-bench": "contact_bench", "numpy": "numpy", "scipy": "scipy",
@@ -81,15 +83,17 @@ def environment() -> dict[str, str | int]:
 
 
 def provenance(argv: Sequence[str] | None = None) -> str:
-    """One line: the command, the date (UTC), the versions and the git commit (with
-    ' (dirty)' when tracked files have uncommitted changes)."""
+    """One line: the command, the date (UTC), the versions, the git commit (with
+    ' (dirty)' when tracked files have uncommitted changes) and the source hash of the
+    code (`contact_bench.core.sources`)."""
     env = environment()
     cmd = "contact-bench " + " ".join(shlex.quote(a) for a in (argv or []))
     versions = ", ".join(f"{dist} {env[f'env_{col}']}" for dist, col in PACKAGES.items())
     return (f"made by `{cmd.strip()}` on {_dt.datetime.now(_dt.UTC):%Y-%m-%d %H:%M UTC}; "
             f"python {env['env_python']}, {versions}; CPU {env['env_cpu']} "
             f"({env['env_ncpu']} cores); git {env['env_git']}"
-            + (" (dirty)" if env["env_git_dirty"] == "yes" else ""))
+            + (" (dirty)" if env["env_git_dirty"] == "yes" else "")
+            + f"; source {source_hash()}")
 
 
 #: arrays above this size are mapped and unmapped one by one (glibc's M_MMAP_THRESHOLD)

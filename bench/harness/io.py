@@ -1,5 +1,7 @@
 """Atomic result files: write to a temporary file in the same folder, then rename; a set
-of files (`folder_set`): write into a hidden folder beside the target, then swap it in."""
+of files (`folder_set`): write into a hidden folder beside the target, then swap it in.
+A file or set written under the repository's results/ records the source hash of the
+code that made it (`contact_bench.core.sources`)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,8 @@ import signal
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+
+from contact_bench.core import sources
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
@@ -34,6 +38,7 @@ def atomic_write(path: str | Path, writer: Callable[[str], None]) -> Path:
     finally:
         if tmp is not None and os.path.exists(tmp):
             os.unlink(tmp)
+    sources.record(path)  # under results/: the code that made it (results/sources.txt)
     return path
 
 
@@ -111,6 +116,7 @@ def folder_set(out: str | Path) -> Iterator[Path]:
             _swap_in(tmp, out)
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        sources.record(out)  # under results/: the code that made the set
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)

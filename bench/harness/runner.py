@@ -566,7 +566,12 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
             else:
                 grid, samples = semi.axis, on_axis(semi.axis, traj)
         if exact is None:
-            notes.append("errors: no reference solution")
+            # a scene's closed form may have filled some: `Case.quantity_errors`
+            filled = {NEEDS[c] for c in ERROR_COLUMNS if row.get(c) is not None}
+            if not filled:
+                notes.append("errors: no reference solution")
+            elif missing := sorted({NEEDS[c] for c in ERROR_COLUMNS} - filled):
+                notes.append(f"reference has no {', '.join(missing)}")
         else:
             if not _warmed_metrics:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s

@@ -174,8 +174,32 @@ def contact_figure(runs: list, exact: Any, title: str, *, contact_label: str,
 # ---------------------------------------------------------------------- study
 
 
-def work_precision_figure(wp: pd.DataFrame, case: str, error: str) -> Figure:
-    """Error (x) against stepping time (y), log-log; one curve per scheme; Pareto front."""
+#: how the band of errors a converged reference cannot resolve is drawn
+FLOOR_STYLE = {"color": "0.8", "alpha": 0.6, "zorder": 0, "lw": 0}
+
+
+def floor_label(floor: float) -> str:
+    """The legend entry of the reference's error band."""
+    return f"below the reference's estimated error ({floor:.2g}): not resolved"
+
+
+def _floor_band(ax: plt.Axes, floor: float | None, axis: str) -> None:
+    """Shade the errors below `floor` (the reference's estimated error) along `axis`
+    ("x" or "y"), from the axis' lower end, and keep the floor in view."""
+    if floor is None or not np.isfinite(floor) or floor <= 0.0:
+        return
+    lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    lo, hi = min(lo, floor / 3.0), max(hi, floor * 3.0)
+    span = ax.axvspan if axis == "x" else ax.axhspan
+    span(lo, floor, label=floor_label(floor), **FLOOR_STYLE)
+    (ax.set_xlim if axis == "x" else ax.set_ylim)(lo, hi)
+
+
+def work_precision_figure(wp: pd.DataFrame, case: str, error: str,
+                          floor: float | None = None) -> Figure:
+    """Error (x) against stepping time (y), log-log; one curve per scheme; Pareto front.
+    `floor`: the reference's estimated error when the error is against a converged
+    reference (a shaded band: errors below it are not resolved)."""
     tcol = WP_TIME if WP_TIME in wp.columns else "time_s"  # a table from before step_s
     fig, ax = plt.subplots(figsize=(7, 4.8))
     for i, (curve, g) in enumerate(wp.groupby("curve", sort=False)):
@@ -186,6 +210,7 @@ def work_precision_figure(wp: pd.DataFrame, case: str, error: str) -> Figure:
         ax.loglog(front[error], front[tcol], "k:", lw=1)
         ax.scatter(front[error], front[tcol], s=90, facecolors="none", edgecolors="k",
                    label="Pareto front", zorder=3)
+    _floor_band(ax, floor, "x")
     ax.set_xlabel(f"{error} (relative)")
     ax.set_ylabel(f"stepping time {tcol} [s]\n(stepping alone, no recording; min of repeats)")
     ax.set_title(f"work-precision: {case}")
@@ -200,10 +225,12 @@ def _fit(x: np.ndarray, e: np.ndarray) -> float:
 
 
 def convergence_figure(refine: pd.DataFrame, dts: pd.DataFrame, case: str,
-                       error: str) -> Figure:
+                       error: str, floor: float | None = None) -> Figure:
     """Two log-log panels: error against h (refine runs, fixed CFL) and against dt (dt
     runs, fixed nx); one curve per scheme with its fitted order in the legend, and
-    reference slopes 1 and 2 (grey) through the median point."""
+    reference slopes 1 and 2 (grey) through the median point. `floor`: the reference's
+    estimated error when the error is against a converged reference (a shaded band:
+    errors below it are not resolved, and neither are orders fitted through them)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
     names = list(dict.fromkeys([*refine.get("scheme", []), *dts.get("scheme", [])]))
     for ax, rows, xcol, xlabel in ((axes[0], refine, "h", "h (element size)"),
@@ -230,6 +257,7 @@ def convergence_figure(refine: pd.DataFrame, dts: pd.DataFrame, case: str,
                           label=f"slope {slope} (reference)")
         else:
             ax.text(0.5, 0.5, "no runs", transform=ax.transAxes, ha="center", va="center")
+        _floor_band(ax, floor, "y")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(f"{error} (relative)")
         ax.grid(alpha=0.3, which="both")

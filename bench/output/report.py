@@ -22,6 +22,7 @@ import pandas as pd
 
 from contact_bench.api.registry import make_case
 from contact_bench.core.errors import BenchError
+from contact_bench.exact import converged
 from contact_bench.harness.environment import environment, provenance
 from contact_bench.harness.io import write_text
 from contact_bench.harness.metrics import ERROR_COLUMNS
@@ -70,6 +71,15 @@ HEADERS = {
     "runs": "runs", "penetration_max": "max penetration", "notes": "notes",
 }
 
+
+
+def reference_floor(case: str, error: str) -> float | None:
+    """The estimated error of the converged reference that the column `error` of scene
+    `case` is measured against (`contact_bench.exact.converged.error_floor`), or None."""
+    try:
+        return converged.error_floor(make_case(case), error)
+    except BenchError:  # a scene no longer registered: no band
+        return None
 
 def slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.-]+", "_", str(text)).strip("_")
@@ -345,7 +355,8 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 if wp.empty:
                     continue
                 stem = f"work_precision_{s}" + ("" if k == 0 else f"_{slug(err)}")
-                body = figure(work_precision_figure(wp, case, err), stem,
+                body = figure(work_precision_figure(wp, case, err,
+                                                    reference_floor(case, err)), stem,
                               f"work-precision {case} {err}")
                 tabs = write_tables(wp.drop(columns=["case"]), out, stem, prov)
                 written.extend(tabs)
@@ -357,7 +368,8 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
             if not conv.empty:
                 err = errors[case][0]
                 body = figure(convergence_figure(refine[refine["case"] == case],
-                                                 dts[dts["case"] == case], case, err),
+                                                 dts[dts["case"] == case], case, err,
+                                                 reference_floor(case, err)),
                               f"convergence_{s}", f"convergence {case}")
                 tabs = write_tables(conv.drop(columns=["case"]), out, f"convergence_{s}", prov)
                 written.extend(tabs)
@@ -380,6 +392,14 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, "stability", "Stability (worst class per scheme and CFL)",
                         body + f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
+            for (name, pname), pmap in analysis.parameter_maps(stab_rows, case).items():
+                tab = pmap.reset_index()
+                tab.columns = [pname, *(f"CFL {c:g}" for c in pmap.columns)]
+                tabs = write_tables(tab, out, f"stability_{slug(name)}_{slug(pname)}_{s}", prov)
+                written.extend(tabs)
+                section(case, f"stability-{slug(name)}-{slug(pname)}",
+                        f"Stability of {name}: CFL against {pname} (worst class per cell)",
+                        f"<p>tables: {links(tabs)}</p>" + _html_table(tab))
             tolerances = _published_tolerances(case)
             ver = analysis.verification_table(df[df["case"] == case], tolerances)
             if not ver.empty:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -244,6 +245,40 @@ def stability_map(df: pd.DataFrame, case: str) -> pd.DataFrame:
     table = worst.map(inv).unstack("CFL")
     table = table[sorted(table.columns)]
     return table.loc[list(dict.fromkeys(rows["scheme"]))]
+
+
+def parameter_maps(df: pd.DataFrame, case: str) -> dict[tuple[str, str], pd.DataFrame]:
+    """For one scene, each scheme parameter declaring a sweep (`Param.sweep`, e.g. a
+    penalty parameter) that the stability rows vary: (scheme name, parameter) -> the
+    worst class of the runs at each (parameter value, CFL), values as rows. Only
+    parameters with at least two values, each run at two CFL or more."""
+    from contact_bench.api.registry import make_scheme
+
+    rows = df[(df["case"] == case) & df["stability"].notna()].copy()
+    if rows.empty:
+        return {}
+    rows["CFL"] = rows["cfl"].map(lambda v: _sig(float(v), 2))
+    rows["_rank"] = rows["stability"].map(CLASS_RANK)
+    found: dict[tuple[str, str], list[tuple[Any, float, int]]] = {}
+    for spec, g in rows.groupby("scheme", sort=False):
+        try:
+            scheme = make_scheme(spec)
+        except Exception:  # noqa: BLE001 - a plugin no longer registered: not mapped
+            continue
+        for pname, param in type(scheme).params.items():
+            if param.sweep:
+                key = (type(scheme).name, pname)
+                value = getattr(scheme, pname)
+                found.setdefault(key, []).extend(
+                    (value, c, r) for c, r in zip(g["CFL"], g["_rank"], strict=True))
+    inv = {v: k for k, v in CLASS_RANK.items()}
+    out = {}
+    for key, cells in found.items():
+        t = pd.DataFrame(cells, columns=[key[1], "CFL", "_rank"])
+        worst = t.groupby([key[1], "CFL"])["_rank"].max().map(inv).unstack("CFL")
+        if len(worst.index) >= 2 and worst.notna().sum(axis=1).min() >= 2:
+            out[key] = worst[sorted(worst.columns)].sort_index()
+    return out
 
 
 # ---------------------------------------------------------------------- energy

@@ -13,7 +13,9 @@ parameters, plus any spec given with --scheme):
   declared limit) or to twice the declared limit (with 0.95 and 1.05 x the limit);
   each scheme parameter declaring a `sweep` (`Param.sweep`, e.g. a penalty parameter
   in 1 ... 1e8) at each of its values (the quick study: the first and the last), at
-  three CFL; every scene declaring `stiff` (steel_bar);
+  three CFL; every scene declaring `stiff` (steel_bar), where each parameter value runs
+  the scheme's whole CFL grid (and 0.95, 1.05 x its own limit): a map of CFL against the
+  parameter (`contact_bench.sweeps.analysis.parameter_maps`);
 - energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table);
 - time order away from impacts: every scheme spec of the table, measured on a smooth
   motion without contact (`contact_bench.sweeps.time_order`, outside the sweep and its
@@ -98,9 +100,11 @@ def _limit_as_cfl(case: Case, scheme: Scheme, semi: Any) -> float | None:
 
 
 def stability_cfls(limit: float | None, points: int) -> list[float]:
-    """0.1 to 100 (no limit) or to twice the limit (with points just below/above it)."""
+    """0.1 to 100 (no limit) or to twice the limit (with points just below/above it);
+    points = 0: only those two (none without a limit)."""
     top = 100.0 if limit is None else 2.0 * limit
-    grid = list(np.geomspace(0.1, top, points)) if top > 0.1 else [top]
+    grid = ([] if points < 1 else list(np.geomspace(0.1, top, points)) if top > 0.1
+            else [top])
     if limit is not None:
         grid += [0.95 * limit, 1.05 * limit]
     return sorted({float(f"{c:.3g}") for c in grid})
@@ -266,11 +270,17 @@ def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
         except Exception:  # noqa: BLE001
             return None
 
+    base = stability_cfls(limit_of(scheme), g["cfl_points"])
     out = [Task(case_spec, spec, nx, cfl=c, T=T, max_samples=ms, group="stability", timed=False)
-           for c in stability_cfls(limit_of(scheme), g["cfl_points"])]
+           for c in base]
     for vs in _param_variants(spec, scheme, g["param_sweep"]):
+        if case.stiff:  # a map: every parameter value on the scheme's whole CFL grid,
+            # and just below and above the value's own limit
+            cfls = sorted(set(base) | set(stability_cfls(limit_of(vs), 0)))
+        else:
+            cfls = stability_cfls(limit_of(vs), 3)
         out += [Task(case_spec, vs.spec, nx, cfl=c, T=T, max_samples=ms,
-                     group="stability", timed=False) for c in stability_cfls(limit_of(vs), 3)]
+                     group="stability", timed=False) for c in cfls]
     return out
 
 
