@@ -27,30 +27,39 @@ uniform bar about h / c.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
 from scipy.linalg import eigh_tridiagonal
 
-from contact_bench.api.plugin import Semidiscrete, Stepper, Trajectory
+from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import impulse_update, new_stats, stats_update
+from contact_bench.core.loop import OK, drive
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import eliminate_contact_node, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
-from contact_bench.kernels.csr import csr_arrays, csr_matvec
-from contact_bench.kernels.linalg import Factor, lu_solve
-from contact_bench.kernels.recording import SampleBuffers, csr_energy, smallest_gap, write_sample
-from contact_bench.kernels.sparse import lcp_solve
+from contact_bench.kernels.contact import ContactOps, add_response, contact_ops, gaps, hold
+from contact_bench.kernels.csr import CSR, csr_arrays, matvec
+from contact_bench.kernels.linalg import LU, Factor, lu
+from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse import NO_LOAD
+from contact_bench.kernels.stepper import LoopStepper
 
 # ------------------------------------------------------------------------------ the bar
 
 
 @njit(cache=True)
-def bar_kernel(m, Kd, Ke, F, U, V, dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out,
-               s_out, E_out):  # pragma: no cover - compiled
-    """The bar (module docstring): m the lumped mass (m[0] = 0), K's bands; U, V advanced
-    in place. Returns (samples, steps, smallest u_0, blow-up step or -1)."""
+def bar_kernel(bar, U, V, run, out):  # pragma: no cover - compiled
+    """The bar (module docstring): bar = (m, Kd, Ke, F), the lumped mass (m[0] = 0), K's
+    bands and the load; U, V advanced in place; run = (dt, nsteps, stride, energy offset);
+    out = (t, U, V, u_0, stress, energy) the sample buffers. Returns (samples, steps,
+    smallest u_0, blow-up step or -1)."""
+    m, Kd, Ke, F = bar
+    dt, nsteps, stride, offset = run
+    t_out, U_out, V_out, cu_out, s_out, E_out = out
     n = U.size
     h = 0.5 * dt
     A = np.zeros(n)
@@ -113,123 +122,136 @@ def run_bar(semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajecto
     U, V = semi.U0.astype(float).copy(), semi.V0.astype(float).copy()
     out = allocate(semi, nsteps, stride)
     k, done, min_u0, blow = bar_kernel(
-        np.asarray(semi.M.diag, float), semi.K.diag, semi.K.off, semi.F, U, V, float(dt),
-        int(nsteps), int(stride), float(semi.energy_offset), out["t"], out["U"], out["V"],
-        out["cu"], out["s"], out["E"])
+        (np.asarray(semi.M.diag, float), semi.K.diag, semi.K.off, semi.F), U, V,
+        (float(dt), int(nsteps), int(stride), float(semi.energy_offset)),
+        (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"]))
     return trajectory(out, k, done, min_u0, blow, dt)
 
 
 # ----------------------------------------------------------------------------- a body
 
 
+class BodyOps(NamedTuple):
+    """A body's semi-explicit step: M, K (the energy), the lumped mass's diagonal m, F,
+    the dofs with mass (hv) and the massless ones (mv), K's rows Kh = K[hv] and Km =
+    K[mv] (massless columns dropped), K_mm's factor, the gaps restricted to the massless
+    dofs (`ContactOps`, with K_mm's factor), the time load."""
+
+    M: CSR
+    K: CSR
+    m: np.ndarray
+    F: np.ndarray
+    hv: np.ndarray
+    mv: np.ndarray
+    Kh: CSR
+    Km: CSR
+    mfac: LU
+    ct: ContactOps
+    at_contact: np.ndarray  # -gap0
+    weights: np.ndarray
+    has_load: bool
+    load: object  # the `TimeLoad`'s density (a cfunc), or `NO_LOAD`
+    B: CSR
+    BX: np.ndarray
+    bcodes: np.ndarray
+    dt: float
+    offset: float
+    tol: float
+
+
+class BodyState(NamedTuple):
+    """(U, V, A), the obstacle's forces and active set, the load at the step's end,
+    scratch."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+    force: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
+    rm: np.ndarray
+    um: np.ndarray
+    wm: np.ndarray
+    rh: np.ndarray
+    w: np.ndarray
+    gf: np.ndarray
+
+
 @njit(cache=True)
-def body_kernel(Mp, Mi, Mx, Kp, Ki, Kx, m, F, hv, mv, cl, Khp, Khi, Khx, Kmp, Kmi, Kmx, mfac,
-                W, Z, gap0, weights, load, Bp, Bi, Bx, BX, bcodes, U, V, A, dt, nsteps, stride,
-                offset, t_out, U_out, V_out, cu_out, s_out, E_out, stats,
-                tol):  # pragma: no cover - compiled
-    """A body (module docstring): hv the dofs with mass (their lumped mass m[hv]), mv the
-    massless ones, cl the contact dofs' positions in mv; Kh = K[hv] (all columns), Kmh
-    = K[mv] without the massless columns, K_mm factored (`mfac`), W and Z its Delassus
-    and response matrices; `load` None, or a time-dependent load's density (a cfunc) with
-    its B (CSR), points BX and codes: the load at t_{n+1} is F + B v(t_{n+1})
-    (`contact_bench.api.sparse.TimeLoad`). U, V, A (A on hv, at t = 0) advanced in place;
-    the massless dofs of U are solved at t = 0 by the caller (sample 0, written by the
-    caller, is the given initial state). Returns (samples, steps, smallest gap,
-    blow-up step or -1)."""
+def body_step(o, s, step):  # pragma: no cover - compiled
+    """One step on a body (module docstring)."""
+    U, V, A, Fn, rm, um, rh, mu = s.U, s.V, s.A, s.Fn, s.rm, s.um, s.rh, s.force
+    hv, mv, dt, m = o.hv, o.mv, o.dt, o.m
     n = U.size
-    nh, nm, nc = hv.size, mv.size, cl.size
+    nh, nm = hv.size, mv.size
     h = 0.5 * dt
-    rm = np.empty(nm)
-    um = np.empty(nm)
-    wm = np.empty(nm)
-    rh = np.empty(nh)
-    w = np.empty(n)
-    gf = np.empty(nc)
-    mu = np.zeros(nc)
-    active = np.zeros(nc, np.bool_)
-    status = np.zeros(nc, np.bool_)
-    area = weights.sum()
-    E0 = E_out[0]
-    gdofs = np.empty(nc, np.int64)
-    for j in range(nc):
-        gdofs[j] = mv[cl[j]]
-    min_gap = smallest_gap(gap0, U, gdofs)
-    Fn = F.copy()  # the load at the step's end (F plus the time-dependent one)
-    vals = np.empty(bcodes.size)
-    was = False
-    k = 1
-    for step in range(1, nsteps + 1):
-        if load is not None:
-            tl = step * dt
-            for j in range(bcodes.size):
-                vals[j] = load(BX[0, j], BX[1, j], BX[2, j], tl, bcodes[j])
-            csr_matvec(Bp, Bi, Bx, vals, Fn)
-            for i in range(n):
-                Fn[i] += F[i]
-        for a in range(nh):
-            i = hv[a]
-            V[i] += h * A[i]
-            U[i] += dt * V[i]
-        csr_matvec(Kmp, Kmi, Kmx, U, rm)  # K_mh U_h
-        for b in range(nm):
-            rm[b] = Fn[mv[b]] - rm[b]
-        lu_solve(mfac[0], mfac[1], mfac[2], mfac[3], mfac[4], mfac[5], mfac[6], mfac[7],
-                 rm, um, wm)
-        pen = False
-        for j in range(nc):
-            gf[j] = gap0[j] + um[cl[j]]
-            pen = pen or gf[j] < 0.0
-        if pen:
-            lcp_solve(W, gf, mu, active, tol, was)
-            for b in range(nm):
-                s = 0.0
-                for j in range(nc):
-                    s += Z[b, j] * mu[j]
-                um[b] += s
-            for j in range(nc):
-                if active[j]:
-                    um[cl[j]] = -gap0[j]  # exactly on the obstacle
-        else:
-            mu[:] = 0.0
-        was = pen
-        for b in range(nm):
-            i = mv[b]
-            V[i] = (um[b] - U[i]) / dt
-            U[i] = um[b]
-        csr_matvec(Khp, Khi, Khx, U, rh)  # (K U)_h
-        for a in range(nh):
-            i = hv[a]
-            A[i] = (Fn[i] - rh[a]) / m[i]
-            V[i] += h * A[i]
-        stats_update(stats, status, mu, step, dt)
-        impulse_update(stats, mu, dt, 0.5)
-        min_gap = smallest_gap(gap0, U, gdofs, min_gap)
-        if step % stride == 0 or step == nsteps:
-            e = csr_energy(Mp, Mi, Mx, Kp, Ki, Kx, F, U, V, offset, w)
-            blown = write_sample(k, step * dt, U, V, gap0, gdofs, -mu.sum() / area, e, E0,
-                                 t_out, U_out, V_out, cu_out, s_out, E_out, stats)
-            k += 1
-            if blown:
-                return k, step, min_gap, step
-    return k, nsteps, min_gap, -1
+    if o.has_load:  # the load at the step's end: F + B v(t_{n+1})
+        tl = step * dt
+        for j in range(o.bcodes.size):
+            s.vals[j] = o.load(o.BX[0, j], o.BX[1, j], o.BX[2, j], tl, o.bcodes[j])
+        matvec(o.B, s.vals, Fn)
+        for i in range(n):
+            Fn[i] += o.F[i]
+    for a in range(nh):
+        i = hv[a]
+        V[i] += h * A[i]
+        U[i] += dt * V[i]
+    matvec(o.Km, U, rm)  # K_mh U_h
+    for b in range(nm):
+        rm[b] = Fn[mv[b]] - rm[b]
+    lu(o.mfac, rm, um, s.wm)
+    pen = gaps(o.ct, um, s.gf)
+    if pen:
+        lcp_solve(o.ct.W, s.gf, mu, s.active, o.tol, s.was[0])
+        add_response(o.ct.Z, mu, um)
+        hold(o.ct, s.active, um, o.at_contact)  # exactly on the obstacle
+    else:
+        mu[:] = 0.0
+    s.was[0] = pen
+    for b in range(nm):
+        i = mv[b]
+        V[i] = (um[b] - U[i]) / dt
+        U[i] = um[b]
+    matvec(o.Kh, U, rh)  # (K U)_h
+    for a in range(nh):
+        i = hv[a]
+        A[i] = (Fn[i] - rh[a]) / m[i]
+        V[i] += h * A[i]
+    return OK
+
+
+@njit(cache=True)
+def body_sample(o, s):  # pragma: no cover - compiled
+    """The energy, the obstacle's stress and V."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return e, -s.force.sum() / o.weights.sum(), s.V
+
+
+@njit(cache=True)
+def body_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `body_step`."""
+    return drive(body_step, body_sample, ops, st, rec, nsteps, stride)
 
 
 def split(p: SparseProblem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(m, hv, mv, cl): the lumped mass's diagonal, the dofs with mass, the massless ones
-    and the contact dofs' positions among them. ValueError unless the mass is diagonal,
-    the contact dofs are massless and some dof has mass."""
+    """(m, hv, mv, held): the lumped mass's diagonal, the dofs with mass, the massless
+    ones and, among these, the positions of those in a contact row. ValueError unless the
+    mass is diagonal, every dof in a contact row is massless and some dof has mass."""
     M = sp.csr_matrix(p.M)
     m = np.asarray(M.diagonal(), float)
     if M.nnz != np.count_nonzero(m) or np.any(m < 0.0):
         raise ValueError("the semi-explicit scheme needs a diagonal (lumped) mass")
     hv, mv = np.flatnonzero(m > 0.0), np.flatnonzero(m == 0.0)
-    cd = p.contact.selected_dofs("the semi-explicit scheme")
+    G = sp.csr_matrix(p.contact.gap_operator(p.nfree))
     pos = np.full(p.nfree, -1)
     pos[mv] = np.arange(mv.size)
-    if hv.size == 0 or np.any(pos[cd] < 0):
+    held = pos[np.unique(G.indices)]
+    if hv.size == 0 or np.any(held < 0):
         raise ValueError("the semi-explicit scheme needs massless contact dofs and dofs "
                          "with mass")
-    return m, hv, mv, np.asarray(pos[cd], np.int64)
+    return m, hv, mv, np.asarray(held, np.int64)
 
 
 def body_limit(p: SparseProblem) -> float:
@@ -263,56 +285,60 @@ def body_limit(p: SparseProblem) -> float:
     return float(2.0 / np.sqrt(lam[0]))
 
 
-class BodyStepper(Stepper):
-    """`body_kernel` prepared: K_mm factored, the Delassus and response matrices, the
+class BodyStepper(LoopStepper):
+    """`body_step` prepared: K_mm factored, the Delassus and response matrices, the
     massless dofs solved at t = 0 and the initial acceleration, once."""
 
+    adds_time_load = True
+    any_gap_operator = True
+    loop = staticmethod(body_loop)
+
     def __init__(self, p: SparseProblem, dt: float) -> None:
-        self.problem, self.dt = p, float(dt)
+        super().__init__(p, dt)
         ld = getattr(p, "load", None)
-        m, hv, mv, cl = split(p)
+        m, hv, mv, _ = split(p)
         K = sp.csr_matrix(p.K)
         fac = Factor.of(K[mv][:, mv])
-        sel = sp.csc_matrix((np.ones(cl.size), (cl, np.arange(cl.size))),
-                            shape=(mv.size, cl.size))
-        Z = np.ascontiguousarray(fac.solve_many(sel))
-        W = np.ascontiguousarray(0.5 * (Z[cl] + Z[cl].T))
+        G = sp.csr_matrix(p.contact.gap_operator(p.nfree))[:, mv]
+        gap0 = np.asarray(p.contact.gap0, float)
+        ct = contact_ops(fac, G, gap0, keep=True)
         keep = np.ones(p.nfree)
         keep[mv] = 0.0
         Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
         Kmh.eliminate_zeros()
-        gap0 = np.asarray(p.contact.gap0, float)
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))), float(np.max(np.abs(gap0), initial=0.0)),
                           1e-300)
         U = np.asarray(p.U0, float).copy()
         F0 = np.asarray(p.F, float) + (0.0 if ld is None else ld.at(0.0))  # the load at t = 0
         um = fac.solve(F0[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
-        gf = gap0 + um[cl]
-        mu = np.zeros(cl.size)
+        gf = gap0 + G @ um
+        mu = np.zeros(gap0.size)
         if np.any(gf < 0.0):
-            lcp_solve(W, gf, mu, np.zeros(cl.size, np.bool_), tol)
-            um += Z @ mu
+            lcp_solve(ct.W, gf, mu, np.zeros(gap0.size, np.bool_), tol)
+            um += ct.Z @ mu
         U[mv] = um
         A = np.zeros(p.nfree)
         A[hv] = (F0[hv] - K[hv] @ U) / m[hv]
-        self.U0, self.A0, self.V0 = U, A, np.asarray(p.V0, float).copy()
-        self.operators = (*csr_arrays(p.M), *csr_arrays(K), m, np.asarray(p.F, float), hv, mv,
-                          cl, *csr_arrays(K[hv]), *csr_arrays(Kmh), fac.arrays, W, Z, gap0,
-                          np.asarray(p.contact.weights, float),
-                          *((None, np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0),
-                             np.zeros((3, 0)), np.zeros(0, np.int64)) if ld is None else
-                            (ld.density, *csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
-                             np.asarray(ld.codes, np.int64))))
-        self.tol = tol
+        self.initial = (U, np.asarray(p.V0, float).copy(), A)
+        self.gamma = 0.5
+        n = p.nfree
+        self.ops = BodyOps(
+            csr_arrays(p.M), csr_arrays(K), m, np.asarray(p.F, float), hv, mv,
+            csr_arrays(K[hv]), csr_arrays(Kmh), fac.arrays, ct, -gap0,
+            np.asarray(p.contact.weights, float), ld is not None,
+            NO_LOAD if ld is None else ld.density,
+            csr_arrays(sp.csr_matrix((n, 0)) if ld is None else ld.B),
+            np.zeros((3, 0)) if ld is None else np.ascontiguousarray(ld.points, float),
+            np.zeros(0, np.int64) if ld is None else np.asarray(ld.codes, np.int64),
+            self.dt, float(p.energy_offset), tol)
 
-    def run(self, nsteps: int, stride: int) -> Trajectory:
-        p = self.problem
-        out = SampleBuffers(p, nsteps, stride)  # sample 0: the given initial state
-        stats = new_stats(0.0, out.size)
-        k, done, min_gap, blow = body_kernel(
-            *self.operators, self.U0.copy(), self.V0.copy(), self.A0.copy(), self.dt,
-            int(nsteps), int(stride), float(p.energy_offset), *out.arrays(), stats, self.tol)
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+    def new_state(self) -> BodyState:
+        o = self.ops
+        n, nh, nm, nc = self.problem.nfree, o.hv.size, o.mv.size, o.at_contact.size
+        U, V, A = (a.copy() for a in self.initial)
+        return BodyState(U, V, A, np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
+                         o.F.copy(), np.empty(o.bcodes.size), np.empty(nm), np.empty(nm),
+                         np.empty(nm), np.empty(nh), np.empty(n), np.empty(nc))
 
 
 def prepare_body(p: SparseProblem, dt: float) -> BodyStepper:
