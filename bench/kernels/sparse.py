@@ -253,17 +253,18 @@ def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.nd
     return A
 
 
-def response_rows(fac: Factor, rhs: sp.csc_matrix, rows: np.ndarray, keep: bool
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """(Z, Z[rows]) for Z = S^-1 rhs (S's factor `fac`, block solves `Factor.solve_blocks`):
-    Z whole when `keep`, else a (1, 1) placeholder and only its rows `rows`."""
-    n, nc = fac.n, rhs.shape[1]
+def response_rows(fac: Factor, G: sp.csr_matrix, keep: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(Z, G Z) for Z = S^-1 G^T (S's factor `fac`, block solves `Factor.solve_blocks`):
+    Z whole when `keep`, else a (1, 1) placeholder and only G Z (a selection G: Z's rows)."""
+    G = sp.csr_matrix(G)
+    sel = selection_rows(G)
+    n, nc = fac.n, G.shape[0]
     Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
-    Zr = np.empty((rows.size, nc))
-    for j0, j1, X in fac.solve_blocks(rhs):
+    Zr = np.empty((nc, nc))
+    for j0, j1, X in fac.solve_blocks(sp.csc_matrix(G.T)):
         if keep:
             Z[:, j0:j1] = X
-        Zr[:, j0:j1] = X[rows]
+        Zr[:, j0:j1] = X[sel] if np.all(sel >= 0) else G @ X
     return Z, Zr
 
 

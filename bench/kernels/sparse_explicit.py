@@ -52,6 +52,13 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, drive
+from contact_bench.kernels.contact import (
+    ContactOps,
+    apply_gt,
+    gaps,
+    row_dot,
+    selection_rows,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.sparse import (
@@ -386,21 +393,17 @@ def stable_dt(p: SparseProblem, beta: float, gamma: float,
 
 class TaylorFlanaganOps(NamedTuple):
     """Taylor-Flanagan with a factored mass: M, K, F, M's factor (and its diagonal when
-    M is diagonal, else empty), the contact dofs and gaps, Z = M^-1 C^T (kept or not),
-    Zc = C Z, W = (Zc + Zc^T) / 2."""
+    M is diagonal, else empty), the gaps with Z = M^-1 G^T (kept or not) and W = (Zc +
+    Zc^T) / 2, Zc = G Z."""
 
     M: CSR
     K: CSR
     F: np.ndarray
     fac: LU
     mdiag: np.ndarray
-    cd: np.ndarray
-    gap0: np.ndarray
+    ct: ContactOps
     weights: np.ndarray
-    W: np.ndarray
-    Z: np.ndarray
     Zc: np.ndarray
-    keep_z: bool
     dt: float
     offset: float
 
@@ -414,6 +417,7 @@ class TaylorFlanaganState(NamedTuple):
     force: np.ndarray
     mu: np.ndarray
     inJ: np.ndarray
+    g: np.ndarray
     rhs: np.ndarray
     work: np.ndarray
     w: np.ndarray
@@ -425,20 +429,21 @@ def tf_step(o, s, step):  # pragma: no cover - compiled
     with a diagonal mass the acceleration's solve is a division (the factor's numbers to
     the bit)."""
     U, V, A, lam, mu, inJ, rhs, w = s.U, s.V, s.A, s.force, s.mu, s.inJ, s.rhs, s.w
-    cd, gap0, Zc, W, dt = o.cd, o.gap0, o.Zc, o.W, o.dt
+    ct, Zc, dt, g = o.ct, o.Zc, o.dt, s.g
+    sel, W = ct.sel, ct.W
     n = U.size
-    nc = cd.size
+    nc = sel.size
     for i in range(n):  # drift and half kick
         U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
         V[i] += 0.5 * dt * A[i]
     lam[:] = 0.0
     inJ[:] = False
     grow = False
+    gaps(ct, U, g)
     for j in range(nc):
-        gj = gap0[j] + U[cd[j]]
-        if not np.isfinite(gj):  # blown up between samples: stop before the LCP
+        if not np.isfinite(g[j]):  # blown up between samples: stop before the LCP
             return BLOWN
-        if gj < 0.0:
+        if g[j] < 0.0:
             inJ[j] = True
             grow = True
     for _ in range(nc + 1):  # the set of stopped dofs grows until none penetrates
@@ -450,7 +455,8 @@ def tf_step(o, s, step):  # pragma: no cover - compiled
         q = np.empty(m)
         vmax = 0.0
         for a in range(m):  # velocities before this set's correction
-            acc = V[cd[idx[a]]]
+            d = sel[idx[a]]
+            acc = V[d] if d >= 0 else row_dot(ct.G, idx[a], V)
             for b in range(nc):
                 acc -= Zc[idx[a], b] * mu[b]
             q[a] = acc
@@ -464,25 +470,29 @@ def tf_step(o, s, step):  # pragma: no cover - compiled
         for a in range(m):
             dmu[idx[a]] = ms[a] - mu[idx[a]]
             mu[idx[a]] = ms[a]
-        if o.keep_z:
+        if ct.keep_z:
             on = np.flatnonzero(dmu)
             for i in range(n):
                 acc = 0.0
                 for b in on:
-                    acc += o.Z[i, b] * dmu[b]
+                    acc += ct.Z[i, b] * dmu[b]
                 V[i] += acc
                 U[i] += dt * acc
-        else:  # matrix-free: M^-1 C^T dmu
-            rhs[:] = 0.0
-            for b in range(nc):
-                rhs[cd[b]] = dmu[b]
+        else:  # matrix-free: M^-1 G^T dmu
+            if np.all(sel >= 0):
+                rhs[:] = 0.0
+                for b in range(nc):
+                    rhs[sel[b]] = dmu[b]
+            else:
+                apply_gt(ct, dmu, rhs)
             lu(o.fac, rhs, w, s.work)
             for i in range(n):
                 V[i] += w[i]
                 U[i] += dt * w[i]
         grow = False
+        gaps(ct, U, g)
         for j in range(nc):
-            if not inJ[j] and gap0[j] + U[cd[j]] < 0.0:
+            if not inJ[j] and g[j] < 0.0:
                 inJ[j] = True
                 grow = True
     for j in range(nc):
@@ -522,6 +532,7 @@ class TaylorFlanaganStepper(LoopStepper):
     """`taylor_flanagan_sparse` prepared: M factored, the response Z = M^-1 C^T and the
     Delassus matrix W = C Z, the initial acceleration computed once."""
 
+    any_gap_operator = True
     loop = staticmethod(tf_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -529,12 +540,13 @@ class TaylorFlanaganStepper(LoopStepper):
             raise ValueError("taylor_flanagan needs every dof with mass (no velocity to stop)")
         super().__init__(p, dt)
         n = p.nfree
-        cd = np.asarray(p.contact.dofs, np.int64)
+        G = sp.csr_matrix(p.contact.gap_operator(n))
         fac = Factor.of(p.M)
-        keep_z = keeps_response(n, cd.size)
-        C = sp.csc_matrix((np.ones(cd.size), (cd, np.arange(cd.size))), shape=(n, cd.size))
-        Z, Zc = response_rows(fac, C, cd, keep_z)
+        keep_z = keeps_response(n, G.shape[0])
+        Z, Zc = response_rows(fac, G, keep_z)
         W = np.ascontiguousarray(0.5 * (Zc + Zc.T))
+        ct = ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(p.contact.gap0, float),
+                        selection_rows(G), W, np.ascontiguousarray(Z), keep_z)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         self.initial = (U, V, fac.solve(p.F - p.K @ U))
         self.gamma = 1.0  # the impulses dt lam, applied whole
@@ -542,16 +554,15 @@ class TaylorFlanaganStepper(LoopStepper):
         diagonal = M.nnz == np.count_nonzero(M.diagonal())
         self.ops = TaylorFlanaganOps(
             csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), fac.arrays,
-            np.asarray(M.diagonal(), float) if diagonal else np.zeros(0), cd,
-            np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float), W,
-            np.ascontiguousarray(Z), np.ascontiguousarray(Zc), keep_z, self.dt,
+            np.asarray(M.diagonal(), float) if diagonal else np.zeros(0), ct,
+            np.asarray(p.contact.weights, float), np.ascontiguousarray(Zc), self.dt,
             float(p.energy_offset))
 
     def new_state(self) -> TaylorFlanaganState:
-        n, nc = self.problem.nfree, self.ops.cd.size
+        n, nc = self.problem.nfree, self.ops.ct.sel.size
         U, V, A = (a.copy() for a in self.initial)
         return TaylorFlanaganState(U, V, A, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
-                                   np.empty(n), np.empty(n), np.empty(n))
+                                   np.empty(nc), np.empty(n), np.empty(n), np.empty(n))
 
 
 def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:
