@@ -111,6 +111,12 @@ def test_readme_template_runs_the_disc_as_the_compiled_scheme(tmp_path: Path):
     for field in ("U", "V", "contact_u", "stress", "energy"):
         scale = max(float(np.max(np.abs(getattr(b, field)))), 1.0)
         assert np.max(np.abs(getattr(a, field) - getattr(b, field))) <= 1e-11 * scale, field
+    # the recorder keeps the compiled loop's impulse (`core.loop.book_step`): the whole
+    # run's, the first contact's and each sample's
+    for key in ("contact_impulse", "first_contact_impulse"):
+        assert a.extra[key] == pytest.approx(b.extra[key], rel=1e-12), key
+    assert np.max(np.abs(a.extra["impulse"] - b.extra["impulse"])) <= 1e-12 * b.extra[
+        "contact_impulse"]
 
 
 def _cli_has_plugins_option() -> bool:

@@ -50,7 +50,7 @@ from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, hold, push, signorini
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
-from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
@@ -138,16 +138,9 @@ def kane_step(o, s, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def kane_sample(o, s):  # pragma: no cover - compiled
-    """The energy, the step's contact stress and V."""
-    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
-    return e, -s.force.sum() / o.weights.sum(), s.V
-
-
-@njit(cache=True)
 def kane_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     """The one loop (`contact_bench.core.loop.drive`) with `kane_step`."""
-    return drive(kane_step, kane_sample, ops, st, rec, nsteps, stride)
+    return drive(kane_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
 class KaneStepper(LoopStepper):

@@ -35,6 +35,15 @@ def csr_energy(M, K, F, U, V, offset, w):  # pragma: no cover - compiled
     return e + 0.5 * (U @ w) - F @ U + offset
 
 
+@njit(cache=True)
+def plain_sample(o, s):  # pragma: no cover - compiled
+    """The sample of a scheme whose energy is csr_energy's and whose stress is its
+    contact force's, -sum(force) / the zone's measure (`contact_bench.core.loop`'s
+    sample for ops with M, K, F, offset, weights and a state with U, V, force, w)."""
+    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
+    return e, -s.force.sum() / o.weights.sum(), s.V
+
+
 class SampleBuffers:
     """The sample arrays of a run of `n_samples(nsteps, stride)` samples: t, U, V, gap
     (the smallest gap of the contact dofs), stress and energy, with sample 0 written from

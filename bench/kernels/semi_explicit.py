@@ -43,7 +43,7 @@ from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.contact import ContactOps, add_response, contact_ops, gaps, hold
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
-from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import NO_LOAD
 from contact_bench.kernels.stepper import LoopStepper
@@ -223,16 +223,9 @@ def body_step(o, s, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def body_sample(o, s):  # pragma: no cover - compiled
-    """The energy, the obstacle's stress and V."""
-    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
-    return e, -s.force.sum() / o.weights.sum(), s.V
-
-
-@njit(cache=True)
 def body_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     """The one loop (`contact_bench.core.loop.drive`) with `body_step`."""
-    return drive(body_step, body_sample, ops, st, rec, nsteps, stride)
+    return drive(body_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
 def split(p: SparseProblem) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -59,7 +59,7 @@ from contact_bench.kernels.contact import (
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
-from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve, penalty_solve
 from contact_bench.kernels.stepper import LoopStepper
 
@@ -635,16 +635,9 @@ def quasistatic_step(o, s, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def quasistatic_sample(o, s):  # pragma: no cover - compiled
-    """The energy, the obstacle's stress and V."""
-    e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
-    return e, -s.force.sum() / o.weights.sum(), s.V
-
-
-@njit(cache=True)
 def quasistatic_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     """The one loop (`contact_bench.core.loop.drive`) with `quasistatic_step`."""
-    return drive(quasistatic_step, quasistatic_sample, ops, st, rec, nsteps, stride)
+    return drive(quasistatic_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
 class QuasistaticStepper(LoopStepper):

@@ -54,7 +54,7 @@ from contact_bench.kernels.contact import (
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
-from contact_bench.kernels.recording import csr_energy
+from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, initial_acceleration
 from contact_bench.kernels.stepper import LoopStepper
@@ -322,16 +322,9 @@ def mj_step(o, s, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def mj_sample(o, s):  # pragma: no cover - compiled
-    """The energy, the mean contact force's stress and V."""
-    en = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
-    return en, -s.force.sum() / o.weights.sum(), s.V
-
-
-@njit(cache=True)
 def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     """The one loop (`contact_bench.core.loop.drive`) with `mj_step`."""
-    return drive(mj_step, mj_sample, ops, st, rec, nsteps, stride)
+    return drive(mj_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
 class MoreauJeanStepper(LoopStepper):
