@@ -46,7 +46,7 @@ class SlantedDrop(BodyCase):
     quantities = frozenset({"plane_momentum"})
     study = StudyGrid(specs=("slanted_drop[tilt_gravity=0]",), nx=(3, 5), T=14.0,
                       small="slanted_drop[of=disc_drop[degree=1,lift=0.5],tilt_gravity=0]",
-                      small_nx=(2,), small_T=5.0, in_default_study=False)
+                      small_nx=(2, 3), small_T=5.0, in_default_study=False)
 
     def validate(self) -> None:
         base = make_case(self.of)

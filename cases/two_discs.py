@@ -38,7 +38,7 @@ class TwoDiscs(BodyCase):
     }
     T, nx, dt, stride = 4.0, 5, 0.01, 1
     study = StudyGrid(specs=("two_discs",), nx=(3, 5), T=4.0, small="two_discs",
-                      small_nx=(2,), small_T=2.0, in_default_study=False)
+                      small_nx=(2, 3), small_T=2.0, in_default_study=False)
 
     def validate(self) -> None:
         #: the disc: its mesh, material and contact zone

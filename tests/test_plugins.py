@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import io
 import os
 import re
@@ -40,8 +41,53 @@ DOC = ROOT / "docs" / "plugin-api.md"
 def _templates() -> tuple[str, str]:
     """The scheme and the scene template of docs/plugin-api.md."""
     blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)
-    assert len(blocks) == 2, "docs/plugin-api.md: expected a scheme and a scene template"
+    assert len(blocks) == 3, ("docs/plugin-api.md: expected a scheme, a scene and an "
+                              "implicit scheme template")
     return blocks[0], blocks[1]
+
+
+def implicit_template(tmp_path: Path):
+    """docs/plugin-api.md's implicit scheme template, loaded from a file."""
+    code = re.findall(r"```python\n(.*?)```", DOC.read_text(encoding="utf-8"), re.S)[2]
+    path = tmp_path / "plain_newmark.py"
+    path.write_text(code, encoding="utf-8")
+    spec = importlib.util.spec_from_file_location("plain_newmark_template", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.PlainNewmark()
+
+
+@pytest.mark.parametrize("scene", sorted(cases().names()))
+def test_the_implicit_template_runs_every_scene(scene: str, tmp_path: Path) -> None:
+    """The implicit template (its contact through the suite's LCP solver) on every scene's
+    smallest grid, shortly after its first impact: the compiled `standard`'s status (the
+    same scheme: where it blows up, so does the template), no penetration beyond
+    round-off when it runs."""
+    case = make_case(scene)
+    grid = case.study
+    nx = grid.small_nx[-1] if grid is not None else 20
+    T = grid.small_T if grid is not None else min(float(case.T), 2.0)
+    spec = grid.small if grid is not None else scene
+    run = run_one(spec, implicit_template(tmp_path), nx=nx, T=T)
+    compiled = run_one(spec, "standard", nx=nx, T=T)
+    assert run.row["status"] == compiled.row["status"], run.row["notes"]
+    if run.row["status"] == "ok":
+        assert run.trajectory.min_contact_u >= -1e-9 * max(case.size, 1.0)
+
+
+def test_the_implicit_template_is_the_compiled_standard(tmp_path: Path) -> None:
+    """Independent of the compiled kernels (scipy's factor, numpy's products): the same
+    trajectory as the compiled `standard` to 1e-7 (its velocity carries round-off over
+    beta dt^2), on the disc before it chatters
+    and on the tilted plane."""
+    for scene, T in (("disc_drop[degree=1,lift=0.4]", 3.0),
+                     ("slanted_drop[of=disc_drop[degree=1,lift=0.4]]", 3.0)):
+        a = run_one(scene, implicit_template(tmp_path), nx=2, T=T).trajectory
+        b = run_one(scene, "standard", nx=2, T=T).trajectory
+        assert b.extra["peak_contact_force"] > 0
+        for field in ("U", "V", "contact_u", "stress", "energy"):
+            x, y = getattr(a, field), getattr(b, field)
+            assert np.max(np.abs(x - y)) <= 1e-7 * max(float(np.max(np.abs(y))), 1.0), field
 
 
 @pytest.fixture
