@@ -31,11 +31,11 @@ WIDTHS = (8, 16, 32, 64, 128, 256)
 def per_column(arrays: tuple, B: np.ndarray) -> float:
     """The best of `REPEATS` block solves of B, per column (seconds)."""
     X, W = np.empty(B.shape), np.empty(B.shape)
-    lu_solve_many(*arrays, B, X, W)
+    lu_solve_many(arrays, B, X, W)
     best = np.inf
     for _ in range(REPEATS):
         start = time.perf_counter()
-        lu_solve_many(*arrays, B, X, W)
+        lu_solve_many(arrays, B, X, W)
         best = min(best, time.perf_counter() - start)
     return best / B.shape[1]
 

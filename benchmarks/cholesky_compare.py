@@ -54,11 +54,11 @@ def superlu(S, b, B, nested: bool):
         arrays = linalg.Factor.of(S).arrays
     n = S.shape[0]
     x, w = np.empty(n), np.empty(n)
-    lu_solve(*arrays, b, x, w)
-    t_1 = best(lambda: lu_solve(*arrays, b, x, w))
+    lu_solve(arrays, b, x, w)
+    t_1 = best(lambda: lu_solve(arrays, b, x, w))
     X, W = np.empty(B.shape), np.empty(B.shape)
-    lu_solve_many(*arrays, B, X, W)
-    t_m = best(lambda: lu_solve_many(*arrays, B, X, W), 1)
+    lu_solve_many(arrays, B, X, W)
+    t_m = best(lambda: lu_solve_many(arrays, B, X, W), 1)
     t_cols = B.shape[1] * t_1  # the former set-up's way: one compiled solve per column
     nnz = arrays[2].size + arrays[5].size
     return {"factor_s": t_f, "solve_s": t_1, "multi_s": t_m,

@@ -30,9 +30,15 @@ from contact_bench.api.fem import mesh_nodes
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.api.problem import discretise
 from contact_bench.api.registry import make_case
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.tridiag import Implicit, factor_pt, pt_solve
 from contact_bench.exact.clamped import ClampedBarExact
-from contact_bench.kernels.common import allocate, initial_acceleration, trajectory
+from contact_bench.kernels.common import (
+    allocate,
+    bar_ops,
+    initial_acceleration,
+    run_spec,
+    trajectory,
+)
 from contact_bench.kernels.paoli_schatzman import ps_kernel
 from contact_bench.schemes.restitution import run_paoli_schatzman
 
@@ -92,10 +98,9 @@ def ps_newmark_start(semi: Semidiscrete, dt: float, nsteps: int, beta: float) ->
     w[0] = 1.0
     pt_solve(Sd, Se, w)
     out = allocate(semi, nsteps, 1)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
     k, done, min_u0, blow = ps_kernel(
-        M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, Um, semi.U0.copy(), semi.V0.copy(),
-        float(dt), float(beta), 0.0, int(nsteps), 1, semi.energy_offset, *bufs)
+        bar_ops(semi), Implicit(Sd, Se, w), Um, semi.U0.copy(), semi.V0.copy(),
+        (float(beta), 0.0), run_spec(semi, dt, nsteps, 1), out)
     return trajectory(out, k, done, min_u0, blow, dt)
 
 

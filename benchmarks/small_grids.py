@@ -85,7 +85,7 @@ def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) 
     import numpy as np
     from numba import njit
 
-    from contact_bench.core.sampling import energy_rows, record_sample, row_sums
+    from contact_bench.core.sampling import Samples, energy_rows, record_sample, row_sums
 
     @njit
     def energies(Md, Me, Kd, Ke, F, U, V, reps):
@@ -97,9 +97,9 @@ def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) 
         return s
 
     @njit
-    def records(U, V, reps, t, Uo, Vo, cu, so, Eo):
+    def records(U, V, reps, out):
         for r in range(reps):
-            record_sample(r, 0.1, U, V, 0.0, 1.0, t, Uo, Vo, cu, so, Eo)
+            record_sample(r, 0.1, U, V, 0.0, 1.0, out)
 
     print("| nx | energy_rows | record_sample (warm) | fresh buffers (first write) |")
     print("|---|---|---|---|")
@@ -107,16 +107,16 @@ def recording_parts(nxs: list[int], repeats: int, dof_steps: float = DOF_STEPS) 
     for nx in nxs:
         a = [rng.random(nx) for _ in range(7)]
         reps = max(100, int(dof_steps / nx))
-        bufs = (np.zeros(reps), np.zeros((reps, nx)), np.zeros((reps, nx)), np.zeros(reps),
-                np.zeros(reps), np.zeros(reps))
+        bufs = Samples(np.zeros(reps), np.zeros((reps, nx)), np.zeros((reps, nx)),
+                       np.zeros(reps), np.zeros(reps), np.zeros(reps))
         energies(*a, 2)
-        records(a[0], a[1], 2, *bufs)
+        records(a[0], a[1], 2, bufs)
         best = [np.inf, np.inf, np.inf]
         for _ in range(repeats):
             t0 = time.perf_counter()
             energies(*a, reps)
             t1 = time.perf_counter()
-            records(a[0], a[1], reps, *bufs)
+            records(a[0], a[1], reps, bufs)
             t2 = time.perf_counter()
             U, V = np.zeros((reps, nx)), np.zeros((reps, nx))
             U[:] = 1.0

@@ -126,9 +126,9 @@ def test_solve_pair(benchmark, size):
     fac = Factor.of(p.M + 0.25 * dt * dt * p.K)
     b = np.random.default_rng(0).standard_normal(p.nfree)
     out, work = np.empty(p.nfree), np.empty(p.nfree)
-    lu_solve(*fac.arrays, b, out, work)
+    lu_solve(fac.arrays, b, out, work)
     benchmark.extra_info["dofs"] = p.nfree
-    benchmark(lu_solve, *fac.arrays, b, out, work)
+    benchmark(lu_solve, fac.arrays, b, out, work)
 
 
 @pytest.mark.parametrize("warm", [True, False], ids=["warm", "cold"])

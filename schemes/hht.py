@@ -34,11 +34,13 @@ from contact_bench.api.plugin import (
     Trajectory,
 )
 from contact_bench.api.problem import banded
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.tridiag import BarState, Implicit, NewmarkCoef, factor_pt, pt_solve
 from contact_bench.kernels.common import (
     allocate,
+    bar_ops,
     initial_acceleration,
     massless_drift_bound,
+    run_spec,
     trajectory,
 )
 from contact_bench.kernels.hht import hht_kernel
@@ -102,8 +104,8 @@ class HHT(Scheme):
         A = initial_acceleration(semi)
         out = allocate(semi, nsteps, stride)
         k, done, min_u0, blow = hht_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma,
-            bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+            bar_ops(semi), Implicit(Sd, Se, w), BarState(U, V, A), alpha,
+            NewmarkCoef(beta, gamma, bool(semi.massless)), run_spec(semi, dt, nsteps, stride),
+            out)
         return trajectory(out, k, done, min_u0, blow, dt)
 

@@ -31,10 +31,12 @@ from contact_bench.api.plugin import (
     Trajectory,
 )
 from contact_bench.api.problem import banded
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.tridiag import Implicit, factor_pt, pt_solve
 from contact_bench.kernels.common import (
     MassiveContactNodeScheme,
     allocate,
+    bar_ops,
+    run_spec,
     trajectory,
     velocity_scale,
 )
@@ -91,9 +93,7 @@ class MoreauJean(MassiveContactNodeScheme):
         U, V = semi.U0.copy(), semi.V0.copy()
         out = allocate(semi, nsteps, stride)
         k, done, min_u0, blow = moreau_jean_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, float(dt),
-            float(self.theta), float(self.e), int(nsteps), int(stride), semi.energy_offset,
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"],
-        )
+            bar_ops(semi), Implicit(Sd, Se, w), U, V, float(self.theta), float(self.e),
+            run_spec(semi, dt, nsteps, stride), out)
         return trajectory(out, k, done, min_u0, blow, dt)
 

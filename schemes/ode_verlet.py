@@ -34,11 +34,11 @@ from contact_bench.api.plugin import (
 )
 from contact_bench.api.problem import banded
 from contact_bench.core.spike import spike_factor
-from contact_bench.core.tridiag import factor_pt
-from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.core.tridiag import BarState, factor_pt
+from contact_bench.kernels.common import allocate, bar_ops, run_spec, trajectory
 from contact_bench.kernels.massless_ode import verlet_kernel, verlet_spike_kernel
 from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
-from contact_bench.kernels.newmark import kernel_form, newmark_limit
+from contact_bench.kernels.newmark import LaneStiffness, kernel_form, newmark_limit
 from contact_bench.kernels.sparse_family import massless_ode_omega, prepare_verlet
 
 
@@ -93,19 +93,17 @@ def run_ode_verlet(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         raise ValueError("ode_verlet needs at least one node besides the contact node")
     U, V = semi.U0.copy(), semi.V0.copy()
     out = allocate(semi, nsteps, stride)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    bar, run = bar_ops(semi), run_spec(semi, dt, nsteps, stride)
     if fast:
         d, e = M.diag.copy(), M.off.copy()
         d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_bar on nodes 1.. plus an identity row
         sp = spike_factor(d, e)
+        lanes = LaneStiffness(sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
+                              sp.to_lanes(semi.F), sp.factors())
+        state = BarState(sp.to_lanes(U), sp.to_lanes(V), sp.zeros())
         k, done, min_u0, blow = verlet_spike_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
-            sp.to_lanes(semi.F), sp.factors(), sp.to_lanes(U), sp.to_lanes(V), sp.zeros(),
-            sp.zeros(), np.zeros(2 * sp.lanes + 1), float(dt), int(nsteps), int(stride),
-            semi.energy_offset, *bufs)
+            bar, lanes, state, sp.zeros(), np.zeros(2 * sp.lanes + 1), run, out)
     else:
         Sd, Se = factor_pt(M.diag[1:], M.off[1:])
-        k, done, min_u0, blow = verlet_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, U, V, float(dt), int(nsteps),
-            int(stride), semi.energy_offset, *bufs)
+        k, done, min_u0, blow = verlet_kernel(bar, Sd, Se, U, V, run, out)
     return trajectory(out, k, done, min_u0, blow, dt)

@@ -36,11 +36,13 @@ from contact_bench.api.plugin import (
 )
 from contact_bench.api.problem import banded
 from contact_bench.core.errors import BenchError
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.tridiag import Implicit, factor_pt, pt_solve
 from contact_bench.kernels.common import (
     MassiveContactNodeScheme,
     allocate,
+    bar_ops,
     initial_acceleration,
+    run_spec,
     trajectory,
     velocity_scale,
 )
@@ -120,14 +122,12 @@ def run_paoli_schatzman(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     A0 = initial_acceleration(semi)
     Um = U - dt * semi.V0 + 0.5 * dt * dt * A0
     out = allocate(semi, nsteps, stride)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    bar, run = bar_ops(semi), run_spec(semi, dt, nsteps, stride)
     if fast and beta == 0.0 and not np.any(M.off):
         # S = M diagonal: one fused stencil pass per step, no solve (contact_bench.kernels.lumped)
         k, done, min_u0, blow = ps_lumped_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), Um, U, semi.V0.copy(),
-            float(dt), float(e), int(nsteps), int(stride), semi.energy_offset, *bufs)
+            bar, float(w[0]), Um, U, semi.V0.copy(), float(e), run, out)
     else:
         k, done, min_u0, blow = ps_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, Um, U, semi.V0.copy(), float(dt),
-            float(beta), float(e), int(nsteps), int(stride), semi.energy_offset, *bufs)
+            bar, Implicit(Sd, Se, w), Um, U, semi.V0.copy(), (float(beta), float(e)), run, out)
     return trajectory(out, k, done, min_u0, blow, dt)

@@ -40,19 +40,25 @@ from contact_bench.core.spike import (
     spike_factor,
     spike_solve,
 )
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.tridiag import BarState, Implicit, factor_pt, pt_solve
 from contact_bench.kernels.common import (
     MassiveContactNodeScheme,
     allocate,
+    bar_ops,
     initial_acceleration,
+    run_spec,
     trajectory,
 )
 from contact_bench.kernels.lumped import tf_lumped_kernel
 from contact_bench.kernels.newmark import EXPLICIT_SERIAL_BELOW as SERIAL_BELOW
-from contact_bench.kernels.newmark import kernel_form, newmark_limit
+from contact_bench.kernels.newmark import LaneStiffness, kernel_form, newmark_limit
 from contact_bench.kernels.sparse import prepare_central
 from contact_bench.kernels.sparse_explicit import prepare_taylor_flanagan, stable_dt
-from contact_bench.kernels.taylor_flanagan import taylor_flanagan_kernel, tf_spike_kernel
+from contact_bench.kernels.taylor_flanagan import (
+    SparseResponse,
+    taylor_flanagan_kernel,
+    tf_spike_kernel,
+)
 
 MASSLESS_REASON = ("taylor_flanagan needs a contact node with mass (there is no velocity to "
                    "stop); with a massless node it is redistributed[beta=0]")
@@ -118,31 +124,28 @@ def run_taylor_flanagan(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     U, V = semi.U0.copy(), semi.V0.copy()
     A = initial_acceleration(semi)
     out = allocate(semi, nsteps, stride)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    bar, run = bar_ops(semi), run_spec(semi, dt, nsteps, stride)
     if fast and np.any(M.off):
         sp = spike_factor(M.diag, M.off)
         fac = sp.factors()
-        lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
         w = sp.zeros()  # w = M^-1 e0, interleaved; node 0 is at position 0
         w[0] = 1.0
-        spike_solve(lo, invd, sa, sb, Hrow, Hpos, Hval, m, ja, jb, w, np.zeros(2 * sp.lanes + 1))
+        spike_solve(fac, w, np.zeros(2 * sp.lanes + 1))
         wpos = np.flatnonzero(np.abs(w) > SPIKE_CUTOFF * abs(w[0]))
+        lanes = LaneStiffness(sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
+                              sp.to_lanes(semi.F), fac)
+        state = BarState(sp.to_lanes(U), sp.to_lanes(V), sp.to_lanes(A))
         k, done, min_u0, blow = tf_spike_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, sp.to_lanes(K.diag), sp.lower_to_lanes(K.off),
-            sp.to_lanes(semi.F), fac, wpos, w[wpos], float(w[0]), sp.to_lanes(U),
-            sp.to_lanes(V), sp.to_lanes(A), sp.zeros(), np.zeros(2 * sp.lanes + 1), float(dt),
-            int(nsteps), int(stride), semi.energy_offset, *bufs)
+            bar, lanes, SparseResponse(wpos, w[wpos], float(w[0])), state, sp.zeros(),
+            np.zeros(2 * sp.lanes + 1), run, out)
         return trajectory(out, k, done, min_u0, blow, dt)
     Sd, Se = factor_pt(M.diag, M.off)
     w = np.zeros(semi.nfree)
     w[0] = 1.0
     pt_solve(Sd, Se, w)
     if fast:
-        k, done, min_u0, blow = tf_lumped_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, float(w[0]), U, V, A, float(dt),
-            int(nsteps), int(stride), semi.energy_offset, *bufs)
+        k, done, min_u0, blow = tf_lumped_kernel(bar, float(w[0]), BarState(U, V, A), run, out)
     else:
         k, done, min_u0, blow = taylor_flanagan_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, Sd, Se, w, U, V, A, float(dt), int(nsteps),
-            int(stride), semi.energy_offset, *bufs)
+            bar, Implicit(Sd, Se, w), BarState(U, V, A), run, out)
     return trajectory(out, k, done, min_u0, blow, dt)

@@ -536,7 +536,7 @@ def test_cell_search_fast_path_agrees_with_the_general_search():
     k, r = k[keep].astype(float), r[keep]
     ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
     lut = sol._lookup_table()
-    _locate(k, r, sol.L, sol.ds, lut, sol._cell0, sol._r, sol._ncells - 1, ii, bb)
+    _locate(k, r, sol._stored(), lut, ii, bb)
     # the general search alone, from the table's guess (by division) and the block of k
     guess = lut[np.floor((k * sol.L + r) / sol.ds).astype(np.intp)].astype(np.int64)
     ref = np.array([_cell_of(kn, rn, i, int(kn), sol.L, sol._cell0, sol._r, sol._ncells - 1)
@@ -646,7 +646,7 @@ def test_cell_search_without_table_on_a_uniform_grid():
     keep = r < 1.0
     k, r = k[keep].astype(float), r[keep]
     ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
-    _locate(k, r, sol.L, sol.ds, _NO_TABLE, sol._cell0, sol._r, sol._ncells - 1, ii, bb)
+    _locate(k, r, sol._stored(), _NO_TABLE, ii, bb)
     kb = k.astype(int)
     want = np.array([sol._cell0[b] + np.searchsorted(
         sol._r[sol._node0[b]:sol._node0[b] + sol._sizes[b]], rr, side="right") - 1

@@ -16,6 +16,7 @@ import math
 import numpy as np
 import pytest
 
+from contact_bench.api.plugin import Fields
 from contact_bench.api.registry import make_case
 from contact_bench.exact.characteristics import (
     CharacteristicsSolution,
@@ -30,16 +31,15 @@ TOL = 2e-15
 
 
 def _args(sol, x, t):
-    """The arguments of the compiled grid kernels (as `fields_into` passes them)."""
-    return (x, sol.c * t, sol.L, sol.gam, sol.far_end == "clamped", sol.u_L, sol.c, sol.ds,
-            sol._table(), sol._cell0, sol._r, sol._P, sol._Q, sol._dP, sol._dQ, sol._sP,
-            sol._sQ, sol._delta, sol._ncells)
+    """The arguments of the compiled grid kernels before their outputs (as `fields_into`
+    passes them)."""
+    return (x, sol.c * t, sol._stored(), sol._table())
 
 
 def _pointwise(sol, x, t):
     """u, u_x, u_t by the pointwise kernel, checked equal to `fields` (bitwise)."""
     out = [np.full((t.size, x.size), np.nan) for _ in range(3)]
-    _grid_kernel(*_args(sol, x, t), *out)
+    _grid_kernel(*_args(sol, x, t), Fields(*out))
     X, T = np.broadcast_arrays(x[None, :], t[:, None])
     for got, want in zip(out, sol.fields(X, T), strict=True):
         np.testing.assert_array_equal(got, want)
@@ -141,7 +141,7 @@ def test_runs_agree_with_the_pointwise_evaluation(name):
     x, t = _points(sol, span, size)
     want = _pointwise(sol, x, t)
     got = [np.full_like(want[0], np.nan) for _ in range(3)]
-    assert _run_kernel(*_args(sol, x, t), *got) == 0  # no sample time point by point
+    assert _run_kernel(*_args(sol, x, t), Fields(*got)) == 0  # no sample time point by point
     _assert_close(sol, got, want)
     # `fields_into` takes the runs here (the points are dense in the cells)
     assert sol._by_runs(x.size, True, float(x[-1] - x[0]))
@@ -202,7 +202,7 @@ def test_runs_at_points_within_ulps_of_the_cell_ends():
             t = np.array([tn])
             want = _pointwise(sol, xs, t)
             got = [np.full_like(want[0], np.nan) for _ in range(3)]
-            assert _run_kernel(*_args(sol, xs, t), *got) == 0
+            assert _run_kernel(*_args(sol, xs, t), Fields(*got)) == 0
             _assert_close(sol, got, want)
 
 
@@ -259,7 +259,7 @@ def test_runs_write_exactly_their_points(size, rows):
     views = [b[1:-1] for b in bufs]
     assert all(v.flags.c_contiguous for v in views)
     if size >= 2:
-        assert _run_kernel(*_args(sol, x, t), *views) == 0
+        assert _run_kernel(*_args(sol, x, t), Fields(*views)) == 0
     else:
         sol.fields_into(x, t, *views)
     _assert_close(sol, views, want)
@@ -275,9 +275,9 @@ def test_sample_times_without_a_cell_fall_back_to_the_pointwise_kernel():
     tau_end = (sol._K + 0.5) * sol.L  # p beyond the last block for x > L / 2
     t = np.array([0.5, tau_end / sol.c, 1.0, 2.9])
     want = [np.full((t.size, x.size), np.nan) for _ in range(3)]
-    _grid_kernel(*_args(sol, x, t), *want)
+    _grid_kernel(*_args(sol, x, t), Fields(*want))
     got = [np.full((t.size, x.size), np.nan) for _ in range(3)]
-    assert _run_kernel(*_args(sol, x, t), *got) == 1
+    assert _run_kernel(*_args(sol, x, t), Fields(*got)) == 1
     for g, w in zip(got, want, strict=True):
         np.testing.assert_array_equal(g[1], w[1])
     _assert_close(sol, [g[[0, 2, 3]] for g in got], [w[[0, 2, 3]] for w in want])

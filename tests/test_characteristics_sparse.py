@@ -18,9 +18,11 @@ import math
 import numpy as np
 import pytest
 
+from contact_bench.api.plugin import Fields
 from contact_bench.cases.pulse import Pulse
 from contact_bench.exact.characteristics import (
     CharacteristicsSolution,
+    SparseGuess,
     _exact_cell,
     _first_guess,
     _grid_kernel,
@@ -32,18 +34,13 @@ _GAUSS = np.polynomial.legendre.leggauss(4)[0]
 
 
 def _head(sol, x, t):
-    return (x, sol.c * t, sol.L, sol.gam, sol.far_end == "clamped", sol.u_L, sol.c, sol.ds)
-
-
-def _tail(sol):
-    return (sol._cell0, sol._r, sol._P, sol._Q, sol._dP, sol._dQ, sol._sP, sol._sQ,
-            sol._delta, sol._ncells)
+    return (x, sol.c * t, sol._stored())
 
 
 def _pointwise(sol, x, t):
     """u, u_x, u_t by the pointwise kernel, checked equal to `fields` (bitwise)."""
     out = [np.full((t.size, x.size), np.nan) for _ in range(3)]
-    _grid_kernel(*_head(sol, x, t), sol._table(), *_tail(sol), *out)
+    _grid_kernel(*_head(sol, x, t), sol._table(), Fields(*out))
     X, T = np.broadcast_arrays(x[None, :], t[:, None])
     for got, want in zip(out, sol.fields(X, T), strict=True):
         np.testing.assert_array_equal(got, want)
@@ -55,8 +52,8 @@ def _sparse(sol, x, t, guess=None, velocity=True):
     (8 points, sample time) whose cells were not all guessed."""
     out = [np.full((t.size, x.size), np.nan) for _ in range(3)]
     ut = out[2] if velocity else np.empty((0, 0))
-    guessed = _sparse_kernel(*_head(sol, x, t), *(guess or sol._sparse_guess()),
-                             *_tail(sol), out[0], out[1], ut)
+    guessed = _sparse_kernel(*_head(sol, x, t), guess or sol._sparse_guess(),
+                             Fields(out[0], out[1], ut))
     return out[:2] + [out[2] if velocity else None], guessed
 
 
@@ -180,7 +177,7 @@ def test_any_number_of_points_and_times(points, times):
     flat = np.full(3 * times * points + 11, -7.0)  # consecutive outputs: no overlap
     outs = [flat[k * times * points:(k + 1) * times * points].reshape(times, points)
             for k in range(3)]
-    _sparse_kernel(*_head(sol, x, t), *sol._sparse_guess(), *_tail(sol), *outs)
+    _sparse_kernel(*_head(sol, x, t), sol._sparse_guess(), Fields(*outs))
     _assert_same(outs, want)
     assert np.all(flat[3 * times * points:] == -7.0)
 
@@ -208,12 +205,12 @@ def test_lanes_whose_guess_fails_get_the_cells_of_the_pointwise_search(name):
     want = _pointwise(sol, x, t)
     uniform, nlut, s0, xz, xs, cend = sol._sparse_guess()
     for wrong in (np.clip(xz + 3.5 * sol.ds, 0.0, sol.L), np.zeros_like(xz)):
-        got, guessed = _sparse(sol, x, t, (uniform, nlut, s0, wrong, xs, cend))
+        got, guessed = _sparse(sol, x, t, SparseGuess(uniform, nlut, s0, wrong, xs, cend))
         _assert_same(got, want)
         assert guessed > 0
     # no table at all: every guess of a block with such nodes is off after them
-    got, guessed = _sparse(sol, x, t, (uniform, nlut, s0, np.empty(0),
-                                       np.zeros_like(xs), cend))
+    got, guessed = _sparse(sol, x, t, SparseGuess(uniform, nlut, s0, np.empty(0),
+                                                  np.zeros_like(xs), cend))
     _assert_same(got, want)
     assert guessed > 0
 
@@ -230,12 +227,11 @@ def test_exact_cell_is_locate():
                             sol._r[rng.integers(0, sol._r.size, 990)],
                             np.zeros(5), np.nextafter(np.full(5, sol.L), 0.0)))
         ii, bb = np.empty(k.size, np.int64), np.empty(k.size, np.int64)
-        _locate(k, r, sol.L, sol.ds, sol._table(), sol._cell0, sol._r, sol._ncells - 1,
-                ii, bb)
-        uniform, nlut, s0 = sol._sparse_guess()[:3]
+        _locate(k, r, sol._stored(), sol._table(), ii, bb)
+        guess = sol._sparse_guess()
         for n in range(k.size):
-            assert _exact_cell(k[n], r[n], sol.L, sol.ds, uniform, nlut, s0, sol._cell0,
-                               sol._r, sol._ncells - 1) == (ii[n], bb[n])
+            assert _exact_cell(k[n], r[n], sol.L, sol.ds, guess, sol._cell0, sol._r,
+                               sol._ncells - 1) == (ii[n], bb[n])
 
 
 def test_first_guess_is_the_lookup_table():

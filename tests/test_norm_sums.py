@@ -25,9 +25,17 @@ import numpy as np
 import pytest
 from numba.core.errors import TypingError
 
+from contact_bench.api.plugin import Fields
 from contact_bench.api.registry import make_case
 from contact_bench.harness import metrics
-from contact_bench.harness.metrics import _LEAF, _error_and_exact_sums, _error_sums
+from contact_bench.harness.metrics import (
+    _LEAF,
+    Nodal,
+    Quadrature,
+    SampleSums,
+    _error_and_exact_sums,
+    _error_sums,
+)
 from contact_bench.harness.runner import reference, run_one
 
 K = 7  # rows of the trajectory
@@ -82,13 +90,19 @@ def _terms(b: dict, k: int, use_v: bool) -> dict[str, np.ndarray]:
 NAMES = ("eu", "eux", "ev", "nu", "nux", "nv")
 
 
+def _sums(n: dict) -> tuple[SampleSums, SampleSums]:
+    """The error and exact `SampleSums` of the per-sample norms n."""
+    return SampleSums(n["eu"], n["eux"], n["ev"]), SampleSums(n["nu"], n["nux"], n["nv"])
+
+
 def _run(b: dict, use_v: bool, cold: bool) -> dict[str, np.ndarray]:
     acc = {n: b["start"][i].copy() for i, n in enumerate(NAMES)}
     V, v = (b["V"], b["v"]) if use_v else (b["U"], b["u"])
-    args = (b["U"], V, use_v, ROW0, LO, b["nfree"], U_FIXED, b["p0"], b["p1"], b["g0"],
-            b["g1"], b["w"], b["u"], b["ux"], v, acc["eu"], acc["eux"], acc["ev"])
+    args = (Nodal(b["U"], V, use_v, ROW0, LO, b["nfree"], U_FIXED),
+            Quadrature(b["p0"], b["p1"], b["g0"], b["g1"], b["w"]), Fields(b["u"], b["ux"], v),
+            SampleSums(acc["eu"], acc["eux"], acc["ev"]))
     if cold:
-        _error_and_exact_sums(*args, acc["nu"], acc["nux"], acc["nv"])
+        _error_and_exact_sums(*args, SampleSums(acc["nu"], acc["nux"], acc["nv"]))
     else:
         _error_sums(*args)
     return acc
@@ -182,8 +196,9 @@ def test_vector_loads_refuse_non_contiguous_arrays():
     assert not strided.flags.c_contiguous
     acc = [np.zeros(K) for _ in range(3)]
     with pytest.raises(TypingError, match="C-contiguous"):
-        _error_sums(b["U"], b["V"], True, ROW0, LO, b["nfree"], U_FIXED, b["p0"], b["p1"],
-                    b["g0"], b["g1"], b["w"], strided, b["ux"], b["v"], *acc)
+        _error_sums(Nodal(b["U"], b["V"], True, ROW0, LO, b["nfree"], U_FIXED),
+                    Quadrature(b["p0"], b["p1"], b["g0"], b["g1"], b["w"]),
+                    Fields(strided, b["ux"], b["v"]), SampleSums(*acc))
 
 
 def test_warm_up_compiles_the_signature_used():
@@ -233,8 +248,7 @@ def test_time_norms_equal_numpy_bit_for_bit(K):
     n = {k: rng.random(K) ** 3 * 10.0 ** rng.uniform(-4, 4) for k in
          ("eu", "eux", "ev", "nu", "nux", "nv")}
     a, s = -rng.random(K), -rng.random(K) * (rng.random(K) < 0.5)
-    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
-                              True, True, a, s, True)
+    got = metrics._time_norms(t, *_sums(n), True, True, a, s, True)
     want = _numpy_time_norms(t, n, a, s)
     for col, g, w in zip(metrics.ERROR_COLUMNS, got, want, strict=True):
         assert (math.isnan(g) and math.isnan(w)) or g == w, col
@@ -242,13 +256,11 @@ def test_time_norms_equal_numpy_bit_for_bit(K):
     # a zero norm gives nan, a nan in a series gives nan; columns not asked stay nan
     n["nv"] = np.zeros(K)
     n["eu"][K // 2] = math.nan
-    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
-                              True, True, a, s, False)
+    got = metrics._time_norms(t, *_sums(n), True, True, a, s, False)
     assert math.isnan(got[2]) and math.isnan(got[5])  # zero norm
     assert math.isnan(got[0]) and math.isnan(got[1])  # nan in the series
     assert math.isnan(got[6])  # stress not asked
-    got = metrics._time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"],
-                              False, False, a, s, True)
+    got = metrics._time_norms(t, *_sums(n), False, False, a, s, True)
     assert all(math.isnan(g) for g in got[:6])
     assert (math.isnan(got[6]) and math.isnan(want[6])) or got[6] == want[6]
 

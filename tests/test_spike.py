@@ -31,7 +31,7 @@ def test_spike_solve_matches_lapack(kind: str, n: int) -> None:
     r = rng.standard_normal(n)
     z = f.to_lanes(r)
     coef = np.zeros(2 * f.lanes + 1)
-    spike_solve(f.lo, f.invd, f.a, f.b, f.Hrow, f.Hpos, f.Hval, f.m, f.ja, f.jb, z, coef)
+    spike_solve(f.factors(), z, coef)
     band = np.zeros((2, n))
     band[0, 1:], band[1] = e, d
     expected = sl.solveh_banded(band, r)

@@ -27,6 +27,8 @@ from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.core.errors import BenchError
 from contact_bench.core.sampling import (
     BLOWUP_FACTOR,
+    Run,
+    Samples,
     blown_up,
     energy_of,
     energy_rows,
@@ -42,5 +44,5 @@ __all__ = [
     "Semidiscrete", "Stepper", "Traits", "Trajectory", "TrajectoryRecorder", "as_problem",
     "banded", "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",
-    "n_samples", "record_sample", "row_sums",
+    "n_samples", "record_sample", "row_sums", "Run", "Samples",
 ]

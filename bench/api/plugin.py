@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar, NamedTuple, Protocol
 
 import numpy as np
 
@@ -64,6 +64,16 @@ def flat_points(x: Any, t: Any) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]
                 else np.broadcast_to(a, shape).copy()).ravel()
 
     return flat(x), flat(t), shape
+
+
+class Fields(NamedTuple):
+    """An exact solution's outputs as its compiled kernels take them: u, u_x and u_t (an
+    empty array when the velocity is not wanted), one entry per point or (`fields_into`)
+    one row per time."""
+
+    u: np.ndarray
+    ux: np.ndarray
+    ut: np.ndarray
 
 
 def grid_points(x: Any, t: Any, *out: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

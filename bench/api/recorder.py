@@ -21,8 +21,8 @@ contact's start and end, peak total force, the impulse, at every sample too:
 gets every statistic a compiled one gets. `gamma` is the weight of a step's end force in
 its impulse (1: the step's force acts over the whole step, as a kick-drift step's kick).
 
-A compiled (numba) kernel of the bar takes `rec.buffers` and writes its samples with
-`contact_bench.core.sampling.record_sample`, then `rec.from_kernel(...)` wraps them.
+A compiled (numba) kernel of the bar takes `rec.buffers` (a `Samples`) and writes its
+samples with `contact_bench.core.sampling.record_sample`, then `rec.from_kernel(...)` wraps them.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ import scipy.sparse as sp
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.core.contact_stats import contact_extra, new_stats
 from contact_bench.core.loop import START_DATA, Record, book_sample, book_step, smallest_gap
-from contact_bench.core.sampling import energy_of, is_sample, n_samples
+from contact_bench.core.sampling import Samples, energy_of, is_sample, n_samples
 
 
 def discrete_energy(semi: Semidiscrete, U: np.ndarray, V: np.ndarray) -> float:
@@ -93,10 +93,10 @@ class TrajectoryRecorder:
         return float(smallest_gap(r.G, r.gap0, self._state(U), start))
 
     @property
-    def buffers(self) -> tuple[np.ndarray, ...]:
-        """(t, U, V, contact_u, stress, energy): the arguments `t_out ... E_out` of
-        `record_sample` in a compiled kernel (sample 0 already written)."""
-        return self.t, self.U, self.V, self.contact_u, self.stress, self.energy
+    def buffers(self) -> Samples:
+        """(t, U, V, contact_u, stress, energy) as the `Samples` that `record_sample` takes
+        in a compiled kernel (sample 0 already written)."""
+        return Samples(self.t, self.U, self.V, self.contact_u, self.stress, self.energy)
 
     def record(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
                forces: np.ndarray | None = None, energy: float | None = None) -> bool:

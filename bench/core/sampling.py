@@ -8,6 +8,8 @@ an array of sampled energies, for the code that checks a finished trajectory).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, uint64
 
@@ -15,6 +17,41 @@ from contact_bench.core.simd import vhsum, vload, vsplat
 from contact_bench.core.tridiag import QUAD_BLOCK, snap_row_sum
 
 BLOWUP_FACTOR = 1e3  # energy above this multiple of E(0) counts as a blow-up
+
+
+class Samples(NamedTuple):
+    """A bar's run's sample buffers, entry (row) k = sample k: times, nodal U and V,
+    u(0, t), contact stress, energy; written by `record_sample` (and
+    `contact_bench.core.spike.record_lane_sample`)."""
+
+    t: np.ndarray
+    U: np.ndarray
+    V: np.ndarray
+    cu: np.ndarray
+    stress: np.ndarray
+    energy: np.ndarray
+
+
+class Run(NamedTuple):
+    """How a bar's kernel steps and samples: step size dt, steps, a sample every
+    `stride` steps (and the last), and the energy's constant `offset`."""
+
+    dt: float
+    nsteps: int
+    stride: int
+    offset: float
+
+
+class EnergyRows(NamedTuple):
+    """The energy's coefficients as `energy_rows` takes them: the `row_sums` rM, rK of M
+    and K, their off-diagonals Me, Ke, the load F and the constant offset."""
+
+    rM: np.ndarray
+    Me: np.ndarray
+    rK: np.ndarray
+    Ke: np.ndarray
+    F: np.ndarray
+    offset: float
 
 
 @njit(cache=True)
@@ -95,13 +132,15 @@ def energy_of(Md, Me, Kd, Ke, F, U, V, offset):
 
 
 @njit(cache=True, inline="always")
-def record_sample(k, t, U, V, stress, energy, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Write sample k: time, nodal U and V, u(0, t), contact stress, energy.
+def record_sample(k, t, U, V, stress, energy, out):
+    """Write sample k of the `Samples` out: time, nodal U and V, u(0, t), contact stress,
+    energy.
 
     U and V are copied by an explicit loop over the row's nodes: numba's slice assignment
     (`U_out[k, :] = U`) goes through its generic broadcasting copy, several times slower
     on the short rows of small grids. Inlined into its callers: a call passing six arrays
     costs as much as copying a small grid's row."""
+    t_out, U_out, V_out, cu_out, s_out, E_out = out
     t_out[k] = t
     for i in range(U.size):
         U_out[k, i] = U[i]

@@ -29,6 +29,7 @@ negative signed indices hides the access pattern from LLVM's loop vectoriser.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, uint64
@@ -64,6 +65,24 @@ def _aligned(x: np.ndarray) -> np.ndarray:
     return out
 
 
+class SpikeFactors(NamedTuple):
+    """What the numba kernels take of a `Spike` (`Spike.factors()`): the sweeps' lo,
+    invd, the spikes' kept rows a, b, the reduced-system map H (Hrow, Hpos, Hval), the
+    kept rows ja, jb, the rows per block m and the unknowns `nodes`."""
+
+    lo: np.ndarray
+    invd: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    Hrow: np.ndarray
+    Hpos: np.ndarray
+    Hval: np.ndarray
+    ja: int
+    jb: int
+    m: int
+    nodes: int
+
+
 @dataclass(frozen=True)
 class Spike:
     """Factors of a symmetric tridiagonal S in the lane-interleaved layout."""
@@ -91,11 +110,10 @@ class Spike:
         i = np.arange(self.n)
         return (i % self.m) * self.lanes + i // self.m
 
-    def factors(self) -> tuple:
-        """What the numba kernels take: (lo, invd, a, b, Hrow, Hpos, Hval, ja, jb, m,
-        nodes), nodes = n."""
-        return (self.lo, self.invd, self.a, self.b, self.Hrow, self.Hpos, self.Hval,
-                self.ja, self.jb, self.m, self.n)
+    def factors(self) -> SpikeFactors:
+        """What the numba kernels take (nodes = n)."""
+        return SpikeFactors(self.lo, self.invd, self.a, self.b, self.Hrow, self.Hpos,
+                            self.Hval, int(self.ja), int(self.jb), int(self.m), int(self.n))
 
     def to_lanes(self, x: np.ndarray, pad: float = 0.0) -> np.ndarray:
         """A natural-order vector (length n) in the interleaved layout (padding = pad)."""
@@ -333,12 +351,13 @@ def stencil_solve(Sd, Slo, X, G, sign, fac, z, coef):
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def record_lane_sample(k, t, nodes, X, V, stress, rM, Me, rK, Ke, F, offset,
-                       t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Sample k from the interleaved X, V of the nodes 0 .. nodes-1 (node c m + j at
-    position j L + c, `lane_position`): U, V in node order, u(0, t) = X[0], the stress
-    and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is returned (rM, rK: the
-    `row_sums` of M and K, computed once per run; Me, Ke their off-diagonals)."""
+def record_lane_sample(k, t, nodes, X, V, stress, en, out):
+    """Sample k of the `Samples` out from the interleaved X, V of the nodes 0 .. nodes-1
+    (node c m + j at position j L + c, `lane_position`): U, V in node order, u(0, t) =
+    X[0], the stress and the energy 1/2 V.M.V + 1/2 U.K.U - F.U + offset, which is
+    returned (en: the `EnergyRows`, computed once per run)."""
+    rM, Me, rK, Ke, F, offset = en
+    t_out, U_out, V_out, cu_out, s_out, E_out = out
     m = X.size // L
     Uk, Vk = U_out[k], V_out[k]
     Lu = uint64(L)
@@ -360,8 +379,10 @@ def record_lane_sample(k, t, nodes, X, V, stress, rM, Me, rK, Ke, F, offset,
 
 
 @njit(cache=True)
-def spike_solve(lo, invd, a, b, Hrow, Hpos, Hval, m, ja, jb, z, coef):
-    """Solve S x = z in place (interleaved layout); coef is scratch of length 2 LANES + 1."""
+def spike_solve(fac, z, coef):
+    """Solve S x = z in place (interleaved layout), S factored in fac (`SpikeFactors`);
+    coef is scratch of length 2 LANES + 1."""
+    lo, invd, a, b, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     N = L * m
     forward_rows(z, lo, L, N)
     backward_rows(z, lo, invd, N)

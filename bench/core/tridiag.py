@@ -7,11 +7,50 @@ them. The bottom layer: it imports nothing of the project but its error type.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 from scipy.linalg import lapack
 
 from contact_bench.core.errors import BenchError
+
+
+class Bar(NamedTuple):
+    """The bar's operators as the compiled kernels take them: the symmetric tridiagonal
+    mass M = (Md, Me) and stiffness K = (Kd, Ke) (diagonal, off-diagonal), the load F."""
+
+    Md: np.ndarray
+    Me: np.ndarray
+    Kd: np.ndarray
+    Ke: np.ndarray
+    F: np.ndarray
+
+
+class Implicit(NamedTuple):
+    """An implicit step's system S: its L D L^T factors (Sd, Se: `factor_pt`) and w the
+    response S^-1 q to the contact's unit force (q = e0 for the contact node)."""
+
+    Sd: np.ndarray
+    Se: np.ndarray
+    w: np.ndarray
+
+
+class BarState(NamedTuple):
+    """The bar's state that a second-order kernel advances in place: U, V, A."""
+
+    U: np.ndarray
+    V: np.ndarray
+    A: np.ndarray
+
+
+class NewmarkCoef(NamedTuple):
+    """Newmark's weights beta, gamma, and whether the contact node is massless (its
+    velocity the backward difference, its acceleration 0)."""
+
+    beta: float
+    gamma: float
+    massless: bool
 
 
 @njit(cache=True)
@@ -45,12 +84,15 @@ def tri_row(d, e, x, i, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def newmark_update(rhs, mu, w, pin0, Ut, U, V, A, dt, bdt2, gamma, massless
-                   ):  # pragma: no cover - compiled
+def newmark_update(rhs, mu, w, pin0, Ut, state, dt, coef):  # pragma: no cover - compiled
     """The end of an implicit Newmark-family step in one pass over the nodes: U1 = rhs +
     mu w (node 0 set to 0 if pin0: an active exact contact), A1 = (U1 - U~) / (beta
     dt^2), V += dt ((1 - gamma) A + gamma A1), a massless node 0's velocity the backward
-    difference and its acceleration 0; U, V, A overwritten."""
+    difference and its acceleration 0; the `BarState` (U, V, A) overwritten, `coef` the
+    `NewmarkCoef`."""
+    U, V, A = state
+    beta, gamma, massless = coef
+    bdt2 = beta * dt * dt
     for i in range(U.size):
         u1 = rhs[i] + mu * w[i]
         if i == 0 and pin0:

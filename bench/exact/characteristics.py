@@ -144,7 +144,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit, types
@@ -153,6 +153,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from contact_bench.api.plugin import (
     INTERVAL_SLACK,
+    Fields,
     check_positive,
     checked_far_end,
     checked_interval,
@@ -644,10 +645,7 @@ class CharacteristicsSolution:
         u = np.empty(xf.size) if value else np.empty(0)
         dp = np.empty(xf.size) if slopes else np.empty(0)
         dq = np.empty(xf.size) if slopes else np.empty(0)
-        _fields_kernel(xf, tf, self.L, self.gam, self.far_end == "clamped", self.u_L,
-                       self.ds, self._table(), self._cell0, self._r, self._P,
-                       self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
-                       self._ncells, u, dp, dq)
+        _fields_kernel(xf, tf, self._stored(), self._table(), u, dp, dq)
         return ((u.reshape(shape) if value else None), (dp.reshape(shape) if slopes else None),
                 (dq.reshape(shape) if slopes else None))
 
@@ -716,11 +714,10 @@ class CharacteristicsSolution:
             t = np.clip(t, 0.0, self.T)
         how = self._evaluation(x.size, ordered, xhi - xlo)
         sparse = how == "sparse"
-        _fields_grid(_HOW[how], x, self.c * t, self.L, self.gam, self.far_end == "clamped",
-                     self.u_L, self.c, self.ds, _NO_TABLE if sparse else self._table(),
-                     *(self._sparse_guess() if sparse else _NO_GUESS), self._cell0, self._r,
-                     self._P, self._Q, self._dP, self._dQ, self._sP, self._sQ, self._delta,
-                     self._ncells, u, ux, _NO_FIELD if ut is None else ut)
+        _fields_grid(_HOW[how], x, self.c * t, self._stored(),
+                     _NO_TABLE if sparse else self._table(),
+                     self._sparse_guess() if sparse else _NO_GUESS,
+                     Fields(u, ux, _NO_FIELD if ut is None else ut))
 
     def _evaluation(self, size: int, ordered: bool, span: float) -> str:
         """How `fields_into` evaluates `size` points spanning `span`: "runs" (sorted and
@@ -733,13 +730,19 @@ class CharacteristicsSolution:
             return "sparse"
         return "points"
 
-    def _sparse_guess(self) -> tuple[Any, ...]:
-        """`_sparse_kernel`'s arguments for its guesses: uniform grid or not, the last
-        entry of the lookup table and s0 (`_exact_cell`), then `_sparse_table`."""
+    def _sparse_guess(self) -> SparseGuess:
+        """`_sparse_kernel`'s data for its guesses: uniform grid or not, the last entry of
+        the lookup table and s0 (`_exact_cell`), then `_sparse_table`."""
         table = self._sparse_table()
         assert table is not None
         nlut = int(math.ceil(float(self._s0[-1]) / self.ds)) + 1  # `_lookup_table`'s
-        return (self._uniform, nlut, self._s0, *table)
+        return SparseGuess(self._uniform, nlut, self._s0, *table)
+
+    def _stored(self) -> Stored:
+        """What the kernels read of the solution (`Stored`)."""
+        return Stored(self.L, self.gam, self.far_end == "clamped", self.u_L, self.c, self.ds,
+                      self._cell0, self._r, self._P, self._Q, self._dP, self._dQ, self._sP,
+                      self._sQ, self._delta, self._ncells)
 
     def _by_runs(self, size: int, ordered: bool, span: float) -> bool:
         """Whether `fields_into` takes the runs of points per cell (module docstring) for
@@ -882,14 +885,54 @@ def _cell_of(k: float, r: float, i: int, b: int, L: float, cell0: np.ndarray, rn
     return i, b
 
 
+class Stored(NamedTuple):
+    """The stored representation as the kernels read it: the bar's length L, the
+    gravity term gam, the far end (clamped, at u_L), the wave speed c, the lookup bin ds;
+    the cells (first cell of each block cell0, nodes rn), the values P, Q and slopes dP,
+    dQ of p and q at the nodes, their second-derivative terms sP, sQ, the gauge offsets
+    delta between blocks and the number of cells."""
+
+    L: float
+    gam: float
+    clamped: bool
+    u_L: float
+    c: float
+    ds: float
+    cell0: np.ndarray
+    rn: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    dP: np.ndarray
+    dQ: np.ndarray
+    sP: np.ndarray
+    sQ: np.ndarray
+    delta: np.ndarray
+    ncells: int
+
+
+class SparseGuess(NamedTuple):
+    """`_sparse_kernel`'s data for its guesses: uniform grid or not, the lookup table's
+    last entry nlut and s0 (`_exact_cell`), the nodes off the base grid xz[xs[b]:xs[b +
+    1]] of each block b and its last cell cend[b] (`_sparse_table`)."""
+
+    uniform: bool
+    nlut: int
+    s0: np.ndarray
+    xz: np.ndarray
+    xs: np.ndarray
+    cend: np.ndarray
+
+
 @njit(cache=True)
-def _locate(k, r, L, ds, lut, cell0, rn, last, ii, bb):  # pragma: no cover - compiled
-    """(cell, block) of the points (k[n], r[n]) into ii, bb: a first guess from the table
-    on s = k L + r (the last cell starting at or before the bin of width ds below s) and
-    the block of k, checked in a loop of its own (it is right but for inserted nodes and
-    round-off), and `_cell_of` from that guess where it is not. An empty table stands
-    for a uniform grid (every block the base grid, nothing inserted): the guess is then
-    the bin itself, within a cell of the right one."""
+def _locate(k, r, sol, lut, ii, bb):  # pragma: no cover - compiled
+    """(cell, block) of the points (k[n], r[n]) of the `Stored` sol into ii, bb: a first guess
+    from the table on s = k L + r (the last cell starting at or before the bin of width ds
+    below s) and the block of k, checked in a loop of its own (it is right but for inserted
+    nodes and round-off), and `_cell_of` from that guess where it is not. An empty table
+    stands for a uniform grid (every block the base grid, nothing inserted): the guess is
+    then the bin itself, within a cell of the right one."""
+    L, ds, cell0, rn = sol.L, sol.ds, sol.cell0, sol.rn
+    last = sol.ncells - 1
     nl = lut.size - 1
     nb1 = cell0.size - 1
     ids = 1.0 / ds  # a guess: no division needed
@@ -914,20 +957,20 @@ _NO_FIELD = np.empty((0, 0))  # `fields_into` without u_t
 
 
 @njit(cache=True)
-def _fields_kernel(x, tau, L, gam, clamped, u_L, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
-                   delta, ncells, u, dp, dq):  # pragma: no cover - compiled
-    """u (if u.size) and the shifted slopes dp, dq (if dp.size) at the points (x, tau).
+def _fields_kernel(x, tau, sol, lut, u, dp, dq):  # pragma: no cover - compiled
+    """u (if u.size) and the shifted slopes dp, dq (if dp.size) at the points (x, tau) of
+    the `Stored` sol (lut: `_locate`'s table).
 
     p(x + tau) and q(x - tau) as (block k, local r): block k of p holds p(k L + r), block
     k of q holds q((1 - k) L - r); at x = 0 and x = L both families get the very same
     local coordinate, hence matching cells. By chunks of points, in stages (coordinates,
     cells, values), each a loop without data-dependent branches in the usual case.
     """
+    L, gam, clamped, u_L, c, ds, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells = sol
     CH = _CHUNK
     kp, rp, kq, rq = np.empty(CH), np.empty(CH), np.empty(CH), np.empty(CH)
     ip, bp = np.empty(CH, np.int64), np.empty(CH, np.int64)
     iq, bq = np.empty(CH, np.int64), np.empty(CH, np.int64)
-    last = ncells - 1
     qa = 0.25 * gam
     ha = 0.5 * gam
     nd = delta.size - 1
@@ -946,8 +989,8 @@ def _fields_kernel(x, tau, L, gam, clamped, u_L, ds, lut, cell0, rn, P, Q, dP, d
             e = rho - xn
             pos = e >= 0.0
             kq[m], rq[m] = _normal(k + 1.0 if pos else k, e if pos else (L - xn) + rho, L)
-        _locate(kp[:nc], rp[:nc], L, ds, lut, cell0, rn, last, ip, bp)
-        _locate(kq[:nc], rq[:nc], L, ds, lut, cell0, rn, last, iq, bq)
+        _locate(kp[:nc], rp[:nc], sol, lut, ip, bp)
+        _locate(kq[:nc], rq[:nc], sol, lut, iq, bq)
         for m in range(nc):
             i1, b1, r1 = ip[m], bp[m], rp[m]
             i2, b2, r2 = iq[m], bq[m], rq[m]
@@ -988,13 +1031,14 @@ def _fields_kernel(x, tau, L, gam, clamped, u_L, ds, lut, cell0, rn, P, Q, dP, d
 
 
 @njit(cache=True)
-def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
-                 delta, ncells, u, ux, ut):  # pragma: no cover - compiled
-    """u, u_x = dp - dq + gam x (and u_t = c (dp + dq) unless ut is empty) at the points
-    (x[m], tau[k]) into [k, m]: the expressions of `_fields_kernel` and `fields`, in
-    the same stages, one sample time at a time (its block and offset once, u_p and
-    gam x once per point). Written out, not through helpers taking arrays (numba would
-    count references to them at every point)."""
+def _grid_kernel(x, tau, sol, lut, out):  # pragma: no cover - compiled
+    """u, u_x = dp - dq + gam x (and u_t = c (dp + dq) unless ut is empty) of the `Stored` sol
+    at the points (x[m], tau[k]) into [k, m] of the `Fields` out: the expressions of
+    `_fields_kernel` and `fields`, in the same stages, one sample time at a time (its block
+    and offset once, u_p and gam x once per point). Written out, not through helpers taking
+    arrays (numba would count references to them at every point)."""
+    L, gam, clamped, u_L, c, ds, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells = sol
+    u, ux, ut = out
     M = x.size
     kp, rp, kq, rq = np.empty(M), np.empty(M), np.empty(M), np.empty(M)
     ip, bp = np.empty(M, np.int64), np.empty(M, np.int64)
@@ -1008,7 +1052,6 @@ def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, 
         else:
             upx[m] = gam * (0.5 * xn * xn - L * xn)
         gx[m] = gam * xn
-    last = ncells - 1
     qa = 0.25 * gam
     ha = 0.5 * gam
     nd = delta.size - 1
@@ -1025,8 +1068,8 @@ def _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, 
             e = rho - xn
             pos = e >= 0.0
             kq[m], rq[m] = _normal(k + 1.0 if pos else k, e if pos else (L - xn) + rho, L)
-        _locate(kp, rp, L, ds, lut, cell0, rn, last, ip, bp)
-        _locate(kq, rq, L, ds, lut, cell0, rn, last, iq, bq)
+        _locate(kp, rp, sol, lut, ip, bp)
+        _locate(kq, rq, sol, lut, iq, bq)
         for m in range(M):
             i1, b1, r1 = ip[m], bp[m], rp[m]
             i2, b2, r2 = iq[m], bq[m], rq[m]
@@ -1111,8 +1154,7 @@ def _local_point(fam, xn, yn, k, rho, L):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
-                delta, ncells, u, ux, ut):  # pragma: no cover - compiled
+def _run_kernel(x, tau, sol, lut, out):  # pragma: no cover - compiled
     """`_grid_kernel` for sorted x (nondecreasing), by runs of points per cell.
 
     The cells are those of `_locate` (the same check: block k and r0 <= r < r1, from the
@@ -1120,6 +1162,8 @@ def _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, d
     where a point has no such cell (none in the stored interval: past its blocks) is done
     by `_grid_kernel`. Returns the number of such sample times.
     """
+    L, gam, clamped, u_L, c, ds, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells = sol
+    u, ux, ut = out
     M = x.size
     N = tau.size
     if M == 0 or N == 0:
@@ -1243,9 +1287,8 @@ def _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, d
                 break
         if not found:
             nbad += 1
-            _grid_kernel(x, tau[n:n + 1], L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q,
-                         dP, dQ, sP, sQ, delta, ncells, u[n:n + 1], ux[n:n + 1],
-                         ut[n:n + 1] if want_v else ut)
+            _grid_kernel(x, tau[n:n + 1], sol, lut,
+                         Fields(u[n:n + 1], ux[n:n + 1], ut[n:n + 1] if want_v else ut))
             continue
         # pair runs: u = c0 + dx (c1 + c2 dx), u_x = e0 + e1 dx, u_t = f0 + f1 dx with
         # dx = x - x_a; p moves by +dx in its local r, q by -dx; the values at x_a are
@@ -1419,9 +1462,10 @@ def _first_guess(kn, rr, L, ds, uniform, nlut, s0, last):  # pragma: no cover - 
 
 
 @njit(cache=True)
-def _exact_cell(kn, rr, L, ds, uniform, nlut, s0, cell0, rn, last):  # pragma: no cover
-    """(cell, block) of the point (kn, rr) as `_locate` finds it: its first guess, its
-    check, and `_cell_of` from the guess."""
+def _exact_cell(kn, rr, L, ds, guess, cell0, rn, last):  # pragma: no cover
+    """(cell, block) of the point (kn, rr) as `_locate` finds it: its first guess (from
+    the `SparseGuess` guess), its check, and `_cell_of` from the guess."""
+    uniform, nlut, s0 = guess.uniform, guess.nlut, guess.s0
     nb1 = cell0.size - 1
     i = _first_guess(kn, rr, L, ds, uniform, nlut, s0, last)
     b = min(max(int(kn), 0), nb1)
@@ -1441,13 +1485,15 @@ def _normal8(k0, r0, Lv, zero, one):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, xs, cend,
-                   cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
-                   ut):  # pragma: no cover - compiled
+def _sparse_kernel(x, tau, sol, guess, out):  # pragma: no cover - compiled
     """`_grid_kernel` (its values, bit for bit) 8 points at a time, for points sparse in
-    the cells (see the comment above). xz[xs[b]:xs[b + 1]]: the nodes of block b off the
-    base grid, cend[b]: its last cell; uniform, nlut, s0: `_locate`'s guess (`_exact_cell`).
+    the cells (see the comment above), of the `Stored` sol into the `Fields` out. guess:
+    the `SparseGuess` (xz[xs[b]:xs[b + 1]]: the nodes of block b off the base grid,
+    cend[b]: its last cell; uniform, nlut, s0: `_locate`'s guess, `_exact_cell`).
     Returns the number of (8 points, sample time) whose cells were not all guessed."""
+    L, gam, clamped, u_L, c, ds, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells = sol
+    uniform, nlut, s0, xz, xs, cend = guess
+    u, ux, ut = out
     M = x.size
     N = tau.size
     if M == 0 or N == 0:
@@ -1605,7 +1651,7 @@ def _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, x
                     for fam in range(2):
                         for lane in range(o, o + 8):
                             i, b = _exact_cell(fs[2 * fam, lane], fs[2 * fam + 1, lane], L,
-                                               ds, uniform, nlut, s0, cell0, rn, last)
+                                               ds, guess, cell0, rn, last)
                             ix[2 * fam, lane] = i + b
                             ix[2 * fam + 1, lane] = i
                     for lane in range(8):
@@ -1657,25 +1703,19 @@ def _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, x
 
 
 _HOW = {"points": 0, "runs": 1, "sparse": 2}  # `_evaluation` -> `_fields_grid`
-_NO_GUESS = (False, 0, np.empty(0), np.empty(0), np.zeros(1, np.int64),
-             np.zeros(1, np.int64))  # `_sparse_kernel`'s guess data, unused
+_NO_GUESS = SparseGuess(False, 0, np.empty(0), np.empty(0), np.zeros(1, np.int64),
+                        np.zeros(1, np.int64))  # `_sparse_kernel`'s guess data, unused
 
 
 @njit(cache=True)
-def _fields_grid(how, x, tau, L, gam, clamped, u_L, c, ds, lut, uniform, nlut, s0, xz, xs,
-                 cend, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
-                 ut):  # pragma: no cover - compiled
+def _fields_grid(how, x, tau, sol, lut, guess, out):  # pragma: no cover - compiled
     """`fields_into`'s kernel `how` (0: `_grid_kernel`, 1: `_run_kernel`, 2:
     `_sparse_kernel`, `_HOW`) behind one entry: the three are loaded from numba's cache
     at once, by the first call in a process (a warm-up), whichever kernel later points
     need (so that no timed call pays a load)."""
     if how == 1:
-        return _run_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP,
-                           dQ, sP, sQ, delta, ncells, u, ux, ut)
+        return _run_kernel(x, tau, sol, lut, out)
     if how == 2:
-        return _sparse_kernel(x, tau, L, gam, clamped, u_L, c, ds, uniform, nlut, s0, xz, xs,
-                              cend, cell0, rn, P, Q, dP, dQ, sP, sQ, delta, ncells, u, ux,
-                              ut)
-    _grid_kernel(x, tau, L, gam, clamped, u_L, c, ds, lut, cell0, rn, P, Q, dP, dQ, sP, sQ,
-                 delta, ncells, u, ux, ut)
+        return _sparse_kernel(x, tau, sol, guess, out)
+    _grid_kernel(x, tau, sol, lut, out)
     return 0

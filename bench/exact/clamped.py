@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from contact_bench.api.plugin import flat_points, grid_points
+from contact_bench.api.plugin import Fields, flat_points, grid_points
 from contact_bench.core.simd import vload, vselect_lt, vsplat, vstore
 from contact_bench.exact.characteristics import scan_range
 
@@ -105,9 +105,9 @@ def _piece_q(m: float) -> int:
 
 
 @njit(cache=True)
-def _run(x, m, e, t, fy, fr, u, ux, ut, want_v):  # pragma: no cover - compiled
-    """`_at` at the points x[m:e], which share the floors fy, fr, into u, ux (ut if
-    want_v): one row's run, 8 points a vector, the same IEEE operations lane by lane
+def _run(x, m, e, t, fy, fr, row, want_v):  # pragma: no cover - compiled
+    """`_at` at the points x[m:e], which share the floors fy, fr, into the row's `Fields`
+    u, ux (ut if want_v): one row's run, 8 points a vector, the same IEEE operations lane by lane
     (/ 4.0 is * 0.25 exactly; 3 fy and fy / 4 are the values `_at` forms), and the last
     points one by one.
 
@@ -118,6 +118,7 @@ def _run(x, m, e, t, fy, fr, u, ux, ut, want_v):  # pragma: no cover - compiled
     P = (ry - c1) s1 - fy / 4 and Q = (m - c2) s2, where (1 - ry) q = (ry - 1) (-q) and
     (2 - m) q = (m - 2) (-q) exactly (rounding is symmetric), m q = (m - 0) q; u_x and u_t
     are constants. Otherwise the group takes the selects."""
+    u, ux, ut = row
     f3, f4, r3, r4 = 3.0 * fy, fy / 4.0, 3.0 * fr, fr / 4.0
     T, F3, F4, R3, R4 = vsplat(t), vsplat(f3), vsplat(f4), vsplat(r3), vsplat(r4)
     zero, one, two, three = vsplat(0.0), vsplat(1.0), vsplat(2.0), vsplat(3.0)
@@ -196,7 +197,7 @@ def _grid_kernel(x, t, u, ux, ut):  # pragma: no cover - compiled
         while m < n:
             fy, fr = _floors(x[m], tk)
             e = _run_end(x, m, tk, fy, fr)
-            _run(x, m, e, tk, fy, fr, u[k], ux[k], ut[k] if want_v else u[k], want_v)
+            _run(x, m, e, tk, fy, fr, Fields(u[k], ux[k], ut[k] if want_v else u[k]), want_v)
             m = e
 
 

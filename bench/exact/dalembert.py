@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -58,6 +59,7 @@ from scipy.optimize import brentq
 
 from contact_bench.api.plugin import (
     INTERVAL_SLACK,
+    Fields,
     check_positive,
     checked_far_end,
     checked_interval,
@@ -152,8 +154,9 @@ class DalembertSolution:
     def _points(self, x: ArrayLike, t: ArrayLike) -> tuple[FloatArray, FloatArray]:
         return checked_interval("x", x, self.L, f"the bar [0, L={self.L!r}]"), self._times(t)
 
-    def _args(self) -> tuple:
-        return (*self._p, *self._q, self._table, 1.0 / self._h, self.c, self.u_p)
+    def _waves(self) -> Waves:
+        return Waves(*self._p, *self._q, self._table, 1.0 / self._h, float(self.c),
+                     float(self.u_p))
 
     @property
     def nbytes(self) -> int:
@@ -166,7 +169,7 @@ class DalembertSolution:
         x, t = self._points(x, t)
         xf, tf, shape = flat_points(x, self.c * t)
         u, ux, ut = np.empty(xf.size), np.empty(xf.size), np.empty(xf.size)
-        _points_kernel(xf, tf, *self._args(), u, ux, ut)
+        _points_kernel(xf, tf, self._waves(), Fields(u, ux, ut))
         return u.reshape(shape), ux.reshape(shape), (ut.reshape(shape) if velocity else None)
 
     def fields_into(self, x: ArrayLike, t: ArrayLike, u: FloatArray, ux: FloatArray,
@@ -176,8 +179,8 @@ class DalembertSolution:
         the error norms use. The same bits as `fields`."""
         x, t = grid_points(x, t, u, ux, ut)
         x, t = self._points(x, t)
-        _grid_kernel(x, self.c * t, *self._args(), u, ux, np.empty((0, 0)) if ut is None
-                     else ut)
+        _grid_kernel(x, self.c * t, self._waves(),
+                     Fields(u, ux, np.empty((0, 0)) if ut is None else ut))
 
     def u(self, x: ArrayLike, t: ArrayLike) -> FloatArray:
         """Displacement u(x, t)."""
@@ -226,8 +229,9 @@ class DalembertSolution:
         # the kernel with one segment of p (sigma 1, kappa 0, no shift) at x = r, tau = 0
         # and q's part zero (sigma 0, kappa 0): u = B(r), u_x = B'(r)
         zero, v, d = np.zeros(1), np.empty(samples), np.empty(samples)
-        _points_kernel(r, np.zeros(samples), zero, zero, np.ones(1), zero, zero, zero, zero,
-                       zero, self._table, 1.0 / self._h, 1.0, 0.0, v, d, np.empty(samples))
+        waves = Waves(zero, zero, np.ones(1), zero, zero, zero, zero, zero, self._table,
+                      1.0 / self._h, 1.0, 0.0)
+        _points_kernel(r, np.zeros(samples), waves, Fields(v, d, np.empty(samples)))
         return float(np.max(np.abs(v - B))), float(np.max(np.abs(d - dB)))
 
 
@@ -342,9 +346,42 @@ def _cubic_table(f: FloatArray, d0: FloatArray, d1: FloatArray) -> FloatArray:
 # in all 8 lanes, x's last few points padded): the same bits whatever the path.
 
 
+class Waves(NamedTuple):
+    """The solution as the kernels read it: p's segments (starts pS, shifts pM, signs pSg,
+    constants pK), q's (qS, qA, qSg, qK), the table of B and P (`tab`, 1 / its step `ih`),
+    the wave speed c and the particular solution u_p (module comment above)."""
+
+    pS: np.ndarray
+    pM: np.ndarray
+    pSg: np.ndarray
+    pK: np.ndarray
+    qS: np.ndarray
+    qA: np.ndarray
+    qSg: np.ndarray
+    qK: np.ndarray
+    tab: np.ndarray
+    ih: float
+    c: float
+    up: float
+
+
+class SegmentPair(NamedTuple):
+    """One pair of segments (of p and of q) splat over 8 lanes: pM, qA, p's sign and
+    constant, q's sign and constant."""
+
+    PM: object
+    QA: object
+    SP: object
+    KP: object
+    SQ: object
+    KQ: object
+
+
 @njit(cache=True, inline="always")
-def _lanes(X, T, PM, QA, SP, KP, SQ, KQ, UP, C, tab, ih):  # pragma: no cover - compiled
-    """(u, u_x, u_t) at the 8 points X of one pair of segments (module comment above)."""
+def _lanes(X, T, seg, UP, C, tab, ih):  # pragma: no cover - compiled
+    """(u, u_x, u_t) at the 8 points X of one pair of segments (the `SegmentPair` seg;
+    module comment above)."""
+    PM, QA, SP, KP, SQ, KQ = seg
     zero, last, IH = vsplat(0.0), vsplat(float(tab.shape[0] - 1)), vsplat(ih)
     two, three = vsplat(2.0), vsplat(3.0)
     S1 = ((X + T) - PM) * IH
@@ -376,15 +413,17 @@ def _seg_q(qS, z):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _points_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux, ut
-                   ):  # pragma: no cover - compiled
-    """Point by point (x, tau flat, of the same size): each in all 8 lanes."""
+def _points_kernel(x, tau, waves, out):  # pragma: no cover - compiled
+    """Point by point (x, tau flat, of the same size) into the `Fields` out: each in all
+    8 lanes. waves: the `Waves`."""
+    pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up = waves
+    u, ux, ut = out
     buf = np.empty((3, 8))
     for m in range(x.size):
         jp, jq = _seg_p(pS, x[m] + tau[m]), _seg_q(qS, x[m] - tau[m])
-        U, UX, UT = _lanes(vsplat(x[m]), vsplat(tau[m]), vsplat(pM[jp]), vsplat(qA[jq]),
-                           vsplat(pSg[jp]), vsplat(pK[jp]), vsplat(qSg[jq]), vsplat(qK[jq]),
-                           vsplat(up), vsplat(c), tab, ih)
+        seg = SegmentPair(vsplat(pM[jp]), vsplat(qA[jq]), vsplat(pSg[jp]), vsplat(pK[jp]),
+                          vsplat(qSg[jq]), vsplat(qK[jq]))
+        U, UX, UT = _lanes(vsplat(x[m]), vsplat(tau[m]), seg, vsplat(up), vsplat(c), tab, ih)
         vstore(buf[0], 0, U)
         vstore(buf[1], 0, UX)
         vstore(buf[2], 0, UT)
@@ -408,12 +447,13 @@ def _run_end(x, m, n, tk, jp, jq, pS, qS):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _grid_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux, ut
-                 ):  # pragma: no cover - compiled
-    """Every time tau[k] against the points x into u[k], ux[k] (and ut[k] unless ut is
-    empty). Sorted x: per time, the runs of points with the same segments (one search
-    per run, `_run_end`), 8 points at a time (x's last few padded); other x: point by
-    point. The same bits either way (`_lanes`)."""
+def _grid_kernel(x, tau, waves, out):  # pragma: no cover - compiled
+    """Every time tau[k] against the points x into the `Fields` out: u[k], ux[k] (and ut[k]
+    unless ut is empty); waves: the `Waves`. Sorted x: per time, the runs of points with the
+    same segments (one search per run, `_run_end`), 8 points at a time (x's last few
+    padded); other x: point by point. The same bits either way (`_lanes`)."""
+    pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up = waves
+    u, ux, ut = out
     want_v = ut.size > 0
     n = x.size
     ordered = True
@@ -425,8 +465,7 @@ def _grid_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux
         one, spare = np.empty(n), np.empty(0 if want_v else n)
         for k in range(tau.size):
             one[:] = tau[k]
-            _points_kernel(x, one, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up,
-                           u[k], ux[k], ut[k] if want_v else spare)
+            _points_kernel(x, one, waves, Fields(u[k], ux[k], ut[k] if want_v else spare))
         return
     pad, buf = np.empty(8), np.empty((3, 8))
     UP, C = vsplat(up), vsplat(c)
@@ -445,13 +484,13 @@ def _grid_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux
             while jq + 1 < qS.size and z > qS[jq + 1]:
                 jq += 1
             e = _run_end(x, m, n, tk, jp, jq, pS, qS)
-            PM, QA, SP, KP, SQ, KQ = (vsplat(pM[jp]), vsplat(qA[jq]), vsplat(pSg[jp]),
-                                      vsplat(pK[jp]), vsplat(qSg[jq]), vsplat(qK[jq]))
+            seg = SegmentPair(vsplat(pM[jp]), vsplat(qA[jq]), vsplat(pSg[jp]), vsplat(pK[jp]),
+                              vsplat(qSg[jq]), vsplat(qK[jq]))
             # 8 points at a time, past e while x has them: the next run writes those
             # points again (runs in order), so only the last run pads its last points
             j = m
             while j < e and j + 8 <= n:
-                U, UX, UT = _lanes(vload(x, j), T, PM, QA, SP, KP, SQ, KQ, UP, C, tab, ih)
+                U, UX, UT = _lanes(vload(x, j), T, seg, UP, C, tab, ih)
                 vstore(uk, j, U)
                 vstore(uxk, j, UX)
                 if want_v:
@@ -460,7 +499,7 @@ def _grid_kernel(x, tau, pS, pM, pSg, pK, qS, qA, qSg, qK, tab, ih, c, up, u, ux
             if j < e:
                 for i in range(8):
                     pad[i] = x[min(j + i, e - 1)]
-                U, UX, UT = _lanes(vload(pad, 0), T, PM, QA, SP, KP, SQ, KQ, UP, C, tab, ih)
+                U, UX, UT = _lanes(vload(pad, 0), T, seg, UP, C, tab, ih)
                 vstore(buf[0], 0, U)
                 vstore(buf[1], 0, UX)
                 vstore(buf[2], 0, UT)

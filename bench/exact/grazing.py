@@ -6,13 +6,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from contact_bench.api.plugin import grid_points
+from contact_bench.api.plugin import Fields, grid_points
 
 
 @njit(cache=True)
-def _outer_kernel(A, at, cx, bt, sx, ct, u, ux, ut):  # pragma: no cover - compiled
+def _outer_kernel(A, at, cx, bt, sx, ct, out):  # pragma: no cover - compiled
     """u[k, m] = at[k] cx[m] + A, ux[k, m] = bt[k] sx[m] (and ut[k, m] = ct[k] cx[m]
-    unless ut is empty): `GrazingExact.fields`'s expressions, in one pass."""
+    unless ut is empty), out the `Fields` (u, ux, ut): `GrazingExact.fields`'s
+    expressions, in one pass."""
+    u, ux, ut = out
     want_v = ut.size > 0
     for k in range(at.size):
         a, b, c = at[k], bt[k], ct[k]
@@ -53,7 +55,8 @@ class GrazingExact:
         A, k, w = self.A, self.k, self.w
         ct = np.cos(w * t)
         _outer_kernel(A, A * ct, np.cos(k * x), -A * k * ct, np.sin(k * x),
-                      -A * w * np.sin(w * t), u, ux, np.empty((0, 0)) if ut is None else ut)
+                      -A * w * np.sin(w * t),
+                      Fields(u, ux, np.empty((0, 0)) if ut is None else ut))
 
     def u(self, x, t):
         return self.fields(x, t, velocity=False)[0]

@@ -3,10 +3,12 @@ linear interpolation in time (`NumericalReference`), for scenes without an exact
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-from contact_bench.api.plugin import flat_points, grid_points
+from contact_bench.api.plugin import Fields, flat_points, grid_points
 
 
 @njit(cache=True)
@@ -68,12 +70,14 @@ def _where_t(times, tp):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _grid_kernel(nodes, times, U, V, x, t, u, ux, ut):  # pragma: no cover - compiled
-    """The fields at the points (x[m], t[j]) into u[j, m], ux[j, m] (and ut[j, m] unless
-    ut is empty), by the formulas of `_point` on row views. The cells of the points x
-    (any order) are found once, the sample interval once per time. The row views and
-    unsigned cell indices (no wraparound test) halve the cost of 2-D indexing; what is
-    left is mostly the loads of the four stored rows each time needs."""
+def _grid_kernel(ref, x, t, out):  # pragma: no cover - compiled
+    """The fields of the `Stored` ref at the points (x[m], t[j]) into the `Fields` out: u[j,
+    m], ux[j, m] (and ut[j, m] unless ut is empty), by the formulas of `_point` on row
+    views. The cells of the points x (any order) are found once, the sample interval once
+    per time. The row views and unsigned cell indices (no wraparound test) halve the cost of
+    2-D indexing; what is left is mostly the loads of the four stored rows each time needs."""
+    nodes, times, U, V = ref
+    u, ux, ut = out
     want_v = ut.size > 0
     nx = x.size
     c0 = np.empty(nx, np.uint64)
@@ -102,9 +106,12 @@ def _grid_kernel(nodes, times, U, V, x, t, u, ux, ut):  # pragma: no cover - com
 
 
 @njit(cache=True)
-def _points_kernel(nodes, times, U, V, x, t, u, ux, ut):  # pragma: no cover - compiled
-    """The fields at the points (x[n], t[n]) (1-D arrays; ut empty: no velocity). The
-    sample interval is looked up again only when the time changes."""
+def _points_kernel(ref, x, t, out):  # pragma: no cover - compiled
+    """The fields of the `Stored` ref at the points (x[n], t[n]) (1-D arrays) into the
+    `Fields` out (ut empty: no velocity). The sample interval is looked up again only
+    when the time changes."""
+    nodes, times, U, V = ref
+    u, ux, ut = out
     want_v = ut.size > 0
     k, b, last = 0, 0.0, np.nan
     for n in range(x.size):
@@ -118,6 +125,16 @@ def _points_kernel(nodes, times, U, V, x, t, u, ux, ut):  # pragma: no cover - c
         ux[n] = fx
         if want_v:
             ut[n] = fv
+
+
+class Stored(NamedTuple):
+    """A stored trajectory as the kernels read it: mesh nodes, sample times, and the
+    nodal U and V, one row per sample."""
+
+    nodes: np.ndarray
+    times: np.ndarray
+    U: np.ndarray
+    V: np.ndarray
 
 
 class NumericalReference:
@@ -144,6 +161,9 @@ class NumericalReference:
             raise ValueError(f"NumericalReference: needs at least 2 nodes and 2 sample "
                              f"times and U, V of shape {shape}, got {self.U.shape}, "
                              f"{self.V.shape}")
+
+    def _stored(self) -> Stored:
+        return Stored(self.x, self.t, self.U, self.V)
 
     def _check_times(self, t: np.ndarray) -> None:
         """ValueError (naming the first bad value) unless every t is in the stored
@@ -189,7 +209,7 @@ class NumericalReference:
         self._check_times(tf)
         u, ux = np.empty(xf.size), np.empty(xf.size)
         ut = np.empty(xf.size) if velocity else np.empty(0)
-        _points_kernel(self.x, self.t, self.U, self.V, xf, tf, u, ux, ut)
+        _points_kernel(self._stored(), xf, tf, Fields(u, ux, ut))
         return u.reshape(shape), ux.reshape(shape), (ut.reshape(shape) if velocity else None)
 
     def fields_into(self, x: np.ndarray, t: np.ndarray, u: np.ndarray, ux: np.ndarray,
@@ -200,8 +220,8 @@ class NumericalReference:
         temporaries. Nothing is written when t leaves the stored interval."""
         x, t = grid_points(x, t, u, ux, ut)
         self._check_times(t)
-        _grid_kernel(self.x, self.t, self.U, self.V, x, t, u, ux,
-                     np.empty((0, 0)) if ut is None else ut)
+        _grid_kernel(self._stored(), x, t,
+                     Fields(u, ux, np.empty((0, 0)) if ut is None else ut))
 
     def stress(self, t: np.ndarray) -> np.ndarray:
         return np.interp(np.asarray(t, float), self.t, self.S)

@@ -60,7 +60,7 @@ import threading
 import time
 import weakref
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -69,7 +69,7 @@ from skfem.mapping import MappingAffine
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefLine
 
-from contact_bench.api.plugin import Exact, Semidiscrete, Trajectory
+from contact_bench.api.plugin import Exact, Fields, Semidiscrete, Trajectory
 from contact_bench.core.simd import v4bcast, v4hsum, v4load, v4splat, vloadc, vstore
 
 ERROR_COLUMNS = (
@@ -114,6 +114,71 @@ _LEAF = 64  # elements per partial sum in the kernels (sums stay accurate on lon
 # bits.
 
 
+class Nodal(NamedTuple):
+    """A run's nodal samples as the norm kernels read them: U and V (V read if use_v),
+    the block's first sample row0 and first node lo, the free nodes nfree (a node >= nfree
+    is the clamped one, at u_fixed, velocity 0)."""
+
+    U: np.ndarray
+    V: np.ndarray
+    use_v: bool
+    row0: int
+    lo: int
+    nfree: int
+    u_fixed: float
+
+
+class Quadrature(NamedTuple):
+    """A block's quadrature (`_Geometry`): the basis values p0, p1 at the 4 points (4,),
+    the basis slopes g0, g1 (elements,) and the weights w (elements, 4)."""
+
+    p0: np.ndarray
+    p1: np.ndarray
+    g0: np.ndarray
+    g1: np.ndarray
+    w: np.ndarray
+
+
+class SampleSums(NamedTuple):
+    """Squared space norms per sample of u, u_x and v (an error's, or the exact
+    solution's), added to in place."""
+
+    u: np.ndarray
+    ux: np.ndarray
+    v: np.ndarray
+
+
+class Place(NamedTuple):
+    """Where a sample's terms are: its row of U, V, the flat indices ub, vb of its node lo
+    in U and V, the flat index `base` of its exact values, and nfull, the elements of the
+    block with both nodes free."""
+
+    row: int
+    ub: int
+    vb: int
+    base: int
+    nfull: int
+
+
+class UTerms(NamedTuple):
+    """The running per-lane sums of u's and u_x's terms: errors su, sx, exact norms mu,
+    mx (4-lane vectors)."""
+
+    su: object
+    sx: object
+    mu: object
+    mx: object
+
+
+class ElementAt(NamedTuple):
+    """One element at its 4 quadrature points (4-lane vectors): the values A, B of its
+    two nodes in every lane and the weights W."""
+
+    A: object
+    B: object
+    W: object
+
+
 @njit(cache=True, inline="always")
 def _sq(A, B, P0, P1, E, W):  # pragma: no cover - compiled
     """w (u_h - u)^2 lane by lane, u_h = a p0 + b p1."""
@@ -122,11 +187,12 @@ def _sq(A, B, P0, P1, E, W):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _slopes(U, ub, row, lo, nfree, u_fixed, g0, g1, ne, nfull, gx
-            ):  # pragma: no cover - compiled
+def _slopes(nod, quad, ub, row, ne, nfull, gx):  # pragma: no cover - compiled
     """gx[e] = a g0[e] + b g1[e] for the ne elements of the block, a, b the values of
     their nodes in row `row` of U (flat index ub: node lo); elements < nfull have both
-    nodes free."""
+    nodes free. nod: the `Nodal`; quad: the `Quadrature`."""
+    U, lo, nfree, u_fixed = nod.U, nod.lo, nod.nfree, nod.u_fixed
+    g0, g1 = quad.g0, quad.g1
     n8 = nfull - nfull % 8
     for e in range(0, n8, 8):
         vstore(gx, e, vloadc(U, ub + e) * vloadc(g0, e) + vloadc(U, ub + e + 1) * vloadc(g1, e))
@@ -138,9 +204,11 @@ def _slopes(U, ub, row, lo, nfree, u_fixed, g0, g1, ne, nfull, gx
 
 
 @njit(cache=True, inline="always")
-def _add_u(su, sx, mu, mx, A, B, P0, P1, W, E, F, G, norms):  # pragma: no cover - compiled
-    """One element's terms of u and u_x (node values A, B, slope G, exact values E, F)
-    added lane by lane; the exact norms' terms too if norms."""
+def _add_u(acc, el, P0, P1, E, F, G, norms):  # pragma: no cover - compiled
+    """One element's terms of u and u_x (el: the `ElementAt`, slope G, exact values E, F)
+    added lane by lane to the `UTerms` acc; the exact norms' terms too if norms."""
+    su, sx, mu, mx = acc
+    A, B, W = el
     su = su + _sq(A, B, P0, P1, E, W)
     d = F - G  # (u_x - g)^2 is (g - u_x)^2 exactly
     sx = sx + W * (d * d)
@@ -151,8 +219,10 @@ def _add_u(su, sx, mu, mx, A, B, P0, P1, W, E, F, G, norms):  # pragma: no cover
 
 
 @njit(cache=True, inline="always")
-def _add_v(sv, mv, A, B, P0, P1, W, E, norms):  # pragma: no cover - compiled
-    """One element's terms of v added lane by lane (and of its norm if norms)."""
+def _add_v(sv, mv, el, P0, P1, E, norms):  # pragma: no cover - compiled
+    """One element's terms of v (el: the `ElementAt`) added lane by lane (and of its
+    norm if norms)."""
+    A, B, W = el
     sv = sv + _sq(A, B, P0, P1, E, W)
     if norms:
         mv = mv + W * (E * E)
@@ -160,12 +230,20 @@ def _add_v(sv, mv, A, B, P0, P1, W, E, norms):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _leaf(U, V, use_v, ub, vb, row, lo, nfree, u_fixed, P0, P1, w, u, ux, v, gx, base,
-          c0, c1, nfull, norms):  # pragma: no cover - compiled
-    """Per-lane (per point) sums, over the elements [c0, c1) of one sample in element
-    order, of w (u_h - u)^2, w (u_h,x - u_x)^2, w (v_h - v)^2 (if use_v) and, if norms,
-    of w u^2, w u_x^2, w v^2. The sample is row `row` of U, V (flat index ub, vb: node
-    lo), its exact values at flat index base, its slopes in gx."""
+def _leaf(nod, quad, exact, gx, at, c0, norms):  # pragma: no cover - compiled
+    """Per-lane (per point) sums, over the elements [c0, c1) (c1 = c0 + `_LEAF` or the
+    last) of one sample in element order, of w (u_h - u)^2, w (u_h,x - u_x)^2, w (v_h -
+    v)^2 (if use_v) and, if norms, of w u^2, w u_x^2, w v^2. nod: the `Nodal`; quad: the
+    `Quadrature`; exact: the exact values (`Fields`); at: the sample's `Place` (row `row`
+    of U, V, flat index ub, vb: node lo, its exact values at flat index base); its slopes
+    in gx."""
+    U, V, use_v, row0, lo, nfree, u_fixed = nod
+    w = quad.w
+    u, ux, v = exact
+    row, ub, vb, base, nfull = at
+    P0 = v4load(quad.p0, 0)
+    P1 = v4load(quad.p1, 0)
+    c1 = min(u.shape[1], c0 + _LEAF)
     su = v4splat(0.0)
     sx = su
     sv = su
@@ -176,34 +254,38 @@ def _leaf(U, V, use_v, ub, vb, row, lo, nfree, u_fixed, P0, P1, w, u, ux, v, gx,
     for e in range(c0, cf):
         q = 4 * e
         W = v4load(w, q)
-        su, sx, mu, mx = _add_u(su, sx, mu, mx, v4bcast(U, ub + e), v4bcast(U, ub + e + 1),
-                                P0, P1, W, v4load(u, base + q), v4load(ux, base + q),
+        su, sx, mu, mx = _add_u(UTerms(su, sx, mu, mx),
+                                ElementAt(v4bcast(U, ub + e), v4bcast(U, ub + e + 1), W),
+                                P0, P1, v4load(u, base + q), v4load(ux, base + q),
                                 v4bcast(gx, e), norms)
         if use_v:
-            sv, mv = _add_v(sv, mv, v4bcast(V, vb + e), v4bcast(V, vb + e + 1), P0, P1, W,
-                            v4load(v, base + q), norms)
+            sv, mv = _add_v(sv, mv,
+                            ElementAt(v4bcast(V, vb + e), v4bcast(V, vb + e + 1), W), P0,
+                            P1, v4load(v, base + q), norms)
     for e in range(cf, c1):  # a node >= nfree: the clamped one (u_fixed, velocity 0)
         j = lo + e
         q = 4 * e
         W = v4load(w, q)
         A = v4splat(U[row, j] if j < nfree else u_fixed)
         B = v4splat(U[row, j + 1] if j + 1 < nfree else u_fixed)
-        su, sx, mu, mx = _add_u(su, sx, mu, mx, A, B, P0, P1, W, v4load(u, base + q),
-                                v4load(ux, base + q), v4bcast(gx, e), norms)
+        su, sx, mu, mx = _add_u(UTerms(su, sx, mu, mx), ElementAt(A, B, W), P0, P1,
+                                v4load(u, base + q), v4load(ux, base + q), v4bcast(gx, e),
+                                norms)
         if use_v:
             A = v4splat(V[row, j] if j < nfree else 0.0)
             B = v4splat(V[row, j + 1] if j + 1 < nfree else 0.0)
-            sv, mv = _add_v(sv, mv, A, B, P0, P1, W, v4load(v, base + q), norms)
+            sv, mv = _add_v(sv, mv, ElementAt(A, B, W), P0, P1, v4load(v, base + q), norms)
     return su, sx, sv, mu, mx, mv
 
 
 @njit(cache=True, inline="always")
-def _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
-          eu, eux, ev, nu, nux, nv, norms):  # pragma: no cover - compiled
+def _sums(nod, quad, exact, err, nrm, norms):  # pragma: no cover - compiled
     """The body of both kernels (norms: a constant in each)."""
+    U, V, use_v, row0, lo, nfree, u_fixed = nod
+    u = exact.u
+    eu, eux, ev = err
+    nu, nux, nv = nrm
     kb, ne, _ = u.shape
-    P0 = v4load(p0, 0)
-    P1 = v4load(p1, 0)
     nfull = min(ne, max(0, nfree - 1 - lo))  # elements with both nodes free
     gx = np.empty(ne)
     for k in range(kb):
@@ -211,7 +293,8 @@ def _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
         base = 4 * ne * k
         ub = row * U.shape[1] + lo
         vb = row * V.shape[1] + lo
-        _slopes(U, ub, row, lo, nfree, u_fixed, g0, g1, ne, nfull, gx)
+        _slopes(nod, quad, ub, row, ne, nfull, gx)
+        at = Place(row, ub, vb, base, nfull)
         tu = 0.0
         tx = 0.0
         tv = 0.0
@@ -219,9 +302,7 @@ def _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
         mx = 0.0
         mv = 0.0
         for c0 in range(0, ne, _LEAF):
-            su, sx, sv, nu_, nx_, nv_ = _leaf(U, V, use_v, ub, vb, row, lo, nfree, u_fixed,
-                                              P0, P1, w, u, ux, v, gx, base, c0,
-                                              min(ne, c0 + _LEAF), nfull, norms)
+            su, sx, sv, nu_, nx_, nv_ = _leaf(nod, quad, exact, gx, at, c0, norms)
             tu += v4hsum(su)
             tx += v4hsum(sx)
             tv += v4hsum(sv)
@@ -241,15 +322,15 @@ def _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
 
 
 @njit(cache=True)
-def _error_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w,
-                u, ux, v, eu, eux, ev):  # pragma: no cover - compiled
-    """Add sum_e,q w (u_h - u)^2 (and the same for u_x, v) of samples row0.. to eu, eux,
-    ev. u_h is the P1 interpolant of rows of U (V): element e of the block has the nodes
-    lo + e and lo + e + 1, nodes >= nfree are the clamped one (u_fixed, velocity 0).
-    p0, p1 (4,): basis values at the 4 points; g0, g1 (elements,): basis slopes; w
-    (elements, 4): weights; u, ux, v (samples, elements, 4): the exact values. Every
-    array C-contiguous float64 (the vector loads are typed for that only: a typing error
-    otherwise).
+def _error_sums(nod, quad, exact, err):  # pragma: no cover - compiled
+    """Add sum_e,q w (u_h - u)^2 (and the same for u_x, v) of samples row0.. to the
+    `SampleSums` err (eu, eux, ev). nod: the `Nodal`; quad: the `Quadrature`; exact: the
+    exact values u, ux, v (`Fields`). u_h is the P1 interpolant of rows of U (V): element e
+    of the block has the nodes lo + e and lo + e + 1, nodes >= nfree are the clamped one
+    (u_fixed, velocity 0). p0, p1 (4,): basis values at the 4 points; g0, g1 (elements,):
+    basis slopes; w (elements, 4): weights; u, ux, v (samples, elements, 4): the exact
+    values. Every array C-contiguous float64 (the vector loads are typed for that only: a
+    typing error otherwise).
 
     Summation order, per sample and field: one partial sum per quadrature point q (a
     vector lane) over a leaf of `_LEAF` elements, in element order; the leaf's sum is
@@ -257,21 +338,18 @@ def _error_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w,
     eu, eux, ev. That is the order of the former scalar kernel, and its terms (the IEEE
     results of w ((a p0 + b p1) - u)^2 and w ((a g0 + b g1) - u_x)^2, no fma): the same
     bits."""
-    _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
-          eu, eux, ev, eu, eux, ev, False)
+    _sums(nod, quad, exact, err, err, False)
 
 
 @njit(cache=True)
-def _error_and_exact_sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
-                          eu, eux, ev, nu, nux, nv):  # pragma: no cover - compiled
-    """`_error_sums` and, in the same pass over the exact values, sum_e,q w u^2 (and the
-    same for u_x, v) of samples row0.. added to nu, nux, nv: what the first scheme on a
-    grid needs. The error sums are those of `_error_sums`, bit for bit (the same code).
-    The norms are summed in the same order: one partial sum per point over a leaf,
-    (s0 + s1) + (s2 + s3), the leaves in order (the former kernel had one serial sum per
-    leaf in the order (element, point): the norms differ from it in the last bits)."""
-    _sums(U, V, use_v, row0, lo, nfree, u_fixed, p0, p1, g0, g1, w, u, ux, v,
-          eu, eux, ev, nu, nux, nv, True)
+def _error_and_exact_sums(nod, quad, exact, err, nrm):  # pragma: no cover - compiled
+    """`_error_sums` and, in the same pass over the exact values, sum_e,q w u^2 (and the same
+    for u_x, v) of samples row0.. added to the `SampleSums` nrm (nu, nux, nv): what the
+    first scheme on a grid needs. The error sums are those of `_error_sums`, bit for bit
+    (the same code). The norms are summed in the same order: one partial sum per point over
+    a leaf, (s0 + s1) + (s2 + s3), the leaves in order (the former kernel had one serial sum
+    per leaf in the order (element, point): the norms differ from it in the last bits)."""
+    _sums(nod, quad, exact, err, nrm, True)
 
 
 _P1 = ElementLineP1()  # the element of the norms' quadrature (its reference basis)
@@ -470,10 +548,11 @@ def _space_norms(semi: Semidiscrete, traj: Trajectory, exact: Exact, need_v: boo
 
     def add(g: _Geometry, a: int, vals: tuple, with_norms: bool) -> None:
         u, ux, v = vals
-        args = (U, V, need_v, a, g.lo, semi.nfree, u_fixed, g.p0, g.p1, g.g0, g.g1, g.w, u, ux,
-                u if v is None else v, err["eu"], err["eux"], err["ev"])
+        args = (Nodal(U, V, need_v, a, g.lo, semi.nfree, u_fixed),
+                Quadrature(g.p0, g.p1, g.g0, g.g1, g.w), Fields(u, ux, u if v is None else v),
+                SampleSums(err["eu"], err["eux"], err["ev"]))
         if with_norms:
-            _error_and_exact_sums(*args, norms["nu"], norms["nux"], norms["nv"])
+            _error_and_exact_sums(*args, SampleSums(norms["nu"], norms["nux"], norms["nv"]))
         else:
             _error_sums(*args)
 
@@ -666,15 +745,17 @@ def _linf_ratio(e, ez, emode, n, nz, nmode):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _time_norms(t, eu, eux, ev, nu, nux, nv, use_u, use_v, a, s, use_s
-                ):  # pragma: no cover - compiled
+def _time_norms(t, err, nrm, use_u, use_v, a, s, use_s):  # pragma: no cover - compiled
     """The 7 relative errors of `ERROR_COLUMNS` (nan where not asked) from the squared
-    space norms per sample (eu, eux, ev errors, nu, nux, nv exact), and from the
+    space norms per sample (the `SampleSums` err: eu, eux, ev errors, nrm: nu, nux, nv
+    exact), and from the
     contact stress a against the exact s: L_inf(0,T) the max, L2(0,T) the trapezoidal
     rule, with numpy's expressions and summation order (the bits of np.max,
     np.trapezoid and the elementwise sums and squares of the former numpy code), in one
     call instead of some sixty numpy calls (a quarter of a millisecond of Python in a
     lone run's norm time)."""
+    eu, eux, ev = err
+    nu, nux, nv = nrm
     out = np.full(7, np.nan)
     buf = np.empty(max(t.size - 1, 0))
     if use_u:
@@ -724,8 +805,8 @@ def error_metrics(semi: Semidiscrete, traj: Trajectory, exact: Exact,
                 s.flags.writeable = False
                 entry.stress["s"] = s
         a = np.ascontiguousarray(traj.stress, dtype=float)
-    out = _time_norms(t, n["eu"], n["eux"], n["ev"], n["nu"], n["nux"], n["nv"], use_u,
-                      use_v, a, s, use_s)
+    out = _time_norms(t, SampleSums(n["eu"], n["eux"], n["ev"]),
+                      SampleSums(n["nu"], n["nux"], n["nv"]), use_u, use_v, a, s, use_s)
     asked = {"u": use_u, "v": use_v, "stress": use_s}
     for col, value in zip(ERROR_COLUMNS, out, strict=True):
         if asked[NEEDS[col]]:
@@ -781,10 +862,11 @@ def warm_up() -> None:
     """Compile the norm kernels (or load them from numba's cache) outside any timing."""
     z1, z2, z4, zq, z3 = np.zeros(1), np.zeros((1, 2)), np.zeros(4), np.zeros((1, 4)), \
         np.zeros((1, 1, 4))
-    _error_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1, z1)
-    _error_and_exact_sums(z2, z2, True, 0, 0, 2, 0.0, z4, z4, z1, z1, zq, z3, z3, z3, z1, z1,
-                          z1, z1, z1, z1)
-    _time_norms(z1, z1, z1, z1, z1, z1, z1, True, True, z1, z1, True)
+    nod, quad = Nodal(z2, z2, True, 0, 0, 2, 0.0), Quadrature(z4, z4, z1, z1, zq)
+    sums = SampleSums(z1, z1, z1)
+    _error_sums(nod, quad, Fields(z3, z3, z3), sums)
+    _error_and_exact_sums(nod, quad, Fields(z3, z3, z3), sums, sums)
+    _time_norms(z1, sums, sums, True, True, z1, z1, True)
     _scratch_block(3 * _CHUNK_POINTS)  # the block of values not kept: allocated once
 
 

@@ -25,6 +25,8 @@ stress: sc min(0, p.U) (penalty: sc = kappa; Nitsche: sc = 1, the Nitsche stress
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
@@ -32,6 +34,10 @@ from numba import njit
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
 from contact_bench.core.tridiag import (
+    Bar,
+    BarState,
+    Implicit,
+    NewmarkCoef,
     factor_pt,
     newmark_update,
     pt_backward,
@@ -39,20 +45,41 @@ from contact_bench.core.tridiag import (
     tri_matvec,
     tri_row,
 )
-from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.kernels.common import allocate, run_spec, trajectory
 from contact_bench.kernels.sparse import ContactLaw
 
 
+class BoundaryLaw(NamedTuple):
+    """A boundary force on the bar's first element: y = p0 u0 + p1 u1, the force -c min(0,
+    y) (q0, q1) on nodes 0 and 1; its energy 1/2 ew c min(0, y)^2, its stress sc min(0, y)."""
+
+    c: float
+    p0: float
+    p1: float
+    q0: float
+    q1: float
+    ew: float
+    sc: float
+
+
 @njit(cache=True)
-def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
-                    U, V, A, dt, beta, gamma, massless, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V, A) in place; returns (samples, steps, min u0, blow-up step).
+def boundary_kernel(bar, S, law, state, coef, run, out):
+    """Advance the `BarState` (U, V, A) in place; returns (samples, steps, min u0, blow-up
+    step). bar: the `Bar` (K with the law's change of the first block); S: the `Implicit`
+    system M + beta dt^2 K with w = S^-1 (q0, q1, 0, ...) (beta = 0: M's factors, on nodes
+    1.. if the contact node is massless); law: the `BoundaryLaw`; coef: the `NewmarkCoef`;
+    run: the `Run`; out: the `Samples`.
 
     Implicit: three passes over the nodes per step (up: predictor, right-hand side and
     forward sweep; down: backward sweep; up: contact force and update), with the
     operations of the plain algorithm (`tri_matvec`, `pt_solve`) in the same order:
     the same bits."""
+    Md, Me, Kd, Ke, F = bar
+    Sd, Se, w = S
+    c, p0, p1, q0, q1, ew, sc = law
+    U, V, A = state
+    beta, gamma, massless = coef
+    dt, nsteps, stride, offset = run
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)
@@ -64,8 +91,7 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset) + 0.5 * ew * c * neg * neg
     min_u0 = U[0]
-    record_sample(0, 0.0, U, V, sc * neg, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, sc * neg, E0, out)
     k = 1
     pw = p0 * w[0] + p1 * w[1] if beta > 0.0 else 0.0
     c2 = (0.5 - beta) * dt * dt
@@ -91,7 +117,7 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
                 P = P / denom
                 mu = -bdt2 * c * P
             # up: contact force and Newmark update
-            newmark_update(rhs, mu, w, False, Ut, U, V, A, dt, bdt2, gamma, massless)
+            newmark_update(rhs, mu, w, False, Ut, state, dt, coef)
         else:
             for i in range(n):
                 U1[i] = U[i] + dt * V[i] + 0.5 * dt * dt * A[i]
@@ -125,7 +151,7 @@ def boundary_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, c, p0, p1, q0, q1, ew, sc,
             neg = min(p0 * U[0] + p1 * U[1], 0.0)
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset) + 0.5 * ew * c * neg * neg
             record_sample(k, step * dt, U, V, sc * neg, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+                          out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
@@ -169,11 +195,11 @@ def run_boundary(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: 
         Sd, Se = Md_f, Me_f
         w = np.zeros(2)
     out = allocate(semi, nsteps, stride)
+    law = BoundaryLaw(float(c), float(p[0]), float(p[1]), float(q[0]), float(q[1]), float(ew),
+                      float(sc))
     k, done, min_u0, blow = boundary_kernel(
-        M.diag, M.off, Kd, Ke, semi.F, Sd, Se, w, float(c), float(p[0]), float(p[1]),
-        float(q[0]), float(q[1]), float(ew), float(sc), U, V, A, dt, beta, gamma,
-        bool(semi.massless), int(nsteps), int(stride), semi.energy_offset,
-        out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+        Bar(M.diag, M.off, Kd, Ke, semi.F), Implicit(Sd, Se, w), law, BarState(U, V, A),
+        NewmarkCoef(beta, gamma, bool(semi.massless)), run_spec(semi, dt, nsteps, stride), out)
     return trajectory(out, k, done, min_u0, blow, dt)
 
 

@@ -11,27 +11,37 @@ import numpy as np
 from contact_bench.api.fem import MASSLESS_KINDS
 from contact_bench.api.plugin import Scheme, Semidiscrete, Trajectory
 from contact_bench.core.errors import BenchError
-from contact_bench.core.sampling import n_samples
-from contact_bench.core.tridiag import factor_pt, pt_solve
+from contact_bench.core.sampling import Run, Samples, n_samples
+from contact_bench.core.tridiag import Bar, factor_pt, pt_solve
 
 
-def allocate(semi: Semidiscrete, nsteps: int, stride: int) -> dict[str, np.ndarray]:
+def allocate(semi: Semidiscrete, nsteps: int, stride: int) -> Samples:
     """Output buffers of a kernel; memory grows with nfree x samples only."""
     k = n_samples(nsteps, stride)
     n = semi.nfree
-    return {
-        "t": np.zeros(k), "U": np.zeros((k, n)), "V": np.zeros((k, n)),
-        "cu": np.zeros(k), "s": np.zeros(k), "E": np.zeros(k),
-    }
+    return Samples(t=np.zeros(k), U=np.zeros((k, n)), V=np.zeros((k, n)), cu=np.zeros(k),
+                   stress=np.zeros(k), energy=np.zeros(k))
 
 
-def trajectory(out: dict[str, np.ndarray], nsample: int, steps_done: int, min_u0: float,
+def bar_ops(semi: Semidiscrete) -> Bar:
+    """The bar's tridiagonal M, K and load F, as the compiled kernels take them."""
+    M, K = semi.M, semi.K
+    return Bar(M.diag, M.off, K.diag, K.off, semi.F)
+
+
+def run_spec(semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Run:
+    """A kernel's `Run`: dt, nsteps, stride (typed as the kernels are compiled for) and
+    the bar's energy offset."""
+    return Run(float(dt), int(nsteps), int(stride), float(semi.energy_offset))
+
+
+def trajectory(out: Samples, nsample: int, steps_done: int, min_u0: float,
                blowup_step: int, dt: float, **extra) -> Trajectory:
     """Wrap kernel buffers (trimmed to the samples actually written)."""
     k = nsample
     return Trajectory(
-        t=out["t"][:k], U=out["U"][:k], V=out["V"][:k], contact_u=out["cu"][:k],
-        stress=out["s"][:k], energy=out["E"][:k], min_contact_u=float(min_u0),
+        t=out.t[:k], U=out.U[:k], V=out.V[:k], contact_u=out.cu[:k],
+        stress=out.stress[:k], energy=out.energy[:k], min_contact_u=float(min_u0),
         steps_done=int(steps_done),
         blowup_time=None if blowup_step < 0 else float(blowup_step * dt), extra=extra,
     )

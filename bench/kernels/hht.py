@@ -11,9 +11,10 @@ from contact_bench.core.tridiag import newmark_update, pt_backward
 
 
 @njit(cache=True)
-def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, massless,
-               nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V, A) in place; returns (samples, steps, min u0, blow-up step).
+def hht_kernel(bar, S, state, alpha, coef, run, out):
+    """Advance the `BarState` (U, V, A) in place; returns (samples, steps, min u0, blow-up
+    step). bar: the `Bar`; S: the `Implicit` system M + (1 + alpha) beta dt^2 K; coef: the
+    `NewmarkCoef`; run: the `Run`; out: the `Samples`.
 
     Three passes over the nodes per step, with the operations of the plain algorithm
     (module docstring; `tri_matvec`, `pt_solve`) in the same order, so the same bits:
@@ -21,6 +22,11 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     sweep; up, the contact and the Newmark update. The first and last rows are written
     apart rather than by `tri_row` in one loop (the layouts compared, with their
     timings: docs/performance.md)."""
+    Md, Me, Kd, Ke, F = bar
+    Sd, Se, w = S
+    U, V, A = state
+    beta, gamma, massless = coef
+    dt, nsteps, stride, offset = run
     n = U.size
     Ut = np.empty(n)
     rhs = np.empty(n)
@@ -28,8 +34,7 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
     min_u0 = U[0]
-    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, 0.0, E0, out)
     k = 1
     c2 = (0.5 - beta) * dt * dt
     for step in range(1, nsteps + 1):
@@ -68,13 +73,12 @@ def hht_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, alpha, beta, gamma, ma
         if rhs[0] < 0.0:
             mu = -rhs[0] / w[0]
         lam = mu / bdt2
-        newmark_update(rhs, mu, w, mu != 0.0, Ut, U, V, A, dt, bdt2, gamma, massless)
+        newmark_update(rhs, mu, w, mu != 0.0, Ut, state, dt, coef)
         if U[0] < min_u0:
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, step * dt, U, V, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

@@ -45,8 +45,8 @@ from contact_bench.api.plugin import Semidiscrete, Stepper, Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
-from contact_bench.core.tridiag import factor_pt, pt_solve, tri_matvec
-from contact_bench.kernels.common import allocate, trajectory
+from contact_bench.core.tridiag import Implicit, factor_pt, pt_solve, tri_matvec
+from contact_bench.kernels.common import allocate, bar_ops, run_spec, trajectory
 from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, hold, push, signorini
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
@@ -195,11 +195,15 @@ def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneSt
 
 
 @njit(cache=True)
-def _kane_banded_kernel(Md, Me, Kd, Ke, F, df, ef, wS, wM, U, V, dt, predictor, nsteps,
-                        stride, offset, t_out, U_out, V_out, cu_out, s_out,
-                        E_out):  # pragma: no cover - compiled
-    """`_kane_kernel`'s step on the tridiagonal bar, node 0 on the obstacle at 0: wS =
-    S^-1 e0, wM = M^-1 e0. Returns (samples, steps, min u0, blow-up step or -1)."""
+def _kane_banded_kernel(bar, S, wM, U, V, predictor, run, out):  # pragma: no cover - compiled
+    """`_kane_kernel`'s step on the tridiagonal bar (the `Bar`), node 0 on the obstacle at
+    0: S the `Implicit` factors (df, ef) of S = M + dt^2/4 K with wS = S^-1 e0, wM = M^-1
+    e0; run: the `Run`; out: the `Samples`. Returns (samples, steps, min u0, blow-up step
+    or -1)."""
+    Md, Me, Kd, Ke, F = bar
+    df, ef, wS = S
+    dt, nsteps, stride, offset = run
+    E_out = out.energy
     n = U.size
     c = 0.25 * dt * dt
     idt = 1.0 / dt
@@ -240,8 +244,7 @@ def _kane_banded_kernel(Md, Me, Kd, Ke, F, df, ef, wS, wM, U, V, dt, predictor, 
         min_u0 = min(min_u0, U[0])
         if step % stride == 0 or step == nsteps:
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy, t_out, U_out, V_out, cu_out,
-                          s_out, E_out)
+            record_sample(k, step * dt, U, V, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
@@ -273,13 +276,12 @@ class BandedKaneStepper(Stepper):
         M, K = semi.M, semi.K
         out = allocate(semi, nsteps, stride)
         U, V = semi.U0.astype(float).copy(), semi.V0.astype(float).copy()
-        out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
-        out["E"][0] = energy_rows(row_sums(M.diag, M.off), M.off, row_sums(K.diag, K.off),
-                                  K.off, semi.F, U, V, semi.energy_offset)
+        out.U[0], out.V[0], out.cu[0] = U, V, U[0]
+        out.energy[0] = energy_rows(row_sums(M.diag, M.off), M.off, row_sums(K.diag, K.off),
+                                    K.off, semi.F, U, V, semi.energy_offset)
         k, done, min_u0, blow = _kane_banded_kernel(
-            M.diag, M.off, K.diag, K.off, semi.F, self.df, self.ef, self.wS, self.wM, U, V,
-            self.dt, self.predictor, int(nsteps), int(stride), float(semi.energy_offset),
-            out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+            bar_ops(semi), Implicit(self.df, self.ef, self.wS), self.wM, U, V, self.predictor,
+            run_spec(semi, self.dt, nsteps, stride), out)
         return trajectory(out, k, done, min_u0, blow, self.dt)
 
 

@@ -60,9 +60,10 @@ INDEX = np.int32
 
 
 @njit(cache=True)
-def lu_solve(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, b, out, work):  # pragma: no cover
-    """out = S^-1 b from SuperLU's Pr S Pc = L U (L unit lower, U upper, both CSR with
-    sorted columns: L's diagonal last in its row, U's first)."""
+def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
+    """out = S^-1 b from SuperLU's Pr S Pc = L U (`fac`, an `LU`: L unit lower, U upper,
+    both CSR with sorted columns, L's diagonal last in its row, U's first)."""
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
     n = b.size
     for i in range(n):
         work[perm_r[i]] = b[i]
@@ -97,15 +98,15 @@ class LU(NamedTuple):
 @njit(cache=True)
 def lu(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n)."""
-    lu_solve(fac.Lp, fac.Li, fac.Lx, fac.Up, fac.Ui, fac.Ux, fac.perm_r, fac.perm_c, b, out,
-             work)
+    lu_solve(fac, b, out, work)
 
 
 @njit(cache=True)
-def lu_solve_many(Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, B, out, work):  # pragma: no cover
+def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
     """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
     `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
     numbers to the bit), the factor read once for all k columns."""
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
     n, k = B.shape
     for i in range(n):
         work[perm_r[i], :] = B[i, :]
@@ -202,7 +203,7 @@ class Factor:
     def solve(self, b: np.ndarray) -> np.ndarray:
         """S^-1 b for one right-hand side (`lu_solve`)."""
         out = np.empty(self.n)
-        lu_solve(*self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
+        lu_solve(self.arrays, np.ascontiguousarray(b, float), out, np.empty(self.n))
         return out
 
     def solve_many(self, B: np.ndarray | sp.spmatrix) -> np.ndarray:
@@ -234,7 +235,7 @@ class Factor:
                                        else B[:, j0:j1], dtype=float)
             X = np.empty(blk.shape)
             if chol is None:
-                lu_solve_many(*self.arrays, blk, X, np.empty(blk.shape))
+                lu_solve_many(self.arrays, blk, X, np.empty(blk.shape))
             else:
                 chol.solve(blk, X)
             yield j0, j1, X

@@ -66,13 +66,14 @@ def kick_drift(c, F, Kd, Ke, U, Vh, Un, dt):
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, offset,
-                     t_out, U_out, V_out, cu_out, s_out, E_out):
+def ps_lumped_kernel(bar, w0, Um, U, V0, e, run, out):
     """`paoli_schatzman.ps_kernel` for S = M diagonal (beta = 0): w = S^{-1} e0 = w0 e0.
 
     Same samples, stress, min u0 and blow-up step as the generic kernel; Um and U are
-    used as buffers.
+    used as buffers. bar: the `Bar`; run: the `Run`; out: the `Samples`.
     """
+    Md, Me, Kd, Ke, F = bar
+    dt, nsteps, stride, offset = run
     n = U.size
     dt2 = dt * dt
     c = np.empty(n)
@@ -83,8 +84,7 @@ def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, of
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V0, offset)
-    record_sample(0, 0.0, U, V0, s_out[0], E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V0, out.stress[0], E0, out)
     k = 1
     for step in range(1, nsteps + 2):
         cd_stencil(c, F, Kd, Ke, Um, U, Up)
@@ -95,13 +95,12 @@ def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, of
             Up[0] = -e * Um[0]  # w is zero off node 0
         lvl = step - 1
         if lvl == 0:
-            s_out[0] = -r
+            out.stress[0] = -r
         elif is_sample(lvl, nsteps, stride):
             for i in range(n):
                 tmp[i] = (Up[i] - Um[i]) / (2.0 * dt)
             energy = energy_rows(rM, Me, rK, Ke, F, U, tmp, offset)
-            record_sample(k, lvl * dt, U, tmp, -r, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, lvl * dt, U, tmp, -r, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, lvl, min_u0, lvl
@@ -114,14 +113,17 @@ def ps_lumped_kernel(Md, Me, Kd, Ke, F, w0, Um, U, V0, dt, e, nsteps, stride, of
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def tf_lumped_kernel(Md, Me, Kd, Ke, F, w0, U, V, A, dt, nsteps, stride, offset,
-                     t_out, U_out, V_out, cu_out, s_out, E_out):
+def tf_lumped_kernel(bar, w0, state, run, out):
     """`taylor_flanagan.taylor_flanagan_kernel` for a diagonal M: w = M^{-1} e0 = w0 e0.
 
     Carries (U^n, V^{n-1/2}) (kick-drift form; V^n = V^{n-1/2} + dt/2 A^n is formed
     only at the samples). Same samples, stress, min u0 and blow-up step as the
-    generic kernel; U, V, A are used as buffers.
+    generic kernel; the `BarState` (U, V, A) is used as buffers. bar: the `Bar`; run: the
+    `Run`; out: the `Samples`.
     """
+    Md, Me, Kd, Ke, F = bar
+    U, V, A = state
+    dt, nsteps, stride, offset = run
     n = U.size
     c = np.empty(n)
     for i in range(n):
@@ -131,8 +133,7 @@ def tf_lumped_kernel(Md, Me, Kd, Ke, F, w0, U, V, A, dt, nsteps, stride, offset,
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, 0.0, E0, out)
     k = 1
     Vh = V
     for i in range(n):
@@ -158,8 +159,7 @@ def tf_lumped_kernel(Md, Me, Kd, Ke, F, w0, U, V, A, dt, nsteps, stride, offset,
             for i in range(n):
                 tmp[i] = Vh[i] + 0.5 * dt * ((F[i] - tmp[i]) / Md[i])
             energy = energy_rows(rM, Me, rK, Ke, F, U, tmp, offset)
-            record_sample(k, step * dt, U, tmp, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, step * dt, U, tmp, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

@@ -13,7 +13,14 @@ import numpy as np
 from numba import njit, uint64
 
 from contact_bench.core.config import FASTMATH
-from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
+from contact_bench.core.sampling import (
+    EnergyRows,
+    blown_up,
+    energy_rows,
+    is_sample,
+    record_sample,
+    row_sums,
+)
 from contact_bench.core.spike import L, lane_position, record_lane_sample
 from contact_bench.core.tridiag import eliminate_contact_node, pt_solve, tri_matvec
 from contact_bench.kernels.newmark import massless_acceleration
@@ -57,9 +64,11 @@ def contact_node_velocity(Kd, Ke, U, V):
 
 
 @njit(cache=True)
-def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
-                  t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Velocity Verlet on (P_U^mod); returns (samples, steps, min u0, blow-up step)."""
+def verlet_kernel(bar, Sd, Se, U, V, run, out):
+    """Velocity Verlet on (P_U^mod); returns (samples, steps, min u0, blow-up step). bar:
+    the `Bar`; (Sd, Se): M_bar's factors; run: the `Run`; out: the `Samples`."""
+    Md, Me, Kd, Ke, F = bar
+    dt, nsteps, stride, offset = run
     n = U.size
     A = np.empty(n)
     KU = np.empty(n)
@@ -68,8 +77,7 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    record_sample(0, 0.0, U, V, -lam, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, -lam, E0, out)
     k = 1
     for step in range(1, nsteps + 1):
         for i in range(1, n):
@@ -83,8 +91,7 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, step * dt, U, V, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
@@ -92,26 +99,30 @@ def verlet_kernel(Md, Me, Kd, Ke, F, Sd, Se, U, V, dt, nsteps, stride, offset,
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, dt, nsteps,
-                        stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
+def verlet_spike_kernel(bar, lanes, state, z, coef, run, out):
     """`verlet_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V, A, z:
-    interleaved, A and z scratch). Same update, samples, stress, min u0 and blow-up step.
+    interleaved, A and z scratch; state the `BarState`, lanes the `LaneStiffness` of M_r).
+    Same update, samples, stress, min u0 and blow-up step.
 
     Between samples V holds the half-step velocity: the closing half kick of a step, the
     next step's half kick and drift are one pass (the same operations, in the same
     order, as the reference kernel's two loops).
     """
-    m, nodes = fac[9], fac[10]
+    Md, Me, Kd, Ke, F = bar
+    U, V, A = state
+    dt, nsteps, stride, offset = run
+    fac = lanes.fac
+    m, nodes = fac.m, fac.nodes
     N = L * m
     h = 0.5 * dt
     p1 = lane_position(1, m)  # node 1's position
     r = -(Ke[0] / Kd[0])  # v0 = r v1 while the node is off the obstacle
-    lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, A, coef)
+    lam = massless_acceleration(Kd, Ke, F, lanes, p1, U, A, coef)
     V[0] = r * V[p1] if U[0] > 0.0 else 0.0
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
-    E0 = record_lane_sample(0, 0.0, nodes, U, V, -lam, rM, Me, rK, Ke, F, offset,
-                            t_out, U_out, V_out, cu_out, s_out, E_out)
+    en = EnergyRows(rM, Me, rK, Ke, F, offset)
+    E0 = record_lane_sample(0, 0.0, nodes, U, V, -lam, en, out)
     k = 1
     kicked = False  # V, U already hold this step's half kick and drift
     for step in range(1, nsteps + 1):
@@ -122,7 +133,7 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
                 V[pu] = v
                 U[pu] = U[pu] + dt * v
         # U[0] was drifted with V[0] above; it is replaced by u0(u1) here
-        lam = massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef)
+        lam = massless_acceleration(Kd, Ke, F, lanes, p1, U, z, coef)
         A, z = z, A  # A^{n+1}; the old A is the next solve's scratch
         u0 = U[0]
         if u0 < min_u0:
@@ -142,8 +153,7 @@ def verlet_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, U, V, A, z, coef, 
         kicked = not sample
         if sample:
             V[0] = r * V[p1] if u0 > 0.0 else 0.0
-            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, rM, Me, rK, Ke, F,
-                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
+            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, en, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

@@ -12,21 +12,23 @@ from contact_bench.core.tridiag import pt_backward, tri_row
 
 
 @njit(cache=True)
-def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps, stride,
-                       offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V) in place; returns (samples, steps, min u0, blow-up step).
+def moreau_jean_kernel(bar, S, U, V, theta, e, run, out):
+    """Advance (U, V) in place (bar: the `Bar`, S: the `Implicit` system M + theta^2 dt^2 K,
+    run: the `Run`, out: the `Samples`); returns (samples, steps, min u0, blow-up step).
 
     Three passes over the nodes per step (up: right-hand side and forward sweep; down:
     backward sweep; up: impulse and update), with the operations of the plain algorithm
     (`tri_matvec`, `pt_solve`, then the impulse added to every node) in the same order:
     the same bits."""
+    Md, Me, Kd, Ke, F = bar
+    Sd, Se, w = S
+    dt, nsteps, stride, offset = run
     n = U.size
     rhs = np.empty(n)
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, 0.0, E0, out)
     k = 1
     c = theta * (1.0 - theta) * dt * dt
     for step in range(1, nsteps + 1):
@@ -57,8 +59,7 @@ def moreau_jean_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, dt, theta, e, nsteps,
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -P / dt, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, step * dt, U, V, -P / dt, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

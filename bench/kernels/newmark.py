@@ -23,6 +23,7 @@ velocity is taken as the backward difference (u0^{n+1} - u0^n) / dt.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -31,12 +32,25 @@ from contact_bench.api.params import Param
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.core.config import FASTMATH
 from contact_bench.core.errors import BenchError
-from contact_bench.core.sampling import energy_of
-from contact_bench.core.spike import L, Spike, lane_zeros, spike_factor, stencil_solve
+from contact_bench.core.sampling import Samples, energy_of
+from contact_bench.core.spike import L, Spike, SpikeFactors, lane_zeros, spike_factor, stencil_solve
 from contact_bench.core.tridiag import eliminate_contact_node, factor_pt, pt_solve
-from contact_bench.kernels.common import allocate, initial_acceleration, trajectory
-from contact_bench.kernels.newmark_serial import serial_explicit, serial_implicit
-from contact_bench.kernels.newmark_vec import explicit_kernel, implicit_kernel
+from contact_bench.kernels.common import (
+    allocate,
+    bar_ops,
+    initial_acceleration,
+    run_spec,
+    trajectory,
+)
+from contact_bench.kernels.newmark_serial import (
+    ThomasExplicit,
+    ThomasImplicit,
+    XQCoef,
+    XQState,
+    serial_explicit,
+    serial_implicit,
+)
+from contact_bench.kernels.newmark_vec import LaneOps, explicit_kernel, implicit_kernel
 
 BETA = Param(0.25, "Newmark beta (0: explicit central difference)", low=0.0, high=0.5)
 GAMMA = Param(0.5, "Newmark gamma", low=0.5, high=1.0)
@@ -122,17 +136,30 @@ def kernel_form(n: int, nsteps: int | None = None, form: str | None = None,
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def massless_acceleration(Kd, Ke, F, Kdl, Klo, Fl, fac, p1, U, z, coef):
+def massless_acceleration(Kd, Ke, F, lanes, p1, U, z, coef):
     """The ODE (P_U^mod) of Dabaghi et al. 2014 in the interleaved layout: U[0] <- u0(u1)
     (node 1 at position p1), z <- A = M_r^-1 (F - K U) on nodes 1.. and A[0] = 0; returns lambda.
 
-    fac = `Spike.factors()` of M_r with node 0 decoupled (an identity row, lo = 0 at
-    node 1), so the right-hand side of node 0 only reaches z[0], which is set to 0.
+    (Kd, Ke), F: K and the load in node order; lanes: the `LaneStiffness` (K, F in the
+    interleaved layout and fac = `Spike.factors()` of M_r with node 0 decoupled: an
+    identity row, lo = 0 at node 1), so the right-hand side of node 0 only reaches z[0],
+    which is set to 0.
     """
+    Kdl, Klo, Fl, fac = lanes
     lam = eliminate_contact_node(Kd, Ke, F, U, p1)
     stencil_solve(Kdl, Klo, U, Fl, -1.0, fac, z, coef)
     z[0] = 0.0
     return lam
+
+
+class LaneStiffness(NamedTuple):
+    """The explicit SPIKE kernels' operators in the interleaved layout: K's diagonal Kdl
+    and lower band Klo, the load Fl, and fac = `Spike.factors()` of the mass."""
+
+    Kdl: np.ndarray
+    Klo: np.ndarray
+    Fl: np.ndarray
+    fac: SpikeFactors
 
 
 def _load_to_lanes(sp: Spike, F: np.ndarray, scale: float) -> np.ndarray:
@@ -189,13 +216,12 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
         if n < 2:
             raise ValueError("explicit Newmark needs at least one node besides the contact node")
     out = allocate(semi, nsteps, stride)
-    out["U"][0], out["V"][0], out["cu"][0] = U, V, U[0]
-    out["E"][0] = energy_of(M.diag, M.off, K.diag, K.off, F, U, V, semi.energy_offset)
-    bufs = (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"])
+    out.U[0], out.V[0], out.cu[0] = U, V, U[0]
+    out.energy[0] = energy_of(M.diag, M.off, K.diag, K.off, F, U, V, semi.energy_offset)
     A = initial_acceleration(semi)
     dt2 = dt * dt
     if kernel_form(n, nsteps, form) == "serial":
-        res = _run_serial(semi, dt, nsteps, stride, beta, gamma, A, bufs)
+        res = _run_serial(semi, dt, nsteps, stride, beta, gamma, A, out)
         return trajectory(out, *res, dt)
     if beta > 0.0:
         bdt2 = beta * dt2
@@ -226,19 +252,21 @@ def run_newmark(semi: Semidiscrete, dt: float, nsteps: int, stride: int,
     Dg, Dsrc, Ddst, X0pos, X0val = h_diagonals(sp)
     hw = lane_zeros(2 * L)
     hw[:] = sp.hw
+    lanes = LaneOps(Sd, Slo, SloN, G, bool(np.any(F)), sp.factors(), Dg, Dsrc, Ddst, X0pos,
+                    X0val, hw, float(sp.w0))
+    upd = XQCoef(float(U[0]), k1, k2, kv, 1.0 / (beta * dt2) if beta > 0.0 else 0.0,
+                 bool(semi.massless))
     k, done, min_u0, blow = kernel(
-        M.diag, M.off, K.diag, K.off, F, Sd, Slo, SloN, G, bool(np.any(F)), sp.factors(),
-        Dg, Dsrc, Ddst, X0pos, X0val, hw, sp.w0, X, Q, sp.zeros(), sp.zeros(),
-        np.zeros(2 * L), lane_zeros(4 * L), float(U[0]), k1, k2, kv,
-        1.0 / (beta * dt2) if beta > 0.0 else 0.0, dt, bool(semi.massless), int(nsteps),
-        int(stride), semi.energy_offset, *bufs)
+        bar_ops(semi), lanes, XQState(X, Q, sp.zeros(), sp.zeros()), np.zeros(2 * L),
+        lane_zeros(4 * L), upd, run_spec(semi, dt, nsteps, stride), out)
     return trajectory(out, k, done, min_u0, blow, dt)
 
 
 def _run_serial(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: float,
-                gamma: float, A: np.ndarray, bufs: tuple) -> tuple:
+                gamma: float, A: np.ndarray, out: Samples) -> tuple:
     """The serial kernels' factors (LAPACK dpttrf) and state (X, Q) in node order; returns
     the kernel's (samples, steps, min u0, blow-up step)."""
+    bar, run = bar_ops(semi), run_spec(semi, dt, nsteps, stride)
     M, K, F = semi.M, semi.K, semi.F
     U, V = semi.U0, semi.V0
     dt2 = dt * dt
@@ -251,16 +279,14 @@ def _run_serial(semi: Semidiscrete, dt: float, nsteps: int, stride: int, beta: f
         w[0] = 1.0
         pt_solve(df, ef, w)
         X = U + dt * V + (0.5 - beta) * dt2 * A
-        return serial_implicit(
-            M.diag, M.off, K.diag, K.off, F, bdt2 * F, ef, 1.0 / df, w, float(w[0]), X, Q, z,
-            Vs, float(U[0]), (gamma + 0.5 - beta) / beta, 1.0 / beta, gamma / (beta * dt),
-            1.0 / bdt2, dt, bool(semi.massless), int(nsteps), int(stride),
-            semi.energy_offset, *bufs)
+        upd = XQCoef(float(U[0]), (gamma + 0.5 - beta) / beta, 1.0 / beta, gamma / (beta * dt),
+                     1.0 / bdt2, bool(semi.massless))
+        return serial_implicit(bar, ThomasImplicit(bdt2 * F, ef, 1.0 / df, w, float(w[0])),
+                               XQState(X, Q, z, Vs), upd, run, out)
     d, e = M.diag.copy(), M.off.copy()
     d[0], e[0] = 1.0, 0.0  # node 0 decoupled: M_r on nodes 1.. plus an identity row
     df, ef = factor_pt(d, e)
     X = U + dt * V + 0.5 * dt2 * A
-    return serial_explicit(
-        M.diag, M.off, K.diag, K.off, F, -dt2 * K.diag, -dt2 * K.off, dt2 * F, ef, 1.0 / df,
-        X, Q, z, Vs, float(U[0]), gamma + 0.5, 1.0, gamma / dt, dt, int(nsteps), int(stride),
-        semi.energy_offset, *bufs)
+    solve = ThomasExplicit(-dt2 * K.diag, -dt2 * K.off, dt2 * F, ef, 1.0 / df)
+    upd = XQCoef(float(U[0]), gamma + 0.5, 1.0, gamma / dt, 0.0, True)
+    return serial_explicit(bar, solve, XQState(X, Q, z, Vs), upd, run, out)

@@ -222,11 +222,13 @@ def _backward_reduced(e: _Emitter, implicit: bool) -> None:
 
 _SIGNATURE = """\
 @njit(cache=True, fastmath=FASTMATH)
-def {name}(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
-{pad}X0pos, X0val, hw, w0, X, Q, z, Vs, coef, ibuf, u0, k1s, k2s, kvs, sscale,
-{pad}dt, massless, nsteps, stride, offset,
-{pad}t_out, U_out, V_out, cu_out, s_out, E_out):
+def {name}(bar, lanes, state, coef, ibuf, upd, run, out):
     \"\"\"{doc}\"\"\"
+    Md, Me, Kd, Ke, F = bar
+    Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst, X0pos, X0val, hw, w0 = lanes
+    X, Q, z, Vs = state
+    u0, k1s, k2s, kvs, sscale, massless = upd
+    dt, nsteps, stride, offset = run
     lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
@@ -245,27 +247,32 @@ def {name}(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
     bnd[2] = max(b1, b2)
     bnd[3] = m - 2
     min_u0 = u0
-    E0 = E_out[0]
+    E0 = out.energy[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
+    en = EnergyRows(rM, Me, rK, Ke, F, offset)
     k = 1
 """
 
+_DOC_ARGS = """
+    bar: the `Bar` (node order); lanes: the `LaneOps`; state: the `XQState` (interleaved);
+    coef, ibuf: scratch (2 L + 1 and 4 L); upd: the `XQCoef` (k1s, k2s, kvs its k1, k2,
+    kv); run: the `Run`; out: the `Samples` (sample 0 written).
+    """
 _DOC_IMPLICIT = """Implicit Newmark, state (X, Q), see the module docstring.
 
     k1s, k2s, kvs = (gamma + 1/2 - beta) / beta, 1 / beta, gamma / (beta dt); the contact
     stress is -mu sscale, sscale = 1 / (beta dt^2).
-    """
+""" + _DOC_ARGS
 _DOC_EXPLICIT = """Central differences, massless contact node, state (X, Q): see the module doc.
 
     k1s, k2s, kvs = gamma + 1/2, 1, gamma / dt.
-    """
+""" + _DOC_ARGS
 
 
 def _kernel(e: _Emitter, implicit: bool) -> None:
     name = "implicit_kernel" if implicit else "explicit_kernel"
-    pad = " " * (len(name) + 5)
     doc = _DOC_IMPLICIT if implicit else _DOC_EXPLICIT
-    e(*_SIGNATURE.format(name=name, pad=pad, doc=doc).splitlines())
+    e(*_SIGNATURE.format(name=name, doc=doc).splitlines())
     e.indent()
     e("unfused = True  # the forward pass of this step is still to do (first step, after a sample)",
       "for step in range(1, nsteps + 1):")
@@ -313,8 +320,7 @@ def _kernel(e: _Emitter, implicit: bool) -> None:
     e.indent()
     stress = "-mu * sscale" if implicit else "-lam"
     Xs = "z" if implicit else "X"
-    e(f"energy = record_lane_sample(k, step * dt, nodes, {Xs}, Vs, {stress}, rM, Me, rK, Ke,",
-      "                            F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)",
+    e(f"energy = record_lane_sample(k, step * dt, nodes, {Xs}, Vs, {stress}, en, out)",
       "k += 1", "if blown_up(energy, E0):", "    return k, step, min_u0, step")
     if not implicit:
         _updates(e, False, "range(m)", False, "  # the update, after the sample of U1")
@@ -353,14 +359,38 @@ Needs m >= 3 rows (`spike_factor(..., min_rows=3)`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, uint64
 
 from contact_bench.core.config import FASTMATH
-from contact_bench.core.sampling import blown_up, row_sums
+from contact_bench.core.sampling import EnergyRows, blown_up, row_sums
 from contact_bench.core.simd import vfma, vfnma, vload, vsplat, vstore
-from contact_bench.core.spike import record_lane_sample
+from contact_bench.core.spike import SpikeFactors, record_lane_sample
 from contact_bench.core.tridiag import eliminate_contact_node
+
+
+class LaneOps(NamedTuple):
+    """What the vector kernels read besides the bar: the interleaved T = (Sd, Slo) of S X
+    (SloN: row 0's lower band of the next lane, for row m-1) and the load G (has_load:
+    G is not zero), S's SPIKE factors fac, the reduced-system map as vector diagonals
+    (Dg, Dsrc, Ddst) and its x[0] row (X0pos, X0val) (`newmark.h_diagonals`), and the
+    contact's response: hw, the (A, B) coefficients of S^-1 e0, and w0 = (S^-1)[0, 0]."""
+
+    Sd: np.ndarray
+    Slo: np.ndarray
+    SloN: np.ndarray
+    G: np.ndarray
+    has_load: bool
+    fac: SpikeFactors
+    Dg: np.ndarray
+    Dsrc: np.ndarray
+    Ddst: np.ndarray
+    X0pos: np.ndarray
+    X0val: np.ndarray
+    hw: np.ndarray
+    w0: float
 
 U8 = uint64(8)
 U16 = uint64(16)

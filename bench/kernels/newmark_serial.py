@@ -17,11 +17,61 @@ Sample steps take an unfused path that also forms V and writes the sample with t
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
 
 from contact_bench.core.config import FASTMATH
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import eliminate_contact_node
+
+
+class XQState(NamedTuple):
+    """The (X, Q) form's state, advanced in place: the predictor X and Q (module
+    docstring), the solve's z and the sample velocity Vs; node order for the serial
+    kernels, interleaved for the vector ones."""
+
+    X: np.ndarray
+    Q: np.ndarray
+    z: np.ndarray
+    Vs: np.ndarray
+
+
+class XQCoef(NamedTuple):
+    """The (X, Q) update's numbers: u0 the contact node's initial displacement, k1, k2, kv
+    (implicit: (gamma + 1/2 - beta) / beta, 1 / beta, gamma / (beta dt); explicit: gamma +
+    1/2, 1, gamma / dt), sscale the contact stress per mu (implicit: 1 / (beta dt^2)), and
+    whether the contact node is massless (the explicit kernels always take it so)."""
+
+    u0: float
+    k1: float
+    k2: float
+    kv: float
+    sscale: float
+    massless: bool
+
+
+class ThomasImplicit(NamedTuple):
+    """The serial implicit solve: G = beta dt^2 F, S = M + beta dt^2 K's factors (ef: L's
+    band, invd = 1 / D), its response w = S^-1 e0 and w0 = w[0]."""
+
+    G: np.ndarray
+    ef: np.ndarray
+    invd: np.ndarray
+    w: np.ndarray
+    w0: float
+
+
+class ThomasExplicit(NamedTuple):
+    """The serial explicit solve M_r z = G + T X: T = -dt^2 K (Td, Te), G = dt^2 F, M's
+    factors with node 0 decoupled (ef, invd = 1 / D)."""
+
+    Td: np.ndarray
+    Te: np.ndarray
+    G: np.ndarray
+    ef: np.ndarray
+    invd: np.ndarray
 
 
 @njit(cache=True, fastmath=FASTMATH)
@@ -58,14 +108,19 @@ def _backward(ef, z):  # pragma: no cover - compiled
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, k2, kv,
-                    sscale, dt, massless, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out):
+def serial_implicit(bar, solve, state, upd, run, out):
     """Implicit Newmark, state (X, Q): z = S^-1 (G + M X), contact mu w if z[0] < 0, then
     d = z - X, X <- z + Q + k1 d, Q <- Q + k2 d (V = Q / dt + kv d on sample steps).
     k1, k2, kv = (gamma + 1/2 - beta) / beta, 1 / beta, gamma / (beta dt); the contact
     stress is -mu sscale, sscale = 1 / (beta dt^2). Returns (samples, steps, min u0,
-    blow-up step or -1)."""
+    blow-up step or -1). bar: the `Bar`; solve: the `ThomasImplicit`; state: the
+    `XQState`; upd: the `XQCoef`; run: the `Run`; out: the `Samples` (sample 0 written)."""
+    Md, Me, Kd, Ke, F = bar
+    G, ef, invd, w, w0 = solve
+    X, Q, z, Vs = state
+    u0, k1, k2, kv, sscale, massless = upd
+    dt, nsteps, stride, offset = run
+    E_out = out.energy
     n = X.size
     idt = 1.0 / dt
     min_u0 = u0
@@ -95,7 +150,7 @@ def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, 
                 Vs[0] = (u1 - u0) * idt
             energy = energy_rows(rM, Me, rK, Ke, F, z, Vs, offset)
             record_sample(k, step * dt, z, Vs, -mu * sscale, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+                          out)
             k += 1
             if u1 < min_u0:
                 min_u0 = u1
@@ -146,12 +201,19 @@ def serial_implicit(Md, Me, Kd, Ke, F, G, ef, invd, w, w0, X, Q, z, Vs, u0, k1, 
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def serial_explicit(Md, Me, Kd, Ke, F, Td, Te, G, ef, invd, X, Q, z, Vs, u0, k1, k2, kv,
-                    dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
+def serial_explicit(bar, solve, state, upd, run, out):
     """Central differences with a massless contact node, state (X, Q): node 0 eliminated
     from node 1 (u0 = max(0, ...)), z = dt^2 A1 = M_r^-1 (G + T X) on nodes 1.. (T = -dt^2
     K, G = dt^2 F; ef, invd: factors of M with node 0 decoupled), X <- X + Q + k1 z,
-    Q <- Q + k2 z. k1, k2, kv = gamma + 1/2, 1, gamma / dt."""
+    Q <- Q + k2 z. k1, k2, kv = gamma + 1/2, 1, gamma / dt. bar: the `Bar`; solve: the
+    `ThomasExplicit`; state: the `XQState`; upd: the `XQCoef` (sscale, massless unused);
+    run: the `Run`; out: the `Samples` (sample 0 written)."""
+    Md, Me, Kd, Ke, F = bar
+    Td, Te, G, ef, invd = solve
+    X, Q, z, Vs = state
+    u0, k1, k2, kv = upd.u0, upd.k1, upd.k2, upd.kv
+    dt, nsteps, stride, offset = run
+    E_out = out.energy
     n = X.size
     idt = 1.0 / dt
     min_u0 = u0
@@ -173,7 +235,7 @@ def serial_explicit(Md, Me, Kd, Ke, F, Td, Te, G, ef, invd, X, Q, z, Vs, u0, k1,
             Vs[0] = v0 * idt
             energy = energy_rows(rM, Me, rK, Ke, F, X, Vs, offset)
             record_sample(k, step * dt, X, Vs, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+                          out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

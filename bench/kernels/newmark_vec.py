@@ -25,29 +25,59 @@ Needs m >= 3 rows (`spike_factor(..., min_rows=3)`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, uint64
 
 from contact_bench.core.config import FASTMATH
-from contact_bench.core.sampling import blown_up, row_sums
+from contact_bench.core.sampling import EnergyRows, blown_up, row_sums
 from contact_bench.core.simd import vfma, vfnma, vload, vsplat, vstore
-from contact_bench.core.spike import record_lane_sample
+from contact_bench.core.spike import SpikeFactors, record_lane_sample
 from contact_bench.core.tridiag import eliminate_contact_node
+
+
+class LaneOps(NamedTuple):
+    """What the vector kernels read besides the bar: the interleaved T = (Sd, Slo) of S X
+    (SloN: row 0's lower band of the next lane, for row m-1) and the load G (has_load:
+    G is not zero), S's SPIKE factors fac, the reduced-system map as vector diagonals
+    (Dg, Dsrc, Ddst) and its x[0] row (X0pos, X0val) (`newmark.h_diagonals`), and the
+    contact's response: hw, the (A, B) coefficients of S^-1 e0, and w0 = (S^-1)[0, 0]."""
+
+    Sd: np.ndarray
+    Slo: np.ndarray
+    SloN: np.ndarray
+    G: np.ndarray
+    has_load: bool
+    fac: SpikeFactors
+    Dg: np.ndarray
+    Dsrc: np.ndarray
+    Ddst: np.ndarray
+    X0pos: np.ndarray
+    X0val: np.ndarray
+    hw: np.ndarray
+    w0: float
 
 U8 = uint64(8)
 U16 = uint64(16)
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
-                    X0pos, X0val, hw, w0, X, Q, z, Vs, coef, ibuf, u0, k1s, k2s, kvs, sscale,
-                    dt, massless, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out):
+def implicit_kernel(bar, lanes, state, coef, ibuf, upd, run, out):
     """Implicit Newmark, state (X, Q), see the module docstring.
 
     k1s, k2s, kvs = (gamma + 1/2 - beta) / beta, 1 / beta, gamma / (beta dt); the contact
     stress is -mu sscale, sscale = 1 / (beta dt^2).
+
+    bar: the `Bar` (node order); lanes: the `LaneOps`; state: the `XQState` (interleaved);
+    coef, ibuf: scratch (2 L + 1 and 4 L); upd: the `XQCoef` (k1s, k2s, kvs its k1, k2,
+    kv); run: the `Run`; out: the `Samples` (sample 0 written).
     """
+    Md, Me, Kd, Ke, F = bar
+    Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst, X0pos, X0val, hw, w0 = lanes
+    X, Q, z, Vs = state
+    u0, k1s, k2s, kvs, sscale, massless = upd
+    dt, nsteps, stride, offset = run
     lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
@@ -66,8 +96,9 @@ def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
     bnd[2] = max(b1, b2)
     bnd[3] = m - 2
     min_u0 = u0
-    E0 = E_out[0]
+    E0 = out.energy[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
+    en = EnergyRows(rM, Me, rK, Ke, F, offset)
     k = 1
     unfused = True  # the forward pass of this step is still to do (first step, after a sample)
     for step in range(1, nsteps + 1):
@@ -679,8 +710,7 @@ def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
                 vstore(z, p + U8, y1)
                 xm0, xm1, xc0, xc1, sm0, sm1 = xc0, xc1, xp0, xp1, sp0, sp1
         else:
-            energy = record_lane_sample(k, step * dt, nodes, z, Vs, -mu * sscale, rM, Me, rK, Ke,
-                                        F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
+            energy = record_lane_sample(k, step * dt, nodes, z, Vs, -mu * sscale, en, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
@@ -688,14 +718,20 @@ def implicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
 
 
 @njit(cache=True, fastmath=FASTMATH)
-def explicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst,
-                    X0pos, X0val, hw, w0, X, Q, z, Vs, coef, ibuf, u0, k1s, k2s, kvs, sscale,
-                    dt, massless, nsteps, stride, offset,
-                    t_out, U_out, V_out, cu_out, s_out, E_out):
+def explicit_kernel(bar, lanes, state, coef, ibuf, upd, run, out):
     """Central differences, massless contact node, state (X, Q): see the module doc.
 
     k1s, k2s, kvs = gamma + 1/2, 1, gamma / dt.
+
+    bar: the `Bar` (node order); lanes: the `LaneOps`; state: the `XQState` (interleaved);
+    coef, ibuf: scratch (2 L + 1 and 4 L); upd: the `XQCoef` (k1s, k2s, kvs its k1, k2,
+    kv); run: the `Run`; out: the `Samples` (sample 0 written).
     """
+    Md, Me, Kd, Ke, F = bar
+    Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc, Ddst, X0pos, X0val, hw, w0 = lanes
+    X, Q, z, Vs = state
+    u0, k1s, k2s, kvs, sscale, massless = upd
+    dt, nsteps, stride, offset = run
     lo, invd, sa, sb, Hrow, Hpos, Hval, ja, jb, m, nodes = fac
     um = uint64(m)
     j0b = m - jb
@@ -714,8 +750,9 @@ def explicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
     bnd[2] = max(b1, b2)
     bnd[3] = m - 2
     min_u0 = u0
-    E0 = E_out[0]
+    E0 = out.energy[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
+    en = EnergyRows(rM, Me, rK, Ke, F, offset)
     k = 1
     unfused = True  # the forward pass of this step is still to do (first step, after a sample)
     for step in range(1, nsteps + 1):
@@ -1279,8 +1316,7 @@ def explicit_kernel(Md, Me, Kd, Ke, F, Sd, Slo, SloN, G, has_load, fac, Dg, Dsrc
                 vstore(z, p + U8, y1)
                 xm0, xm1, xc0, xc1, sm0, sm1 = xc0, xc1, xp0, xp1, sp0, sp1
         else:
-            energy = record_lane_sample(k, step * dt, nodes, X, Vs, -lam, rM, Me, rK, Ke,
-                                        F, offset, t_out, U_out, V_out, cu_out, s_out, E_out)
+            energy = record_lane_sample(k, step * dt, nodes, X, Vs, -lam, en, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step

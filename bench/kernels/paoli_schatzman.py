@@ -13,9 +13,15 @@ from contact_bench.core.tridiag import pt_solve, tri_matvec
 
 
 @njit(cache=True)
-def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stride,
-              offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Two-step Paoli-Schatzman from (U^{-1}, U^0); one extra step gives the last velocity."""
+def ps_kernel(bar, S, Um, U, V0, coef, run, out):
+    """Two-step Paoli-Schatzman from (U^{-1}, U^0); one extra step gives the last velocity.
+
+    bar: the `Bar`; S: the `Implicit` system M + beta dt^2 K; coef: (beta, e), the stiffness
+    weight and the restitution coefficient; run: the `Run`; out: the `Samples`."""
+    Md, Me, Kd, Ke, F = bar
+    Sd, Se, w = S
+    beta, e = coef
+    dt, nsteps, stride, offset = run
     n = U.size
     rhs = np.empty(n)
     tmp = np.empty(n)
@@ -24,8 +30,7 @@ def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stri
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V0, offset)
-    record_sample(0, 0.0, U, V0, s_out[0], E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V0, out.stress[0], E0, out)
     k = 1
     for step in range(1, nsteps + 2):
         # S U^{n+1} = M (2 U^n - U^{n-1}) - dt^2 K ((1 - 2 beta) U^n + beta U^{n-1}) + dt^2 F
@@ -48,13 +53,12 @@ def ps_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, Um, U, V0, dt, beta, e, nsteps, stri
         # level n = step - 1 is complete: sample (U^n, (U^{n+1} - U^{n-1}) / 2 dt, -r^n)
         lvl = step - 1
         if lvl == 0:
-            s_out[0] = -r
+            out.stress[0] = -r
         elif is_sample(lvl, nsteps, stride):
             for i in range(n):
                 tmp[i] = (rhs[i] - Um[i]) / (2.0 * dt)
             energy = energy_rows(rM, Me, rK, Ke, F, U, tmp, offset)
-            record_sample(k, lvl * dt, U, tmp, -r, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, lvl * dt, U, tmp, -r, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, lvl, min_u0, lvl

@@ -37,7 +37,14 @@ from scipy.linalg import eigh_tridiagonal
 from contact_bench.api.plugin import Semidiscrete, Trajectory
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
-from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
+from contact_bench.core.sampling import (
+    Run,
+    blown_up,
+    energy_rows,
+    is_sample,
+    record_sample,
+    row_sums,
+)
 from contact_bench.core.tridiag import eliminate_contact_node, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.contact import ContactOps, add_response, contact_ops, gaps, hold
@@ -54,12 +61,10 @@ from contact_bench.kernels.stepper import LoopStepper
 @njit(cache=True)
 def bar_kernel(bar, U, V, run, out):  # pragma: no cover - compiled
     """The bar (module docstring): bar = (m, Kd, Ke, F), the lumped mass (m[0] = 0), K's
-    bands and the load; U, V advanced in place; run = (dt, nsteps, stride, energy offset);
-    out = (t, U, V, u_0, stress, energy) the sample buffers. Returns (samples, steps,
-    smallest u_0, blow-up step or -1)."""
+    bands and the load; U, V advanced in place; run a `Run`; out the `Samples`. Returns
+    (samples, steps, smallest u_0, blow-up step or -1)."""
     m, Kd, Ke, F = bar
     dt, nsteps, stride, offset = run
-    t_out, U_out, V_out, cu_out, s_out, E_out = out
     n = U.size
     h = 0.5 * dt
     A = np.zeros(n)
@@ -69,7 +74,7 @@ def bar_kernel(bar, U, V, run, out):  # pragma: no cover - compiled
     # sample 0 is the given initial state; the scheme starts from it with the massless
     # node at its static position (the first element's strain energy released)
     E0 = energy_rows(m, Me, rK, Ke, F, U, V, offset)
-    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out, E_out)
+    record_sample(0, 0.0, U, V, 0.0, E0, out)
     min_u0 = U[0]
     eliminate_contact_node(Kd, Ke, F, U)
     tri_matvec(Kd, Ke, U, KU)
@@ -91,8 +96,7 @@ def bar_kernel(bar, U, V, run, out):  # pragma: no cover - compiled
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_rows(m, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy, t_out, U_out, V_out, cu_out,
-                          s_out, E_out)
+            record_sample(k, step * dt, U, V, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
@@ -123,8 +127,7 @@ def run_bar(semi: Semidiscrete, dt: float, nsteps: int, stride: int) -> Trajecto
     out = allocate(semi, nsteps, stride)
     k, done, min_u0, blow = bar_kernel(
         (np.asarray(semi.M.diag, float), semi.K.diag, semi.K.off, semi.F), U, V,
-        (float(dt), int(nsteps), int(stride), float(semi.energy_offset)),
-        (out["t"], out["U"], out["V"], out["cu"], out["s"], out["E"]))
+        Run(float(dt), int(nsteps), int(stride), float(semi.energy_offset)), out)
     return trajectory(out, k, done, min_u0, blow, dt)
 
 

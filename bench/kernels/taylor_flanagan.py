@@ -7,26 +7,39 @@ order, the reference, and `tf_spike_kernel` on the SPIKE factors of
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit, uint64
 
 from contact_bench.core.config import FASTMATH
-from contact_bench.core.sampling import blown_up, energy_rows, is_sample, record_sample, row_sums
+from contact_bench.core.sampling import (
+    EnergyRows,
+    blown_up,
+    energy_rows,
+    is_sample,
+    record_sample,
+    row_sums,
+)
 from contact_bench.core.spike import L, record_lane_sample, stencil_solve
 from contact_bench.core.tridiag import pt_solve, tri_matvec
 
 
 @njit(cache=True)
-def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, stride, offset,
-                           t_out, U_out, V_out, cu_out, s_out, E_out):
-    """Advance (U, V, A) in place; returns (samples, steps, min u0, blow-up step)."""
+def taylor_flanagan_kernel(bar, S, state, run, out):
+    """Advance the `BarState` (U, V, A) in place; returns (samples, steps, min u0, blow-up
+    step). bar: the `Bar`; S: the `Implicit` factors of M and w = M^-1 e0; run: the `Run`;
+    out: the `Samples`."""
+    Md, Me, Kd, Ke, F = bar
+    Sd, Se, w = S
+    U, V, A = state
+    dt, nsteps, stride, offset = run
     n = U.size
     KU = np.empty(n)
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
     E0 = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-    record_sample(0, 0.0, U, V, 0.0, E0, t_out, U_out, V_out, cu_out, s_out,
-                  E_out)
+    record_sample(0, 0.0, U, V, 0.0, E0, out)
     k = 1
     for step in range(1, nsteps + 1):
         for i in range(n):
@@ -50,35 +63,48 @@ def taylor_flanagan_kernel(Md, Me, Kd, Ke, F, Sd, Se, w, U, V, A, dt, nsteps, st
             min_u0 = U[0]
         if is_sample(step, nsteps, stride):
             energy = energy_rows(rM, Me, rK, Ke, F, U, V, offset)
-            record_sample(k, step * dt, U, V, -lam, energy,
-                          t_out, U_out, V_out, cu_out, s_out, E_out)
+            record_sample(k, step * dt, U, V, -lam, energy, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
     return k, nsteps, min_u0, -1
 
 
-@njit(cache=True, fastmath=FASTMATH)
-def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, A, z, coef,
-                    dt, nsteps, stride, offset, t_out, U_out, V_out, cu_out, s_out, E_out):
-    """`taylor_flanagan_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V,
-    A, z interleaved; fac = `Spike.factors()` of M). Same update, samples, stress, min
-    u0 and blow-up step.
+class SparseResponse(NamedTuple):
+    """w = M^-1 e0 kept sparse: the positions wpos and values wval of its entries above
+    `SPIKE_CUTOFF` x w0 (interleaved layout), and w0 = w[0]."""
 
-    w = M^-1 e0 enters as its entries above `SPIKE_CUTOFF` x w0 (positions wpos, values
-    wval: w decays by 2 - sqrt 3 per node, a few dozen entries). Between samples the
-    closing half kick of a step and the next step's drift and half kick are one pass
-    (the same operations, in the same order, as the reference kernel's loops).
+    wpos: np.ndarray
+    wval: np.ndarray
+    w0: float
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def tf_spike_kernel(bar, lanes, spike_w, state, z, coef, run, out):
+    """`taylor_flanagan_kernel` in the lane-interleaved layout of `contact_bench.core.spike` (U, V,
+    A, z interleaved: the `BarState` state and scratch z; lanes: the `LaneStiffness` with
+    fac = `Spike.factors()` of M). Same update, samples, stress, min u0 and blow-up step.
+
+    w = M^-1 e0 enters as its entries above `SPIKE_CUTOFF` x w0 (spike_w, the
+    `SparseResponse`: positions wpos, values wval and w0; w decays by 2 - sqrt 3 per node,
+    a few dozen entries). Between samples the closing half kick of a step and the next
+    step's drift and half kick are one pass (the same operations, in the same order, as
+    the reference kernel's loops).
     """
-    m, nodes = fac[9], fac[10]
+    Md, Me, Kd, Ke, F = bar
+    U, V, A = state
+    wpos, wval, w0 = spike_w
+    dt, nsteps, stride, offset = run
+    Kdl, Klo, Fl, fac = lanes
+    m, nodes = fac.m, fac.nodes
     N = L * m
     h = 0.5 * dt
     h2 = 0.5 * dt * dt
     dt2 = dt * dt
     min_u0 = U[0]
     rM, rK = row_sums(Md, Me), row_sums(Kd, Ke)  # energy coefficients, once per run
-    E0 = record_lane_sample(0, 0.0, nodes, U, V, 0.0, rM, Me, rK, Ke, F, offset,
-                            t_out, U_out, V_out, cu_out, s_out, E_out)
+    en = EnergyRows(rM, Me, rK, Ke, F, offset)
+    E0 = record_lane_sample(0, 0.0, nodes, U, V, 0.0, en, out)
     k = 1
     drifted = False  # U, V already hold this step's drift and half kick
     for step in range(1, nsteps + 1):
@@ -118,8 +144,7 @@ def tf_spike_kernel(Md, Me, Kd, Ke, F, Kdl, Klo, Fl, fac, wpos, wval, w0, U, V, 
                 V[pu] = v + h * a
         drifted = not sample
         if sample:
-            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, rM, Me, rK, Ke, F,
-                                        offset, t_out, U_out, V_out, cu_out, s_out, E_out)
+            energy = record_lane_sample(k, step * dt, nodes, U, V, -lam, en, out)
             k += 1
             if blown_up(energy, E0):
                 return k, step, min_u0, step
