@@ -141,6 +141,8 @@ def test_semi_not_kept_from_the_checks_is_rebuilt_identically(monkeypatch):
     kept = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
     assert len(calls) == 2
     monkeypatch.setattr(harness, "KEEP_SEMI_BYTES", 0)  # only the first plan's is kept
+    monkeypatch.setattr(harness.PROBLEMS, "max_bytes", 0)  # and the process keeps none
+    harness.PROBLEMS.clear()
     rebuilt = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
     assert len(calls) == 2 + 3
     cols = [c for c in kept.columns if c not in TIMING_COLUMNS]

@@ -106,7 +106,8 @@ def compute(case: Case, request: ReferenceRun) -> ReferenceSamples:
     scheme = make_scheme(request.scheme)
     with numba_event.install_recorder("numba:compile") as compiled:
         start = time.perf_counter()
-        problem = problem_for(case, scheme, int(request.nx), float(request.grading))
+        problem = problem_for(case, scheme, int(request.nx), float(request.grading),
+                              keep=False)  # a finer problem: its memory goes with it
         stepper = scheme.prepare(problem, float(request.dt))
         traj = run_keeping(stepper, int(request.nsteps), int(request.stride), request.keep)
         elapsed = time.perf_counter() - start

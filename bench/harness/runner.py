@@ -43,6 +43,7 @@ import numpy as np
 from numba.core import event as numba_event
 
 from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.kept import Kept, case_key
 from contact_bench.api.params import format_value
 from contact_bench.api.plugin import Case, Exact, Scheme, Stepper, Trajectory
 from contact_bench.api.problem import BarProblem, banded, discretise
@@ -315,8 +316,10 @@ class _Plan:
 
 
 def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
-             grading: Any, allow_unstable: bool, strict: bool) -> _Plan:
-    """Every check of run_one that needs no time stepping; bad input raises BenchError."""
+             grading: Any, allow_unstable: bool, strict: bool, problem: Any = None) -> _Plan:
+    """Every check of run_one that needs no time stepping; bad input raises BenchError.
+    `problem`: the scene's problem at (nx, grading) with the scheme's mass, when the
+    caller has built it (`problem_for`); None: built here."""
     nx = _check_nx(case.nx if nx is None else nx)
     T = _check_positive("T", case.T if T is None else T)
     dt_given = dt is not None
@@ -344,7 +347,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     if T / dt > MAX_STEPS:
         raise BenchError(f"dt = {_num(dt)} with T = {_num(T)} makes {_many(T / dt)} steps; "
                          f"allowed: at most {MAX_STEPS:.0e} steps (a larger dt or a smaller T)")
-    semi = _discretise(case, scheme, nx, grading)
+    semi = problem_for(case, scheme, nx, grading) if problem is None else problem
     length = _check_size(case)
     transits = T * semi.c_max / length
     if not transits <= MAX_TRANSITS:
@@ -390,11 +393,11 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
 
 
 def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
-              grading: Any = 1.0, allow_unstable: bool = False) -> None:
+              grading: Any = 1.0, allow_unstable: bool = False, problem: Any = None) -> None:
     """Every check of `run_one` that needs no time stepping (a sweep's inputs are checked
-    so before its first run); bad input raises BenchError."""
+    so before its first run); bad input raises BenchError. `problem`: as `run_one`'s."""
     check_mesh_grading(_check_nx(nx), _check_grading(grading))
-    _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False)
+    _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False, problem)
 
 
 def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
@@ -411,11 +414,24 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     return BarProblem(semi, scheme.mass_kind())
 
 
-def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0) -> Any:
-    """The problem a run integrates (`_discretise`) at nx with the scheme's mass variant;
-    a mesh the case refuses (e.g. a mass that is not positive definite) is a
-    BenchError."""
-    return _discretise(case, scheme, int(nx), float(grading))
+#: the problems this process built, by scene (`contact_bench.api.kept.case_key`), nx,
+#: grading and mass variant: a sweep task's checks, run and timing pass read one problem,
+#: and so do the schemes of a table that share a mass variant. Bounded like the problems
+#: a table keeps (`KEEP_SEMI_BYTES`): a larger one is built again where it is asked again.
+PROBLEMS: Kept[Any] = Kept("problems", max_items=8, max_bytes=KEEP_SEMI_BYTES)
+
+
+def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0,
+                keep: bool = True) -> Any:
+    """The problem a run integrates (`_discretise`) at nx with the scheme's mass variant,
+    from `PROBLEMS` when this process built it already (`keep` False: built afresh and
+    not kept, e.g. a reference's finer one); a mesh the case refuses (e.g. a mass that is
+    not positive definite) is a BenchError. The problem is shared: never changed."""
+    nx, grading = int(nx), float(grading)
+    if not keep:
+        return _discretise(case, scheme, nx, grading)
+    key = (case_key(case), nx, grading, scheme.mass_kind())
+    return PROBLEMS.get_or_build(key, lambda: _discretise(case, scheme, nx, grading))
 
 
 def declared_limit(case: Case, scheme: Scheme, problem: Any) -> float | None:
@@ -509,7 +525,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
     norm_s = None
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
-        semi = _discretise(case, scheme, row["nx"], row["grading"])
+        semi = problem_for(case, scheme, row["nx"], row["grading"])
     sparse = banded(semi) is None
     ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
@@ -673,7 +689,8 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
             grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
-            step_repeats: int = STEP_REPEATS, time_error: int = 0) -> Run:
+            step_repeats: int = STEP_REPEATS, time_error: int = 0,
+            problem: Any = None) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -684,11 +701,14 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     one after the other. `run_table` knows its runs and keeps only for a later one.
     `step_repeats`: the timed calls of `step_s` (`step_time`). `time_error` > 1: the
     columns err_time_u, err_time_stress against the same scheme at dt / time_error
-    (`contact_bench.harness.time_error`, a cached reference).
+    (`contact_bench.harness.time_error`, a cached reference). `problem`: the scene's
+    problem at (nx, grading) with the scheme's mass (`problem_for`), when the caller has
+    it (a sweep task hands on the one it read the step limit from); None: built here.
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict)
+    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict,
+                    problem)
     plan.time_error = int(time_error)
     return _execute(plan, step_repeats)
 
