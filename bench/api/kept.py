@@ -42,13 +42,17 @@ def nbytes_of(value: Any) -> int:
 
 class Kept(Generic[V]):
     """An LRU cache by key: at most `max_items` entries, and at most `max_bytes` bytes
-    (None: no byte bound); a value larger than `max_bytes` is not kept. Thread-safe.
+    (None: no byte bound); a value larger than `max_bytes` is not kept, unless
+    `keep_last`: then the most recent value is kept whatever its size. `size`: a
+    value's bytes (default `nbytes_of`). Thread-safe.
     `builds` counts the values `get_or_build` built (not served)."""
 
     _all: list[Kept[Any]] = []
 
-    def __init__(self, name: str, max_items: int, max_bytes: int | None = None) -> None:
+    def __init__(self, name: str, max_items: int, max_bytes: int | None = None,
+                 keep_last: bool = False, size: Callable[[Any], int] = nbytes_of) -> None:
         self.name, self.max_items, self.max_bytes = name, int(max_items), max_bytes
+        self.keep_last, self.size = keep_last, size
         self._entries: OrderedDict[Hashable, tuple[V, int]] = OrderedDict()
         self._lock = threading.Lock()
         self.builds = 0
@@ -71,15 +75,17 @@ class Kept(Generic[V]):
     def put(self, key: Hashable, value: V) -> V:
         """Keep value under key (the most recent), dropping the oldest beyond the
         bounds; returns value."""
-        size = nbytes_of(value) if self.max_bytes is not None else 0
+        size = self.size(value) if self.max_bytes is not None else 0
         with self._lock:
             self._entries.pop(key, None)
-            if self.max_bytes is not None and size > self.max_bytes:
+            fits = self.max_bytes is None or size <= self.max_bytes
+            if self.max_items < 1 or not (fits or self.keep_last):
                 return value
             self._entries[key] = (value, size)
-            while len(self._entries) > self.max_items or (
-                    self.max_bytes is not None
-                    and sum(s for _, s in self._entries.values()) > self.max_bytes):
+            while len(self._entries) > 1 and (  # the oldest go; the newest stays
+                    len(self._entries) > self.max_items
+                    or (self.max_bytes is not None
+                        and sum(s for _, s in self._entries.values()) > self.max_bytes)):
                 self._entries.popitem(last=False)
         return value
 

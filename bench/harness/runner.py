@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -92,9 +91,10 @@ STEP_BUDGET_S = 1.0
 #: near set-up + stepping; runs sampled at least this sparsely record next to nothing
 LONG_RUN_STRIDE = 10
 
-_warmed: set[tuple[type, str]] = set()
-_warmed_metrics: list[bool] = []
-_warmed_references: set[type] = set()  # reference types whose kernels are loaded
+#: what this process has warmed up (run once outside the timings, so that JIT
+#: compilation stays out of them): ("stepper", scheme type, mass, implicit, form) per
+#: kernel, ("norms",) for the error norms, ("reference", type) per reference type
+_warmed: set[tuple] = set()
 #: a plan's semi-discrete problem dropped after the checks, rebuilt when it runs
 _REBUILD: Any = object()
 #: semi-discrete problems a table keeps from its checks to its runs, in bytes (the
@@ -134,37 +134,25 @@ class Run:
         return Run(self.row, tr, None, self.norm_s, self.traceback)
 
 
-_reference_lock = threading.Lock()
-_references: list[tuple[tuple, Exact | None]] = []  # most recent first
 #: references kept for the next runs: at most this many, and at most this many bytes
 #: (counting those that tell their size, `nbytes`; a larger one is not kept)
 KEEP_REFERENCES = 4
 KEEP_REFERENCE_BYTES = 128 * 2**20
+#: the exact references of the last runs (`reference`), by scene and final time
+REFERENCES: Kept[Exact | None] = Kept(
+    "exact references", max_items=KEEP_REFERENCES, max_bytes=KEEP_REFERENCE_BYTES,
+    size=lambda exact: int(getattr(exact, "nbytes", 0) or 0))
 
 
 def reference(case: Case, T: float) -> Exact | None:
     """`case.exact(T)`, kept for the next runs: the schemes of a table share it.
 
-    Keyed on the case's class, spec and attributes and on T, so a changed case or time
-    builds a new one (an explicit scheme's lowered dt gives another T). A few are kept
-    (`KEEP_REFERENCES`, `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
+    Keyed on the scene (`contact_bench.api.kept.case_key`: class, spec, attributes, data
+    files) and on T, so a changed case or time builds a new one (an explicit scheme's
+    lowered dt gives another T). A few are kept (`REFERENCES`: `KEEP_REFERENCES`,
+    `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
     """
-    key = (type(case), case.spec, repr(sorted(vars(case).items())), float(T))
-    with _reference_lock:
-        for i, (k, exact) in enumerate(_references):
-            if k == key:
-                _references.insert(0, _references.pop(i))
-                return exact
-    exact = case.exact(T)
-    with _reference_lock:
-        _references.insert(0, (key, exact))
-        total = 0
-        for i, (_, kept) in enumerate(_references):
-            total += int(getattr(kept, "nbytes", 0) or 0)
-            if i >= KEEP_REFERENCES or total > KEEP_REFERENCE_BYTES:
-                del _references[i:]
-                break
-    return exact
+    return REFERENCES.get_or_build((case_key(case), float(T)), lambda: case.exact(T))
 
 
 def _num(x: float) -> str:
@@ -529,7 +517,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     sparse = banded(semi) is None
     ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
-    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
+    key = ("stepper", type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
         stepper.run(1, 1)
         _warmed.add(key)
@@ -584,12 +572,12 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
         if exact is None:
             notes.append("errors: no reference solution")
         else:
-            if not _warmed_metrics:
+            if ("norms",) not in _warmed:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
-                _warmed_metrics.append(True)
-            if type(exact) not in _warmed_references:  # and the reference's own
+                _warmed.add(("norms",))
+            if ("reference", type(exact)) not in _warmed:  # and the reference's own
                 metrics.warm_up_reference(exact, grid.x, traj.t, case.provides)
-                _warmed_references.add(type(exact))
+                _warmed.add(("reference", type(exact)))
             start = time.perf_counter()
             row.update(error_metrics(grid, samples, exact, case.provides, plan.shared,
                                      notes))
