@@ -28,6 +28,7 @@ import skfem as fe
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.kept import built_once
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.reference_run import ReferenceRun, ReferenceSamples
@@ -139,6 +140,7 @@ class DiscDrop(BodyCase):
         """The vertical displacement of every point before the first impact."""
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
 
+    @built_once
     def mesh(self, nx: int) -> fe.MeshTri2:
         """The ring mesh: nx rings of 6 k nodes, triangulated on the half x >= 0 and
         mirrored; P2 geometry with the boundary's edge midpoints on the circle."""
@@ -153,6 +155,7 @@ class DiscDrop(BodyCase):
         loc[:, D] = c + self.R * r / np.linalg.norm(r, axis=0)
         return replace(m, doflocs=loc)
 
+    @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
         nu = self.lam / (2 * (self.lam + self.mu))
         E = self.mu * (3 * self.lam + 2 * self.mu) / (self.lam + self.mu)

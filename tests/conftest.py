@@ -23,3 +23,14 @@ def from_a_terminal() -> Callable[[Sequence[str]], list[str]]:
         return [sys.executable, "-c", RESET_SIGINT, *argv]
 
     return wrap
+
+
+@pytest.fixture(autouse=True)
+def _fresh_kept_data():
+    """Each test starts without the meshes and problems an earlier test kept
+    (`contact_bench.api.kept.Kept`): a test that changes a scene sees its own."""
+    from contact_bench.api.kept import Kept
+
+    Kept.clear_all()
+    yield
+

@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _fresh_caches(monkeypatch):
     """Each test starts without kept reference values or references."""
     metrics.clear_cache()
-    monkeypatch.setattr(harness, "_references", [])
+    harness.REFERENCES.clear()
     yield
     metrics.clear_cache()
 
@@ -141,6 +141,8 @@ def test_semi_not_kept_from_the_checks_is_rebuilt_identically(monkeypatch):
     kept = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
     assert len(calls) == 2
     monkeypatch.setattr(harness, "KEEP_SEMI_BYTES", 0)  # only the first plan's is kept
+    monkeypatch.setattr(harness.PROBLEMS, "max_bytes", 0)  # and the process keeps none
+    harness.PROBLEMS.clear()
     rebuilt = run_table(["dropped_bar"], ["standard"], [20, 30], T=0.5)
     assert len(calls) == 2 + 3
     cols = [c for c in kept.columns if c not in TIMING_COLUMNS]
@@ -417,10 +419,10 @@ def test_table_builds_each_reference_once(monkeypatch):
     run_table(["dropped_bar"], ["standard", "redistributed", "hht"], [12], T=1.0, keep=runs)
     assert len(built) == 1
     assert all(r.norm_s is not None and r.norm_s >= 0 for r in runs)
-    monkeypatch.setattr(harness, "_references", [])
-    monkeypatch.setattr(harness, "KEEP_REFERENCE_BYTES", 0)  # over budget: not kept
+    harness.REFERENCES.clear()
+    monkeypatch.setattr(harness.REFERENCES, "max_bytes", 0)  # over budget: not kept
     again = run_table(["dropped_bar"], ["standard", "redistributed", "hht"], [12], T=1.0)
-    assert len(built) == 1 + 3 and harness._references == []
+    assert len(built) == 1 + 3 and len(harness.REFERENCES) == 0
     assert again["err_u_l2_l2"].tolist() == [r.row["err_u_l2_l2"] for r in runs]
 
 
@@ -638,7 +640,8 @@ def test_harness_warms_each_reference_type_once_before_timing_the_norms(monkeypa
         real(exact, x, t, provides)
 
     monkeypatch.setattr(metrics, "warm_up_reference", spy)
-    monkeypatch.setattr(harness, "_warmed_references", set())
+    monkeypatch.setattr(harness, "_warmed",
+                        {w for w in harness._warmed if w[0] != "reference"})
     metrics.clear_cache()
     run_table(["clamped_bar", "dropped_bar"], ["standard", "restitution"], [10], T=0.5)
     # once per reference type, before the first norms on it (nothing kept yet)

@@ -67,6 +67,5 @@ def test_the_short_manufactured_scene_plans_no_stability_run_longer_than_its_T()
 
     tasks = plan_sparse("manufactured", ["redistributed"])
     assert any("stability" in t.group for t in tasks)
-    semis: dict = {}
     for t in tasks:
-        check_task(asdict(t), (make_case(t.case), make_scheme(t.scheme)), semis)
+        check_task(asdict(t), (make_case(t.case), make_scheme(t.scheme)))

@@ -33,32 +33,25 @@ relative error of 0).
 from __future__ import annotations
 
 import math
-import threading
 from typing import Any
 
 import numpy as np
 
+from contact_bench.api.kept import Kept
 from contact_bench.api.plugin import CONTACT_QUANTITIES, Case, Exact, Trajectory
 from contact_bench.exact.contacts import FirstContact, first_contact
 
-_lock = threading.Lock()
-#: the last few references' first contacts (keyed on the reference object and T)
-_kept: list[tuple[tuple[int, float], Exact, FirstContact | None]] = []
 KEEP = 8
+#: the last few references' first contacts, keyed on the reference object and T (each
+#: entry holds its reference, so that the id in its key stays that object's)
+FIRST_CONTACTS: Kept[tuple[Exact, FirstContact | None]] = Kept(
+    "first contacts of references", max_items=KEEP)
 
 
 def reference_first_contact(exact: Exact, T: float) -> FirstContact | None:
     """`first_contact(exact.stress, T)`, kept for the next runs on the same reference."""
-    key = (id(exact), float(T))
-    with _lock:
-        for k, ex, fc in _kept:
-            if k == key and ex is exact:
-                return fc
-    fc = first_contact(exact.stress, T)
-    with _lock:
-        _kept.insert(0, (key, exact, fc))
-        del _kept[KEEP:]
-    return fc
+    return FIRST_CONTACTS.get_or_build(
+        (id(exact), float(T)), lambda: (exact, first_contact(exact.stress, T)))[1]
 
 
 def run_first_contact(traj: Trajectory, dt: float, area: float = 1.0

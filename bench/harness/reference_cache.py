@@ -28,7 +28,6 @@ import json
 import os
 import pkgutil
 import sys
-import threading
 import time
 from dataclasses import replace
 from functools import cache
@@ -37,6 +36,7 @@ from pathlib import Path
 import numpy as np
 from numba.core import event as numba_event
 
+from contact_bench.api.kept import Kept
 from contact_bench.api.plugin import Case
 from contact_bench.api.reference_run import ReferenceRun, ReferenceSamples
 from contact_bench.api.registry import make_scheme
@@ -52,8 +52,9 @@ KEEP_BYTES = 256 * 2**20
 #: the references computed (not read back) by this process
 computed: list[str] = []
 
-_lock = threading.Lock()
-_memory: list[tuple[str, ReferenceSamples]] = []  # most recent first
+#: the references of the last runs, by key (the most recent kept whatever its size)
+MEMORY: Kept[ReferenceSamples] = Kept("numerical references", max_items=64,
+                                      max_bytes=KEEP_BYTES, keep_last=True)
 
 
 def reference_cache_dir() -> Path | None:
@@ -106,7 +107,8 @@ def compute(case: Case, request: ReferenceRun) -> ReferenceSamples:
     scheme = make_scheme(request.scheme)
     with numba_event.install_recorder("numba:compile") as compiled:
         start = time.perf_counter()
-        problem = problem_for(case, scheme, int(request.nx), float(request.grading))
+        problem = problem_for(case, scheme, int(request.nx), float(request.grading),
+                              keep=False)  # a finer problem: its memory goes with it
         stepper = scheme.prepare(problem, float(request.dt))
         traj = run_keeping(stepper, int(request.nsteps), int(request.stride), request.keep)
         elapsed = time.perf_counter() - start
@@ -166,32 +168,21 @@ def reference_samples(case: Case, request: ReferenceRun) -> ReferenceSamples:
     else computed (and stored). `cached` says which; `seconds` is always what computing
     it took."""
     key = reference_key(case, request)
-    with _lock:
-        for i, (k, ref) in enumerate(_memory):
-            if k == key:
-                _memory.insert(0, _memory.pop(i))
-                return replace(ref, cached=True)
+    kept = MEMORY.get(key)
+    if kept is not None:
+        return replace(kept, cached=True)
     root = reference_cache_dir()
     ref = None if root is None else _load(_path(root, key), key)
     if ref is None:
         ref = compute(case, request)
         if root is not None:
             _store(_path(root, key), key, ref)
-    with _lock:
-        _memory.insert(0, (key, ref))
-        total = 0
-        for i, (_, kept) in enumerate(_memory):
-            total += kept.nbytes
-            if i and total > KEEP_BYTES:
-                del _memory[i:]
-                break
-    return ref
+    return MEMORY.put(key, ref)
 
 
 def forget() -> None:
     """Drop the references kept in memory (the disk cache stays)."""
-    with _lock:
-        _memory.clear()
+    MEMORY.clear()
 
 
 __all__ = ["compute", "computed", "forget", "reference_cache_dir", "reference_key",

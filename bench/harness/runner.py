@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -43,6 +42,7 @@ import numpy as np
 from numba.core import event as numba_event
 
 from contact_bench.api.fem import mesh_nodes
+from contact_bench.api.kept import Kept, case_key
 from contact_bench.api.params import format_value
 from contact_bench.api.plugin import Case, Exact, Scheme, Stepper, Trajectory
 from contact_bench.api.problem import BarProblem, banded, discretise
@@ -91,9 +91,10 @@ STEP_BUDGET_S = 1.0
 #: near set-up + stepping; runs sampled at least this sparsely record next to nothing
 LONG_RUN_STRIDE = 10
 
-_warmed: set[tuple[type, str]] = set()
-_warmed_metrics: list[bool] = []
-_warmed_references: set[type] = set()  # reference types whose kernels are loaded
+#: what this process has warmed up (run once outside the timings, so that JIT
+#: compilation stays out of them): ("stepper", scheme type, mass, implicit, form) per
+#: kernel, ("norms",) for the error norms, ("reference", type) per reference type
+_warmed: set[tuple] = set()
 #: a plan's semi-discrete problem dropped after the checks, rebuilt when it runs
 _REBUILD: Any = object()
 #: semi-discrete problems a table keeps from its checks to its runs, in bytes (the
@@ -133,37 +134,25 @@ class Run:
         return Run(self.row, tr, None, self.norm_s, self.traceback)
 
 
-_reference_lock = threading.Lock()
-_references: list[tuple[tuple, Exact | None]] = []  # most recent first
 #: references kept for the next runs: at most this many, and at most this many bytes
 #: (counting those that tell their size, `nbytes`; a larger one is not kept)
 KEEP_REFERENCES = 4
 KEEP_REFERENCE_BYTES = 128 * 2**20
+#: the exact references of the last runs (`reference`), by scene and final time
+REFERENCES: Kept[Exact | None] = Kept(
+    "exact references", max_items=KEEP_REFERENCES, max_bytes=KEEP_REFERENCE_BYTES,
+    size=lambda exact: int(getattr(exact, "nbytes", 0) or 0))
 
 
 def reference(case: Case, T: float) -> Exact | None:
     """`case.exact(T)`, kept for the next runs: the schemes of a table share it.
 
-    Keyed on the case's class, spec and attributes and on T, so a changed case or time
-    builds a new one (an explicit scheme's lowered dt gives another T). A few are kept
-    (`KEEP_REFERENCES`, `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
+    Keyed on the scene (`contact_bench.api.kept.case_key`: class, spec, attributes, data
+    files) and on T, so a changed case or time builds a new one (an explicit scheme's
+    lowered dt gives another T). A few are kept (`REFERENCES`: `KEEP_REFERENCES`,
+    `KEEP_REFERENCE_BYTES`), so memory does not grow with a table.
     """
-    key = (type(case), case.spec, repr(sorted(vars(case).items())), float(T))
-    with _reference_lock:
-        for i, (k, exact) in enumerate(_references):
-            if k == key:
-                _references.insert(0, _references.pop(i))
-                return exact
-    exact = case.exact(T)
-    with _reference_lock:
-        _references.insert(0, (key, exact))
-        total = 0
-        for i, (_, kept) in enumerate(_references):
-            total += int(getattr(kept, "nbytes", 0) or 0)
-            if i >= KEEP_REFERENCES or total > KEEP_REFERENCE_BYTES:
-                del _references[i:]
-                break
-    return exact
+    return REFERENCES.get_or_build((case_key(case), float(T)), lambda: case.exact(T))
 
 
 def _num(x: float) -> str:
@@ -315,8 +304,10 @@ class _Plan:
 
 
 def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
-             grading: Any, allow_unstable: bool, strict: bool) -> _Plan:
-    """Every check of run_one that needs no time stepping; bad input raises BenchError."""
+             grading: Any, allow_unstable: bool, strict: bool, problem: Any = None) -> _Plan:
+    """Every check of run_one that needs no time stepping; bad input raises BenchError.
+    `problem`: the scene's problem at (nx, grading) with the scheme's mass, when the
+    caller has built it (`problem_for`); None: built here."""
     nx = _check_nx(case.nx if nx is None else nx)
     T = _check_positive("T", case.T if T is None else T)
     dt_given = dt is not None
@@ -344,7 +335,7 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
     if T / dt > MAX_STEPS:
         raise BenchError(f"dt = {_num(dt)} with T = {_num(T)} makes {_many(T / dt)} steps; "
                          f"allowed: at most {MAX_STEPS:.0e} steps (a larger dt or a smaller T)")
-    semi = _discretise(case, scheme, nx, grading)
+    semi = problem_for(case, scheme, nx, grading) if problem is None else problem
     length = _check_size(case)
     transits = T * semi.c_max / length
     if not transits <= MAX_TRANSITS:
@@ -390,11 +381,11 @@ def _prepare(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
 
 
 def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
-              grading: Any = 1.0, allow_unstable: bool = False) -> None:
+              grading: Any = 1.0, allow_unstable: bool = False, problem: Any = None) -> None:
     """Every check of `run_one` that needs no time stepping (a sweep's inputs are checked
-    so before its first run); bad input raises BenchError."""
+    so before its first run); bad input raises BenchError. `problem`: as `run_one`'s."""
     check_mesh_grading(_check_nx(nx), _check_grading(grading))
-    _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False)
+    _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, False, problem)
 
 
 def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
@@ -411,11 +402,24 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     return BarProblem(semi, scheme.mass_kind())
 
 
-def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0) -> Any:
-    """The problem a run integrates (`_discretise`) at nx with the scheme's mass variant;
-    a mesh the case refuses (e.g. a mass that is not positive definite) is a
-    BenchError."""
-    return _discretise(case, scheme, int(nx), float(grading))
+#: the problems this process built, by scene (`contact_bench.api.kept.case_key`), nx,
+#: grading and mass variant: a sweep task's checks, run and timing pass read one problem,
+#: and so do the schemes of a table that share a mass variant. Bounded like the problems
+#: a table keeps (`KEEP_SEMI_BYTES`): a larger one is built again where it is asked again.
+PROBLEMS: Kept[Any] = Kept("problems", max_items=8, max_bytes=KEEP_SEMI_BYTES)
+
+
+def problem_for(case: Case, scheme: Scheme, nx: int, grading: float = 1.0,
+                keep: bool = True) -> Any:
+    """The problem a run integrates (`_discretise`) at nx with the scheme's mass variant,
+    from `PROBLEMS` when this process built it already (`keep` False: built afresh and
+    not kept, e.g. a reference's finer one); a mesh the case refuses (e.g. a mass that is
+    not positive definite) is a BenchError. The problem is shared: never changed."""
+    nx, grading = int(nx), float(grading)
+    if not keep:
+        return _discretise(case, scheme, nx, grading)
+    key = (case_key(case), nx, grading, scheme.mass_kind())
+    return PROBLEMS.get_or_build(key, lambda: _discretise(case, scheme, nx, grading))
 
 
 def declared_limit(case: Case, scheme: Scheme, problem: Any) -> float | None:
@@ -509,11 +513,11 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     case, scheme, semi, dt = plan.case, plan.scheme, plan.semi, plan.dt
     norm_s = None
     if semi is _REBUILD:  # dropped after the checks to bound a table's memory
-        semi = _discretise(case, scheme, row["nx"], row["grading"])
+        semi = problem_for(case, scheme, row["nx"], row["grading"])
     sparse = banded(semi) is None
     ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
-    key = (type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
+    key = ("stepper", type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
         stepper.run(1, 1)
         _warmed.add(key)
@@ -573,12 +577,12 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
             elif missing := sorted({NEEDS[c] for c in ERROR_COLUMNS} - filled):
                 notes.append(f"reference has no {', '.join(missing)}")
         else:
-            if not _warmed_metrics:
+            if ("norms",) not in _warmed:
                 metrics.warm_up()  # norm kernels compiled (or loaded) outside norm_s
-                _warmed_metrics.append(True)
-            if type(exact) not in _warmed_references:  # and the reference's own
+                _warmed.add(("norms",))
+            if ("reference", type(exact)) not in _warmed:  # and the reference's own
                 metrics.warm_up_reference(exact, grid.x, traj.t, case.provides)
-                _warmed_references.add(type(exact))
+                _warmed.add(("reference", type(exact)))
             start = time.perf_counter()
             row.update(error_metrics(grid, samples, exact, case.provides, plan.shared,
                                      notes))
@@ -678,7 +682,8 @@ def _error_row(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any
 def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
             dt: float | None = None, T: float | None = None, stride: int | None = None,
             grading: float = 1.0, allow_unstable: bool = False, *, strict: bool = False,
-            step_repeats: int = STEP_REPEATS, time_error: int = 0) -> Run:
+            step_repeats: int = STEP_REPEATS, time_error: int = 0,
+            problem: Any = None) -> Run:
     """Run one configuration. Bad input raises BenchError; a blow-up is a row.
 
     stride None: the case's default `Case.stride` (lowered to the number of steps).
@@ -689,11 +694,14 @@ def run_one(case: Case | str, scheme: Scheme | str, nx: int | None = None,
     one after the other. `run_table` knows its runs and keeps only for a later one.
     `step_repeats`: the timed calls of `step_s` (`step_time`). `time_error` > 1: the
     columns err_time_u, err_time_stress against the same scheme at dt / time_error
-    (`contact_bench.harness.time_error`, a cached reference).
+    (`contact_bench.harness.time_error`, a cached reference). `problem`: the scene's
+    problem at (nx, grading) with the scheme's mass (`problem_for`), when the caller has
+    it (a sweep task hands on the one it read the step limit from); None: built here.
     """
     case = make_case(case) if isinstance(case, str) else case
     scheme = make_scheme(scheme) if isinstance(scheme, str) else scheme
-    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict)
+    plan = _prepare(case, scheme, nx, dt, T, stride, grading, allow_unstable, strict,
+                    problem)
     plan.time_error = int(time_error)
     return _execute(plan, step_repeats)
 

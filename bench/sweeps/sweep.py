@@ -225,31 +225,28 @@ def _stride_for(task: dict[str, Any], dt: float | None, case: Any, limit: float 
     return max(int(task["stride"]), min(steps, math.ceil(steps / int(task["max_samples"]))))
 
 
-def check_task(task: dict[str, Any], made: tuple[Any, Any], semis: dict[tuple, Any]) -> None:
+def check_task(task: dict[str, Any], made: tuple[Any, Any]) -> None:
     """Every check `execute_task`'s run makes on its inputs, without running: a bad input
     (stride above the steps, samples over memory, ...) is a BenchError before the sweep
-    starts, as in `run`. `semis` keeps the meshes' problems for the next checks."""
+    starts, as in `run`. The problem is built once (`problem_for`, kept for the task's
+    run and timing when they are made in this process) and handed to the run's checks."""
     case, scheme = made
     if scheme.cannot_run(case) or case.cannot_run(scheme):
         return
     try:
         nx, grading = int(task["nx"]), float(task["grading"])
         T = float(case.T if task["T"] is None else task["T"])
-        skey = (case.spec, nx, grading, scheme.mass_kind())
-        if skey not in semis:
-            check_mesh_grading(nx, grading)
-            semis.clear()  # one mesh at a time: memory does not grow with the grid
-            try:
-                semis[skey] = problem_for(case, scheme, nx, grading)
-            except BenchError:
-                if case.form == "banded1d":
-                    raise
-                return  # a mesh a sparse scene refuses for this mass: an error row
-        semi = semis[skey]
+        check_mesh_grading(nx, grading)
+        try:
+            semi = problem_for(case, scheme, nx, grading)
+        except BenchError:
+            if case.form == "banded1d":
+                raise
+            return  # a mesh a sparse scene refuses for this mass: an error row
         limit = declared_limit(case, scheme, semi)
         dt = task["dt"] if task["cfl"] is None else float(task["cfl"]) * semi.hmin / semi.c_max
         stride = _stride_for(task, dt, case, limit, T)
-        check_run(case, scheme, nx, dt, T, stride, grading, True)
+        check_run(case, scheme, nx, dt, T, stride, grading, True, problem=semi)
     except BenchError:
         raise
     except Exception:  # noqa: BLE001, S110 - a broken plugin is an error row when it runs
@@ -283,7 +280,8 @@ def execute_task(task: dict[str, Any]) -> dict[str, Any]:
             stride = _stride_for(task, dt, case, limit, T)
             # step_s here is a first measurement (one timed call): the timing pass measures
             # it again, serially, for the timed tasks
-            run = run_one(case, scheme, nx, dt, T, stride, grading, True, step_repeats=1)
+            run = run_one(case, scheme, nx, dt, T, stride, grading, True, step_repeats=1,
+                          problem=semi0)
             row.update(run.row)
             row["cfl"] = c * float(row["dt"]) / h
             traj = run.trajectory
@@ -371,8 +369,9 @@ def time_integrate(row: dict[str, Any], repeats: int, stepping: bool = False
 def time_run(row: dict[str, Any], repeats: int, modes: tuple[bool, ...] = (False, True)
              ) -> list[list[float]]:
     """The timed calls for each mode (False: the row's stride, True: the stepping alone)
-    on one set-up: the problem is built, the scheme's stepper prepared and the kernels
-    compiled once."""
+    on one set-up: the problem read (`problem_for`: the task's own when this process
+    ran it and still keeps it), the scheme's stepper prepared and the kernels compiled
+    once."""
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = problem_for(case, scheme, int(row["nx"]), float(row["grading"]))
     dt, steps = float(row["dt"]), int(row["steps"])
@@ -564,10 +563,8 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
     # a worker process (spawned, or a dask worker elsewhere) loads the same plugin folders
     todo = [(key, dict(meta[key]["inputs"], plugins=plugin_dirs()))
             for key in order if key not in rows]
-    semis: dict[tuple, Any] = {}
     for key, inputs in todo:  # bad input fails here, before any run (not as error rows)
-        check_task(inputs, made[(meta[key]["case"], meta[key]["scheme"])], semis)
-    del semis
+        check_task(inputs, made[(meta[key]["case"], meta[key]["scheme"])])
     n_cached = len(rows)
     bar = _progress(len(order), n_cached, "runs", quiet)
 
