@@ -199,9 +199,10 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def midpoint_sample(o, s):  # pragma: no cover - compiled
-    """The energy, the obstacle's stress (lambda) and V."""
+    """The energy, the stress of every contact force the step applied (Laursen-Love's:
+    the obstacle's lambda and its energy-restoring kick spread over the step) and V."""
     e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
-    return e, -s.lam.sum() / o.weights.sum(), s.V
+    return e, -s.force.sum() / o.weights.sum(), s.V
 
 
 @njit(cache=True)
