@@ -30,7 +30,7 @@ from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.kept import built_once
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, StudyGrid
+from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.reference_run import ReferenceRun, ReferenceSamples
 from contact_bench.api.sparse import SparseProblem, sample_blocks
 from contact_bench.exact import converged
@@ -139,6 +139,13 @@ class DiscDrop(BodyCase):
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         """The vertical displacement of every point before the first impact."""
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
+
+    def footprint(self, nx: int) -> Footprint:
+        """nx rings: 1 + 3 nx (nx + 1) vertices, 9 nx^2 + 3 nx edges (P2 adds one node
+        on each), two unknowns per node."""
+        n = int(nx)
+        nodes = 1 + 3 * n * (n + 1) + (9 * n * n + 3 * n if int(self.degree) == 2 else 0)
+        return Footprint(2 * nodes, 2, int(self.degree))
 
     @built_once
     def mesh(self, nx: int) -> fe.MeshTri2:

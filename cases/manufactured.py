@@ -29,7 +29,7 @@ from skfem.models import laplace
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, StudyGrid
+from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.sparse import SparseProblem, TimeLoad
 from contact_bench.exact.manufactured import LAM, MU, RHO, T_END, Manufactured
 
@@ -64,6 +64,16 @@ class ManufacturedContact(BodyCase):
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use manufactured[degree=1] or the scheme's mass=consistent")
         return super().cannot_run(scheme)
+
+    def footprint(self, nx: int) -> Footprint:
+        """The tensor mesh: (nx + 1)^d vertices; P2 adds a node on each edge (in 2D 3 nx^2
+        + 2 nx of them, in 3D those of the cubes' axes, face and inner diagonals)."""
+        n, d = int(nx), int(self.dim)
+        nodes = (n + 1) ** d
+        if int(self.degree) == 2:
+            nodes += (3 * n * n + 2 * n if d == 2
+                      else 3 * n * (n + 1) ** 2 + 3 * n * n * (n + 1) + n**3)
+        return Footprint(d * nodes, d, int(self.degree))
 
     def mesh(self, nx: int) -> fe.Mesh:
         """nx elements (squares cut in 2 triangles, cubes in tetrahedra) along each side."""

@@ -72,6 +72,9 @@ class SlantedDrop(BodyCase):
     def body(self, nx: int):
         return self.base.body(nx)
 
+    def footprint(self, nx: int):
+        return self.base.footprint(nx)
+
     def cannot_run(self, scheme) -> str | None:
         return self.base.cannot_run(scheme)
 

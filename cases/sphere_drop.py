@@ -27,7 +27,7 @@ import skfem as fe
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, StudyGrid
+from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.exact import converged
 
@@ -78,6 +78,16 @@ class SphereDrop(BodyCase):
 
     def free_fall(self, t: np.ndarray) -> np.ndarray:
         return float(self.lift) - 0.5 * self.g * np.asarray(t, float) ** 2
+
+    def footprint(self, nx: int) -> Footprint:
+        """The refined octahedron, nx elements along the radius: (2 nx + 1)(2 nx^2 + 2 nx
+        + 3) / 3 vertices, 8 nx^3 tetrahedra, 8 nx^2 boundary faces, hence (Euler) V + 8
+        nx^3 + 4 nx^2 - 1 edges (P2 adds one node on each); three unknowns per node."""
+        n = int(nx)
+        vertices = (2 * n + 1) * (2 * n * n + 2 * n + 3) // 3
+        edges = vertices + 8 * n**3 + 4 * n * n - 1
+        nodes = vertices + (edges if int(self.degree) == 2 else 0)
+        return Footprint(3 * nodes, 3, int(self.degree))
 
     def mesh(self, nx: int) -> fe.MeshTet:
         nrefs = int(nx).bit_length() - 1

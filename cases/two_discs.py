@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, Contact, StudyGrid
+from contact_bench.api.plugin import BodyCase, Contact, Footprint, StudyGrid
 from contact_bench.api.registry import make_case
 from contact_bench.api.sparse import ContactSet, SparseProblem
 
@@ -54,6 +54,10 @@ class TwoDiscs(BodyCase):
 
     def body(self, nx: int):
         return self.disc.body(nx)
+
+    def footprint(self, nx: int) -> Footprint:
+        one = self.disc.footprint(nx)
+        return one if int(self.half) else one._replace(unknowns=2 * one.unknowns)
 
     def cannot_run(self, scheme) -> str | None:
         if not int(self.half) and scheme.traits().contact == Contact.NITSCHE:

@@ -346,6 +346,15 @@ class BarCase(Case):
                 "far_end": self.far_end}
 
 
+class Footprint(NamedTuple):
+    """A body's size before it is built: its unknowns (vector dofs), dimension and
+    polynomial degree."""
+
+    unknowns: int
+    dim: int
+    degree: int
+
+
 class BodyCase(Case):
     """A 2D/3D body scene: an elastic body, its data and its obstacle, given as the
     sparse problem it produces at a resolution (`sparse_problem`: mass, stiffness, load,
@@ -368,6 +377,12 @@ class BodyCase(Case):
 
     def declarations(self) -> dict[str, Any]:
         return {"size": self.size}
+
+    def footprint(self, nx: int) -> Footprint | None:
+        """The body's size at resolution nx, counted without building it (for the
+        memory check made before assembly: `contact_bench.harness.footprint`); None
+        (the default): not declared, nothing is checked."""
+        return None
 
     def body(self, nx: int) -> Any:
         """The assembled body at resolution nx (`contact_bench.api.fem_nd.Elasticity`)

@@ -50,6 +50,7 @@ from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError, shown_repr
 from contact_bench.harness import metrics
+from contact_bench.harness.footprint import check_fits
 from contact_bench.harness.impacts import impact_metrics, impact_table
 from contact_bench.harness.metrics import (
     ERROR_COLUMNS,
@@ -392,6 +393,7 @@ def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     """The problem (one form for every scene) with the scheme's mass variant: a body's
     `SparseProblem`, or the bar's `BarProblem` (its banded form inside)."""
     if case.form == SPARSE:
+        check_fits(case, scheme, nx)  # a size that cannot fit: refused before assembly
         try:
             problem = case.sparse_problem(nx, grading, scheme.mass_kind())
             problem.check()
