@@ -6,7 +6,9 @@ rho = 1, downward body force 0.1, lifted by `lift` (default 5), v0 = 0; obstacle
 on the lower half of the boundary, frictionless; T = 40, dt = 0.01. Tetrahedra:
 scikit-fem's ball (an octahedron refined), straight-sided, `--nx` elements along the
 radius (a power of two; default 8, 2499 dofs), P1 or P2 (`degree`, default 1: a default
-run takes under a minute; the redistributed mass needs nx >= 8 to stay SPD).
+run takes under a minute; the redistributed mass needs nx >= 8 to stay SPD). `ball=lattice`
+takes any nx: the octahedral lattice mapped onto the ball (`lattice_ball`), the same counts
+as the refined octahedron but not the same tetrahedra.
 
 References it has exactly: the free fall u = (0, 0, lift - g t^2 / 2) until the impact at
 sqrt(2 lift / g); E0 = m g lift of the mesh's ball (its volume is below 4/3 pi R^3: flat
@@ -19,6 +21,7 @@ variants map to the Khenous-Laborde-Renard mass, as in disc_drop.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -39,6 +42,9 @@ class SphereDrop(BodyCase):
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
         "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
                       low=1e-6, high=1e3),
+        "ball": Param("octahedron", "the ball's tetrahedra: scikit-fem's refined octahedron "
+                      "(nx a power of two) or the octahedral lattice (any nx)",
+                      choices=("octahedron", "lattice")),
     }
     R, centre_z = 20.0, 20.0
     lam = mu = 20.0
@@ -90,10 +96,14 @@ class SphereDrop(BodyCase):
         return Footprint(3 * nodes, 3, int(self.degree))
 
     def mesh(self, nx: int) -> fe.MeshTet:
+        if self.ball == "lattice":
+            m = lattice_ball(int(nx))
+            return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
         nrefs = int(nx).bit_length() - 1
         if nx < 1 or 2**nrefs != nx:
-            raise ValueError(f"nx = {nx!r}: the ball's elements along the radius are a power "
-                             "of two (1, 2, 4, 8, ...)")
+            raise ValueError(f"nx = {nx!r}: the refined octahedron's elements along the radius "
+                             "are a power of two (1, 2, 4, 8, ...); sphere_drop[ball=lattice] "
+                             "takes any nx")
         m = fe.MeshTet.init_ball(nrefs)
         return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
 
@@ -131,3 +141,38 @@ class SphereDrop(BodyCase):
                              normal_stress=zone.normal_stress,
                              vertical=vertical, body_mass=float(np.sum(M @ vertical)))
 
+
+def lattice_ball(n: int) -> fe.MeshTet:
+    """The unit ball with n elements along the radius, for any n >= 1: the octahedron
+    |x|_1 <= 1 cut into 8 n^3 tetrahedra (in each octant, the Freudenthal tetrahedra of
+    the grid of step 1/n that lie in the ordered simplex, mapped onto the octant's
+    corner simplex and mirrored: the octants' faces match), each point then moved along
+    its ray by |x|_1 / |x|_2, which maps the octahedron onto the ball (its boundary onto
+    the sphere). The same counts as the refined octahedron at a power of two; its
+    tetrahedra are not the same ones."""
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"nx = {n!r}: the ball needs nx >= 1")
+    corner = np.array(list(itertools.product(range(n), repeat=3)))
+    tets = []
+    for order in itertools.permutations(range(3)):  # the 6 Freudenthal tetrahedra
+        verts, cur = [corner], corner
+        for axis in order:
+            cur = cur.copy()
+            cur[:, axis] += 1
+            verts.append(cur)
+        T = np.stack(verts, axis=1)
+        c = T.mean(axis=1)
+        tets.append(T[(c[:, 0] > c[:, 1]) & (c[:, 1] > c[:, 2])])  # n >= a >= b >= c
+    T = np.concatenate(tets)
+    X = np.stack([T[..., 0] - T[..., 1], T[..., 1] - T[..., 2], T[..., 2]], axis=-1)
+    X = np.concatenate([X * np.array(s) for s in itertools.product((1, -1), repeat=3)])
+    pts, inverse = np.unique(X.reshape(-1, 3), axis=0, return_inverse=True)
+    t = inverse.reshape(-1, 4)
+    p = pts.T / float(n)
+    l1, l2 = np.abs(p).sum(axis=0), np.linalg.norm(p, axis=0)
+    p = p * np.where(l2 > 0, l1 / np.where(l2 > 0, l2, 1.0), 1.0)
+    a, b, c, d = (p[:, t[:, i]] for i in range(4))
+    flip = np.einsum("ij,ij->j", b - a, np.cross(c - a, d - a, axis=0)) < 0
+    t[flip, 0], t[flip, 1] = t[flip, 1], t[flip, 0].copy()
+    return fe.MeshTet(np.ascontiguousarray(p), np.ascontiguousarray(t.T))

@@ -17,6 +17,7 @@ from contact_bench.harness import footprint, runner
 
 SPECS = [("disc_drop[degree=1]", (1, 2, 5)), ("disc_drop[degree=2]", (1, 3)),
          ("sphere_drop", (1, 2, 4)), ("sphere_drop[degree=2]", (1, 2)),
+         ("sphere_drop[ball=lattice]", (1, 3, 5)), ("sphere_drop[ball=lattice,degree=2]", (3,)),
          ("manufactured[dim=2]", (1, 3)), ("manufactured[dim=2,degree=2]", (1, 3)),
          ("manufactured[dim=3]", (1, 3)), ("manufactured[dim=3,degree=2]", (1, 2)),
          ("two_discs", (2,)), ("two_discs[half=1]", (2,)), ("slanted_drop", (2,)),
