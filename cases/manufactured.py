@@ -28,6 +28,7 @@ from skfem.models import laplace
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.kept import built_once
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.sparse import SparseProblem, TimeLoad
@@ -75,12 +76,14 @@ class ManufacturedContact(BodyCase):
                       else 3 * n * (n + 1) ** 2 + 3 * n * n * (n + 1) + n**3)
         return Footprint(d * nodes, d, int(self.degree))
 
+    @built_once
     def mesh(self, nx: int) -> fe.Mesh:
         """nx elements (squares cut in 2 triangles, cubes in tetrahedra) along each side."""
         x = np.linspace(0.0, 1.0, int(nx) + 1)
         return (fe.MeshTri.init_tensor(x, x) if int(self.dim) == 2
                 else fe.MeshTet.init_tensor(x, x, x))
 
+    @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
         nu = LAM / (2 * (LAM + MU))
         E = MU * (3 * LAM + 2 * MU) / (LAM + MU)

@@ -29,6 +29,7 @@ import skfem as fe
 
 from contact_bench.api import fem_nd
 from contact_bench.api.fem import LUMPED_KINDS, REDISTRIBUTED_KINDS, canonical_mass
+from contact_bench.api.kept import built_once
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.sparse import SparseProblem
@@ -95,6 +96,7 @@ class SphereDrop(BodyCase):
         nodes = vertices + (edges if int(self.degree) == 2 else 0)
         return Footprint(3 * nodes, 3, int(self.degree))
 
+    @built_once
     def mesh(self, nx: int) -> fe.MeshTet:
         if self.ball == "lattice":
             m = lattice_ball(int(nx))
@@ -107,6 +109,7 @@ class SphereDrop(BodyCase):
         m = fe.MeshTet.init_ball(nrefs)
         return fe.MeshTet(m.p * self.R + np.array([[0.0], [0.0], [self.centre_z]]), m.t)
 
+    @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
         return fem_nd.assemble(self.mesh(nx), self.mu * (3 * self.lam + 2 * self.mu)
                                / (self.lam + self.mu), self.lam / (2 * (self.lam + self.mu)),

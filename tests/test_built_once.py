@@ -92,3 +92,29 @@ def test_built_once_keys_on_the_scene_not_the_object():
     assert mesh(a, 3) == mesh(b, 3) == 3 and Calls.n == 1  # one scene: one build
     mesh(disc_drop.DiscDrop(degree=1, lift=2.0), 3)  # another scene: its own
     assert Calls.n == 2
+
+
+@pytest.mark.parametrize("spec,nx,scheme,count_on", [
+    ("sphere_drop[lift=0.1]", 2, "standard", ("MeshTet1", "init_ball")),
+    ("manufactured[dim=2]", 3, "standard", ("MeshTri1", "init_tensor")),
+])
+def test_the_ball_and_the_manufactured_square_are_built_once(
+        monkeypatch: pytest.MonkeyPatch, tmp_path, spec, nx, scheme, count_on) -> None:
+    """A CLI run with its fields and pictures: the mesh constructor is called once."""
+    import skfem
+
+    monkeypatch.setenv("CONTACT_BENCH_REFERENCE_CACHE", "off")
+    Kept.clear_all()
+    cls = getattr(skfem, count_on[0])
+    build = getattr(cls, count_on[1]).__func__
+    calls = []
+
+    def counted(klass, *args, **kwargs):
+        calls.append(args)
+        return build(klass, *args, **kwargs)
+
+    monkeypatch.setattr(cls, count_on[1], classmethod(counted))
+    assert main(["run", "--case", spec, "--scheme", scheme, "--nx", str(nx), "--T", "2", "--stride", "1",
+                 "--out", str(tmp_path), "--quiet"]) in (0, None)
+    assert list(tmp_path.glob("snapshots_*.png"))  # the fields read the body again
+    assert len(calls) == 1
