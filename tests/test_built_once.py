@@ -114,7 +114,7 @@ def test_the_ball_and_the_manufactured_square_are_built_once(
         return build(klass, *args, **kwargs)
 
     monkeypatch.setattr(cls, count_on[1], classmethod(counted))
-    assert main(["run", "--case", spec, "--scheme", scheme, "--nx", str(nx), "--T", "2", "--stride", "1",
-                 "--out", str(tmp_path), "--quiet"]) in (0, None)
+    assert main(["run", "--case", spec, "--scheme", scheme, "--nx", str(nx), "--T", "2",
+                 "--stride", "1", "--out", str(tmp_path), "--quiet"]) in (0, None)
     assert list(tmp_path.glob("snapshots_*.png"))  # the fields read the body again
     assert len(calls) == 1
