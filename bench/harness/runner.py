@@ -12,7 +12,12 @@ A run prepares the scheme's stepper once (`Scheme.prepare`: factorisations, Dela
 operators, contact laws) and steps it several times: a warm-up, the timing repeats and the
 recorded run. Three times per run (`TIMING_COLUMNS`), JIT compilation and the error norms
 excluded:
-- `setup_s`: the preparation (`Scheme.prepare`), once;
+- `setup_s`: the preparation (`Scheme.prepare`), once; of it, `setup_factor_s` in sparse
+  factorisations and `setup_contact_s` in the contact operators (Delassus matrix,
+  response; `contact_bench.core.timers` phases, exclusive: a factor made for the contact
+  operators counts as a factor), the rest the scheme's own work; `assembly_s`: building
+  the problem it steps (mesh, matrices, mass variant, contact set), shared by the runs
+  of a table that read the same problem (each row shows what it cost once);
 - `run_s`: the recorded run itself, recording every `stride`-th step as the norms need
   (`wall_s` is the same value under its former name, so `wall_s / (nx * steps)` still
   reads as ns per dof-step, recording included);
@@ -49,6 +54,7 @@ from contact_bench.api.problem import BarProblem, banded, discretise
 from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.api.sparse import SPARSE, AxisView
 from contact_bench.core.errors import BenchError, shown_repr
+from contact_bench.core.timers import recording
 from contact_bench.harness import metrics
 from contact_bench.harness.footprint import check_fits
 from contact_bench.harness.impacts import impact_metrics, impact_table
@@ -71,7 +77,8 @@ if TYPE_CHECKING:  # pandas is imported when a table is made, not while runs ste
 BASE_COLUMNS = (
     "case", "scheme", "nx", "dt", "T", "steps", *ERROR_COLUMNS,
     "energy_initial", "energy_final", "energy_drift_max", "penetration_max", "step_s",
-    "setup_s", "run_s", "wall_s", "status", "notes", "stride", "grading", "blowup_time",
+    "setup_s", "setup_factor_s", "setup_contact_s", "assembly_s", "run_s", "wall_s",
+    "status", "notes", "stride", "grading", "blowup_time",
     "reference",
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
@@ -80,8 +87,9 @@ BASE_COLUMNS = (
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
 #: the columns that vary from one execution of the same run to the next (module docstring)
-TIMING_COLUMNS = ("step_s", "setup_s", "run_s", "wall_s", "ref_s", "ref_compute_s",
-                  "time_ref_compute_s", "ref_from_cache")
+TIMING_COLUMNS = ("step_s", "setup_s", "setup_factor_s", "setup_contact_s", "assembly_s",
+                  "run_s", "wall_s", "ref_s", "ref_compute_s", "time_ref_compute_s",
+                  "ref_from_cache")
 #: `step_s` is the minimum of at most this many timed stepping calls (after a warm-up) ...
 STEP_REPEATS = 3
 #: ... and no more once they have taken this long (at least one timed call)
@@ -391,7 +399,15 @@ def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
 
 def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     """The problem (one form for every scene) with the scheme's mass variant: a body's
-    `SparseProblem`, or the bar's `BarProblem` (its banded form inside)."""
+    `SparseProblem`, or the bar's `BarProblem` (its banded form inside), with the seconds
+    its building took as `assembly_s`."""
+    start = time.perf_counter()
+    problem = _build(case, scheme, nx, grading)
+    object.__setattr__(problem, "assembly_s", time.perf_counter() - start)  # frozen class
+    return problem
+
+
+def _build(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     if case.form == SPARSE:
         check_fits(case, scheme, nx)  # a size that cannot fit: refused before assembly
         try:
@@ -447,13 +463,17 @@ def compile_seconds(events: list) -> float:
     return total
 
 
-def prepare_stepper(scheme: Scheme, problem: Any, dt: float) -> tuple[Stepper, float]:
+def prepare_stepper(scheme: Scheme, problem: Any, dt: float,
+                    phases: dict[str, float] | None = None) -> tuple[Stepper, float]:
     """`scheme.prepare(problem, dt)` and its time (`setup_s`), JIT compilation during it
-    subtracted."""
-    with numba_event.install_recorder("numba:compile") as compiled:
+    subtracted; `phases` (given): filled with the time of its factorisations and contact
+    operators (`contact_bench.core.timers`; seconds, compilation not subtracted)."""
+    with numba_event.install_recorder("numba:compile") as compiled, recording() as spent:
         start = time.perf_counter()
         stepper = scheme.prepare(problem, dt)
         elapsed = time.perf_counter() - start
+    if phases is not None:
+        phases.update(spent)
     return stepper, max(0.0, elapsed - compile_seconds(compiled.buffer))
 
 
@@ -518,7 +538,11 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
         semi = problem_for(case, scheme, row["nx"], row["grading"])
     sparse = banded(semi) is None
     ref_samples = numerical_reference(case, plan, notes) if case.quantities else None
-    stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt)
+    phases: dict[str, float] = {}
+    stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt, phases)
+    row["setup_factor_s"] = phases.get("factor", 0.0)
+    row["setup_contact_s"] = phases.get("contact", 0.0)
+    row["assembly_s"] = getattr(semi, "assembly_s", None)
     key = ("stepper", type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
         stepper.run(1, 1)

@@ -34,6 +34,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import Factor, lu
 from contact_bench.kernels.solvers import lcp_solve
@@ -72,6 +73,7 @@ def is_selection(G: sp.csr_matrix) -> bool:
     return bool(np.all(selection_rows(G) >= 0))
 
 
+@phase("contact")
 def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
                 keep: bool | None = None) -> ContactOps:
     """`ContactOps` of the gap operator G (n_c x n) with S's factor `fac`: W = G S^-1 G^T

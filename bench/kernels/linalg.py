@@ -35,6 +35,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from contact_bench.core.ordering import symmetric_lu
+from contact_bench.core.timers import phase
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
     import cholespy
@@ -170,6 +171,7 @@ class Factor:
     chol: Any = field(default=None, repr=False)
 
     @classmethod
+    @phase("factor")
     def of(cls, S: sp.spmatrix) -> Factor:
         """S (square, nonsingular) factored by SuperLU (`symmetric_lu`), ordered by nested
         dissection from `contact_bench.core.ordering.NESTED_DISSECTION_DOFS` dofs on
