@@ -1,28 +1,19 @@
-"""Two elastic discs meeting at +v and -v without gravity: two deformable bodies in
-contact through a gap operator whose rows join them (node to node where the meshes
-match, node to segment where they do not).
+"""Two elastic discs meeting at +v and -v without gravity: two deformable bodies joined
+by gap rows (node to node where the meshes match, node to segment where they do not).
 
 Disc A is `disc_drop`'s disc (radius 20, lambda = mu = 20, rho = 1, P1/P2 ring mesh, its
 lower half the contact zone), its bottom `lift` above the line y = 0, moving down at
-`speed`; disc B is its mirror image below the line, moving up. Each contact node a of A
-(the slave) is projected along e_y on B's facets (the master; `contact_bench.api.
-node_to_segment`, built once in the reference configuration): gap = (X_a + u_a - sum_k
-N_k (X_k + u_k)) . e_y, the row +1 on a's y dof and -N_k on the y dofs of the facet's
-nodes k. With B the exact mirror of A (`rings_b=0`, `turn_b=0`) each projection is a
-node, the row +1 on a and -1 on its mirror image b (node to node). `rings_b` gives B's
-mesh that many more rings than A's, `turn_b` turns it (degrees) about B's centre: the
-interfaces no longer match and the rows are node to segment, with weights summing to
-one (the pair's momentum is kept: `err_pair_momentum`).
-
-By symmetry (u_B the mirror of u_A) the line y = 0 does not move and each disc is one
-disc hitting a rigid plane there at `speed`: the scene with `half=1`, every observable
-of which (contact start and end, peak force, impulse, disc A's displacement) equals the
-two matching discs' (energy: half of it), up to round-off for a scheme whose run is
-Lipschitz in the data; with non-matching meshes the two approach it as both are refined
-(docs/contact.md). The two-body penalty and Nitsche sizes are those of the half problem
-(`h_contact` twice disc A's: a spring on the two-body gap, twice the half gap, gives the
-half problem's force). Nitsche's stress term on two bodies (the mean of the two sides'
-normal stresses) is not built: nitsche refuses the two discs in one line.
+`speed`; disc B is its mirror image below the line, moving up. Each zone node a of A is
+projected along e_y on B's facets (`contact_bench.api.node_to_segment`, once, in the
+reference configuration): the row +1 on a's y dof, -N_k on the y dofs of the facet's
+nodes. B the exact mirror of A: each projection a node, node to node. `rings_b` (more
+rings) or `turn_b` (degrees about B's centre) make B's mesh non-matching: the rows are
+node to segment, their weights summing to one (the momentum kept: `err_pair_momentum`).
+By symmetry each disc of a matching pair is one disc on a rigid plane at y = 0 (`half=1`):
+every observable equal (energy: half), to round-off for a scheme whose run is Lipschitz
+in the data; a non-matching pair approaches it as both are refined (docs/contact.md).
+Penalty sizes are the half problem's (`h_contact` doubled: a spring on the two-body gap,
+twice the half gap, gives its force); Nitsche's two-body stress term is not built.
 """
 
 from __future__ import annotations

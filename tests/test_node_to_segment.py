@@ -149,8 +149,8 @@ def test_the_pair_keeps_its_momentum_on_non_matching_meshes(spec):
 def test_non_matching_pair_approaches_its_half_problem_as_both_are_refined():
     """The continuous pair is symmetric, so the non-matching one differs from the half
     problem by its discretisation error: at nx 3 and 6 (benchmarks/node_to_segment.py
-    prints more) disc A's displacement differs by 0.16 and 0.039, the first contact's
-    impulse by 0.068 and 0.015. Bound: halved at least when h halves (an order above one
+    prints more) disc A's displacement differs by 0.163 and 0.041, the first contact's
+    impulse by 0.068 and 0.020. Bound: halved at least when h halves (an order above one
     half; the contact observables of disc_drop converge at about one)."""
     diffs = {}
     for nx in (3, 6):
