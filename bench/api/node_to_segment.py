@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from contact_bench.api.fem_nd import Elasticity, facets_of
+from contact_bench.api.fem_nd import Elasticity, Facets, facets_of
 
 #: a projection's local coordinate within this of a facet node's (0, 1 or 1/2) is put
 #: on the node exactly
@@ -75,7 +75,7 @@ class Projection:
     gap0: np.ndarray
 
 
-def surface(body: Elasticity, where, place: Callable[[np.ndarray], np.ndarray] | None = None
+def surface(body: Elasticity, where: Facets, place: Callable[[np.ndarray], np.ndarray] | None = None
             ) -> Surface:
     """The `Surface` of the body's boundary facets `where` (a predicate on points or
     facet indices, as `fem_nd.facets_of`), its coordinates mapped by `place` ((2, m) ->
