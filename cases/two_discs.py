@@ -110,8 +110,6 @@ class TwoDiscs(BodyCase):
                                  E_contact=one.E_contact, h_contact=one.h_contact,
                                  normal_stress=one.normal_stress, vertical=one.vertical,
                                  body_mass=one.body_mass)
-        # disc B: A's disc (rings_b more rings) mirrored (y -> -y) and turned; its mass is
-        # the disc's (it acts alike on both components), its stiffness turned, Q K Q^T
         nx_b = int(nx) + int(self.rings_b)
         phi = np.radians(float(self.turn_b))
         matching = nx_b == int(nx) and phi == 0.0
@@ -125,10 +123,10 @@ class TwoDiscs(BodyCase):
         proj = nts.project(body_a.dof_coordinates[:, slave], master, normal=[0.0, 1.0])
         nb = body_b.ndofs
         G = nts.gap_rows(proj, slave, master, n, nb)
-        # disc B: A's disc (rings_b more rings) mirrored (y -> -y) and turned; its mass
-        # acts alike on both components (the mirror's and the turned disc's), with the
-        # nodes its rows touch as its contact zone (massless for a scheme that needs
-        # them so); matching: the mirror image of A's
+        # disc B: A's disc (rings_b more rings) mirrored (y -> -y) and turned, its
+        # stiffness Q K Q^T; its mass acts alike on both components (the mirror's and the
+        # turned disc's), with the nodes its rows touch as its contact zone (massless for
+        # a scheme that needs them so); matching: the mirror image of A's
         if matching:
             MB = one.M
         else:
