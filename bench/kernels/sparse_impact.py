@@ -207,11 +207,12 @@ class PaoliSchatzmanStepper(LoopStepper):
         gap0 = np.asarray(p.contact.gap0, float)
         S = sp.csr_matrix(p.M + (beta * dt * dt) * p.K)
         sd = np.asarray(S.diagonal(), float)
-        diag = S.nnz == np.count_nonzero(sd)
-        if diag:  # no factor, no Delassus matrix: W = diag(G_j S^-1 G_j^T)
-            if (abs(G) @ abs(G).T).nnz > G.shape[0]:
-                raise ValueError("restitution with a diagonal S needs contact rows on "
-                                 "distinct dofs")
+        # a diagonal S with rows on distinct dofs: no factor, no Delassus matrix, W =
+        # diag(G_j S^-1 G_j^T); rows sharing dofs (node-to-segment rows) couple through
+        # W, so S is factored like any other and the LCP solved
+        diag = (S.nnz == np.count_nonzero(sd)
+                and (abs(G) @ abs(G).T).nnz <= G.shape[0])
+        if diag:
             fac = Factor.of(sp.identity(1, format="csc"))
             ct = ContactOps(csr_arrays(G), csr_arrays(G.T), gap0, selection_rows(G),
                             np.zeros((1, 1)), np.zeros((1, 1)), False)
