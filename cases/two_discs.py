@@ -66,7 +66,10 @@ class TwoDiscs(BodyCase):
 
     def footprint(self, nx: int) -> Footprint:
         one = self.disc.footprint(nx)
-        return one if int(self.half) else one._replace(unknowns=2 * one.unknowns)
+        if int(self.half):
+            return one
+        other = self.disc.footprint(int(nx) + int(self.rings_b))
+        return one._replace(unknowns=one.unknowns + other.unknowns)
 
     def cannot_run(self, scheme) -> str | None:
         if not int(self.half) and scheme.traits().contact == Contact.NITSCHE:

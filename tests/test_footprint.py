@@ -20,7 +20,8 @@ SPECS = [("disc_drop[degree=1]", (1, 2, 5)), ("disc_drop[degree=2]", (1, 3)),
          ("sphere_drop[ball=lattice]", (1, 3, 5)), ("sphere_drop[ball=lattice,degree=2]", (3,)),
          ("manufactured[dim=2]", (1, 3)), ("manufactured[dim=2,degree=2]", (1, 3)),
          ("manufactured[dim=3]", (1, 3)), ("manufactured[dim=3,degree=2]", (1, 2)),
-         ("two_discs", (2,)), ("two_discs[half=1]", (2,)), ("slanted_drop", (2,)),
+         ("two_discs", (2,)), ("two_discs[half=1]", (2,)), ("two_discs[rings_b=1]", (2,)),
+         ("slanted_drop", (2,)),
          ("slanted_drop[of=sphere_drop]", (2,))]
 
 
