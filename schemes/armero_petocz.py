@@ -69,6 +69,9 @@ class ArmeroPetocz(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return DRIFT_BOUND
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # one path for the bar and the bodies: the sparse midpoint kernel with the
         # discrete-gradient springs (`contact_bench.kernels.energy_penalty`)

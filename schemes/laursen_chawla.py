@@ -65,6 +65,9 @@ class LaursenChawla(Scheme):
         e[0] = 1.0
         return float(dt * math.sqrt(2.0 * ekin * spsolve(M, e)[0]))
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar (its CSR matrices) and a body: one compiled midpoint step
         return prepare_midpoint_contact(problem, dt, PERSISTENCY)

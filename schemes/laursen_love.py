@@ -44,6 +44,9 @@ class LaursenLove(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return ROUNDOFF_DRIFT
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar (its CSR matrices) and a body: one compiled midpoint step
         return prepare_midpoint_contact(problem, dt, SIGNORINI_VELOCITY_UPDATE)

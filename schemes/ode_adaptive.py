@@ -57,6 +57,9 @@ class OdeAdaptive(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e3 * self.rtol
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: DOP853 on the dofs with mass, the massless ones solved from their rows
         # (`contact_bench.kernels.sparse_family.adaptive_sparse`)

@@ -595,6 +595,12 @@ class Scheme(Plugin):
         applicable to the others. Default: False."""
         return False
 
+    def follows_curved_obstacle(self) -> bool:
+        """Whether its stepper on a body follows a curved obstacle (`contact_bench.api.
+        sparse.ContactSet.obstacle`: the gaps re-linearised every step): a scene with one
+        is not applicable to the others. Default: False."""
+        return False
+
     def penetration_bound(self, problem: Any, dt: float) -> float:
         """Largest penetration max_t -u(0, t) the scheme admits on the bar (exact
         contact: 0).
