@@ -29,6 +29,7 @@ from contact_bench.api.plugin import (
     Stepper,
     Traits,
     Trajectory,
+    on_curved_obstacle,
 )
 from contact_bench.api.problem import banded
 from contact_bench.core.sampling import BLOWUP_FACTOR, n_samples
@@ -52,7 +53,8 @@ class OdeAdaptive(Scheme):
 
     def traits(self, problem=None) -> Traits:
         return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
-                      energy=Energy.CONSERVED, order=None)
+                      energy=Energy.MAY_GROW if on_curved_obstacle(problem)
+                      else Energy.CONSERVED, order=None)
 
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e3 * self.rtol

@@ -525,6 +525,13 @@ class Traits:
                 raise BenchError(f"Traits.{name} = {value!r}: not one of {allowed}") from None
 
 
+def on_curved_obstacle(problem: Any) -> bool:
+    """Whether `problem`'s contact is a curved obstacle (`contact_bench.api.sparse.
+    ContactSet.obstacle`): its gaps are nonlinear, so a claim resting on a fixed gap
+    operator (an energy conserved exactly) does not hold there (`Scheme.traits(problem)`)."""
+    return getattr(getattr(problem, "contact", None), "obstacle", None) is not None
+
+
 class Stepper:
     """A scheme prepared for one problem and one step size: what does not depend on the
     number of steps (factorisations, Delassus or Schur operators, contact laws, the
