@@ -2,24 +2,20 @@
 circle in 2D) of radius `R_o` instead of the plane: a curved obstacle, its gaps
 |x + u - c| - R_o nonlinear in u (`contact_bench.core.obstacle.Sphere`).
 
-The obstacle's top is where the base scene's plane was, under the body's vertical axis
-(x = 0): its centre c = (0, level - R_o) in 2D, (0, 0, level - R_o) in 3D, the level read
-from the base's gaps (level = x_v - gap0 on every contact dof). The contact points are the
-base's (the lower half of the boundary), each with all its displacement components (the
-axisymmetric ball's pole keeps u_r = 0: its radial component is held). `hertz_sphere`'s
-meridian is an axisymmetric ball, so the circle of its meridian is a sphere of radius
-R_o on the axis. Every compiled scheme steps it through a tangent gap operator updated at
-each step's contact-free prediction (`contact_bench.kernels.contact`, docs/contact.md);
-a scheme whose stepper cannot is not applicable (`Scheme.follows_curved_obstacle`:
-Nitsche's method, whose stress term reads the base's sigma_zz, not the moving normal's;
-Taylor-Flanagan and the explicit penalty, whose contact operators are fixed).
+The sphere's top is where the base's plane was, under the body's vertical axis: c = (0,
+level - R_o) (3D: (0, 0, level - R_o)), the level read from the base's gaps. The contact
+points are the base's, each with all its displacement components (the axisymmetric
+ball's pole keeps u_r = 0: held); hertz_sphere's meridian circle is a sphere on the axis.
+The compiled schemes step it through a tangent gap operator updated at each step's
+contact-free prediction (docs/contact.md); a scheme whose stepper cannot is not applicable
+(`Scheme.follows_curved_obstacle`: nitsche, taylor_flanagan, the explicit penalty).
 
-References: with `of=hertz_sphere`, Hertz's impact of two spheres, the ball (radius R)
-and the rigid one (R_o): the same formulas with the effective radius R* = R R_o / (R +
-R_o) and the ball's mass (`hertz`; Johnson 1985, sec. 11): err_hertz_contact_time and
-err_hertz_peak_force as in `hertz_sphere` (a model, the limit v / c -> 0). As R_o grows
-the gaps tend to the plane's (they differ by |x_t|^2 / (2 R_o) at a point x_t off the
-axis), so every observable tends to the base scene's.
+References: with `of=hertz_sphere`, Hertz's impact of two spheres, the ball (radius R) and
+the rigid one (R_o): the plane's formulas with R* = R R_o / (R + R_o) and the ball's mass
+(`hertz`; Johnson 1985, sec. 11), err_hertz_contact_time and err_hertz_peak_force as in
+`hertz_sphere` (a model, the limit v / c -> 0). As R_o grows the gaps tend to the
+plane's (they differ by |x_t|^2 / (2 R_o) at a point x_t off the axis), so every
+observable tends to the base scene's (tests/test_curved_drop.py).
 """
 
 from __future__ import annotations
