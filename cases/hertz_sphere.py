@@ -163,7 +163,8 @@ class HertzSphere(BodyCase):
                              h_contact=fem_nd.contact_length(body, body.hmin),
                              normal_stress=zone.stress(free),
                              vertical=(np.arange(n)[free] % 2 == 1).astype(float),
-                             body_mass=mass)
+                             body_mass=mass,
+                             extra={"dof_points": np.asarray(vector.doflocs)[:, free]})
 
 
 @fe.BilinearForm

@@ -23,7 +23,15 @@ import math
 import numpy as np
 
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import Contact, Energy, Family, Scheme, Stepper, Traits
+from contact_bench.api.plugin import (
+    Contact,
+    Energy,
+    Family,
+    Scheme,
+    Stepper,
+    Traits,
+    on_curved_obstacle,
+)
 from contact_bench.api.problem import banded
 from contact_bench.kernels.boundary import energy_budget
 from contact_bench.kernels.energy_penalty import prepare_midpoint_penalty
@@ -48,7 +56,8 @@ class ArmeroPetocz(Scheme):
 
     def traits(self, problem=None) -> Traits:
         return Traits(implicit=True, massless_contact_node=False, contact=Contact.PENALTY,
-                      energy=Energy.CONSERVED, order=2, family=Family.PENALTY)
+                      energy=Energy.MAY_GROW if on_curved_obstacle(problem)
+                      else Energy.CONSERVED, order=2, family=Family.PENALTY)
 
     def spring_stiffnesses(self, problem) -> np.ndarray:
         """kappa w_i on each contact point (w_i its share of the zone's measure; the bar:
@@ -68,6 +77,9 @@ class ArmeroPetocz(Scheme):
 
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return DRIFT_BOUND
+
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
 
     def prepare(self, problem, dt: float) -> Stepper:
         # one path for the bar and the bodies: the sparse midpoint kernel with the

@@ -47,6 +47,9 @@ class ContactStabilized(Scheme):
     def stability_limit(self, problem) -> float | None:
         return None  # the trapezoidal rule: unconditionally stable
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         predictor = "projected_klapproth" if self.velocity == "klapproth" else "projected"
         semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one

@@ -83,6 +83,9 @@ class HHT(Scheme):
     def adds_time_load(self) -> bool:
         return True  # the sparse Newmark stepper adds it
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: `contact_bench.kernels.sparse.newmark_sparse` with alpha
         semi = banded(problem)

@@ -43,6 +43,9 @@ class Kane(Scheme):
     def stability_limit(self, problem) -> float | None:
         return None  # the trapezoidal rule: unconditionally stable
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one
         if semi is not None:

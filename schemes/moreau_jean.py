@@ -72,6 +72,9 @@ class MoreauJean(MassiveContactNodeScheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e-8 if self.e == 1 and self.theta == 0.5 else None
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: the same step, Newton's law on the contact dofs whose predicted gap is
         # <= 0 (the LCP on the Delassus matrix of M + theta^2 dt^2 K); the sampled stress

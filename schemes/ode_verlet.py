@@ -68,6 +68,9 @@ class OdeVerlet(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 2.0 * (problem.c_max * dt / problem.hmin) ** 2
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: velocity Verlet on the dofs with mass, the massless ones solved from
         # their rows (`contact_bench.kernels.sparse_family.verlet_sparse`)

@@ -102,6 +102,9 @@ class Penalty(Scheme):
     def adds_time_load(self) -> bool:
         return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
 
+    def follows_curved_obstacle(self) -> bool:
+        return self.beta > 0.0  # the sparse Newmark stepper, not the explicit one
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the first element's boundary kernel; a body: implicit, the springs'
         # piecewise-linear step solved exactly (`contact_bench.kernels.sparse`);

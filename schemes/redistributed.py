@@ -64,6 +64,9 @@ class Redistributed(Scheme):
     def adds_time_load(self) -> bool:
         return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the banded Newmark kernel; a body: the same Newmark step, exact contact
         # on every contact dof through the Delassus matrix, or (beta = 0) the massless

@@ -89,6 +89,9 @@ class Restitution(MassiveContactNodeScheme):
     def penetration_bound(self, problem, dt: float) -> float:
         return 4.0 * self.e * dt * velocity_scale(banded(problem))
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: the same two-step scheme, the impact law on every contact dof (a per-dof
         # projection with a lumped mass and beta = 0, else the LCP on the Delassus matrix

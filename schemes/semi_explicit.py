@@ -49,6 +49,9 @@ class SemiExplicit(Scheme):
     def adds_time_load(self) -> bool:
         return True  # the body's kernel adds problem.load at each step's end
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         semi = banded(problem)
         if semi is not None:

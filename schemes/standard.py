@@ -63,6 +63,9 @@ class Standard(Scheme):
     def adds_time_load(self) -> bool:
         return True  # the sparse Newmark stepper adds it
 
+    def follows_curved_obstacle(self) -> bool:
+        return True  # its sparse stepper re-linearises the gaps every step
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the banded Newmark kernel; a body: the same step, exact contact on
         # every contact dof through the Delassus matrix (`contact_bench.kernels.sparse`)

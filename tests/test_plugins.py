@@ -68,7 +68,11 @@ def test_the_implicit_template_runs_every_scene(scene: str, tmp_path: Path) -> N
     nx = grid.small_nx[-1] if grid is not None else 20
     T = grid.small_T if grid is not None else min(float(case.T), 2.0)
     spec = grid.small if grid is not None else scene
-    run = run_one(spec, implicit_template(tmp_path), nx=nx, T=T)
+    template = implicit_template(tmp_path)
+    if case.cannot_run(template) is not None:  # a curved obstacle: the template's G is fixed
+        assert not template.follows_curved_obstacle()
+        return
+    run = run_one(spec, template, nx=nx, T=T)
     compiled = run_one(spec, "standard", nx=nx, T=T)
     assert run.row["status"] == compiled.row["status"], run.row["notes"]
     if run.row["status"] == "ok":

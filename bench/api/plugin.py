@@ -540,6 +540,13 @@ class Traits:
                 raise BenchError(f"Traits.{name} = {value!r}: not one of {allowed}") from None
 
 
+def on_curved_obstacle(problem: Any) -> bool:
+    """Whether `problem`'s contact is a curved obstacle (`contact_bench.api.sparse.
+    ContactSet.obstacle`): its gaps are nonlinear, so a claim resting on a fixed gap
+    operator (an energy conserved exactly) does not hold there (`Scheme.traits(problem)`)."""
+    return getattr(getattr(problem, "contact", None), "obstacle", None) is not None
+
+
 class Stepper:
     """A scheme prepared for one problem and one step size: what does not depend on the
     number of steps (factorisations, Delassus or Schur operators, contact laws, the
@@ -608,6 +615,12 @@ class Scheme(Plugin):
         """Whether its stepper on a body adds a time-dependent load (`contact_bench.api.
         sparse.SparseProblem.load`): a scene with one (`BodyCase.time_load`) is not
         applicable to the others. Default: False."""
+        return False
+
+    def follows_curved_obstacle(self) -> bool:
+        """Whether its stepper on a body follows a curved obstacle (`contact_bench.api.
+        sparse.ContactSet.obstacle`: the gaps re-linearised every step): a scene with one
+        is not applicable to the others. Default: False."""
         return False
 
     def penetration_bound(self, problem: Any, dt: float) -> float:

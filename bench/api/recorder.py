@@ -72,10 +72,11 @@ class TrajectoryRecorder:
         self.energy0 = p.energy(p.U0, p.V0) if energy0 is None else float(energy0)
         self.stats = new_stats(samples=k)  # the compiled loop's contact statistics
         G = sp.csr_matrix(p.contact.gap_operator(n))
+        curved = getattr(p.contact, "obstacle", None)  # its exact gaps
         self._rec = Record(self.t, self.U, self.V, self.contact_u, self.stress, self.energy,
                            self.stats, np.zeros(p.contact.size, np.bool_),
-                           (G.indptr.astype(np.int64), G.indices.astype(np.int64),
-                            G.data.astype(float)), np.asarray(p.contact.gap0, float),
+                           curved or (G.indptr.astype(np.int64), G.indices.astype(np.int64),
+                                      G.data.astype(float)), np.asarray(p.contact.gap0, float),
                            self.dt, float(gamma), START_DATA)
         self.min_contact_u = self._gap(p.U0, np.inf)
         self._forces_given = False

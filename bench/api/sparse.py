@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
+from contact_bench.core.obstacle import Sphere, sphere_gaps
+
 #: what a case's problem is built from (`Case.form`): the bar's banded form (its
 #: `BarProblem`) or a body's sparse assembly; every scheme receives the one problem form
 BANDED_1D = "banded1d"
@@ -53,6 +55,10 @@ class ContactSet:
     face_mass: sp.csr_matrix | None = None
     #: a general gap operator G (n_c x n, CSR), when the rows are not dof selections
     operator: sp.csr_matrix | None = None
+    #: a rigid curved obstacle (`contact_bench.core.obstacle.Sphere`): the gaps are its
+    #: exact nonlinear ones, `operator` and `gap0` their tangent at U = 0 (a stepper
+    #: updates the tangent every step, or refuses: `SparseStepper.follows_curved`)
+    obstacle: Sphere | None = None
 
     @property
     def size(self) -> int:
@@ -184,6 +190,8 @@ class SparseProblem:
     def gaps(self, U: np.ndarray) -> np.ndarray:
         """The contact set's gaps of a state (or of a stack of states, last axis)."""
         c = self.contact
+        if c.obstacle is not None:
+            return sphere_gaps(c.obstacle, U)
         if c.dofs is not None:
             return c.gap0 + U[..., c.dofs]
         return c.gap0 + np.asarray(U) @ c.gap_operator(self.nfree).T

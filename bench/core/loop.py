@@ -52,6 +52,7 @@ from contact_bench.core.contact_stats import (
     impulse_update,
     stats_update,
 )
+from contact_bench.core.obstacle import min_gap
 from contact_bench.core.sampling import blown_up
 
 #: `step`'s return: the step is done
@@ -80,7 +81,7 @@ class Record(NamedTuple):
     energy: np.ndarray
     stats: np.ndarray  # `contact_bench.core.contact_stats.new_stats`
     status: np.ndarray  # the contact status of each contact point (chatter)
-    G: tuple  # the gap operator as CSR arrays (indptr, indices, data): gaps = gap0 + G U
+    G: tuple  # the gap operator as CSR arrays (gaps = gap0 + G U), or a curved obstacle
     gap0: np.ndarray
     dt: float
     gamma: float  # the weight of the step's end force in its impulse
@@ -116,16 +117,10 @@ def _store_state_compiled(out, k, X):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
-    """min(start, min_j gap0[j] + G_j U): the smallest gap of the contact points (G as
-    its CSR arrays)."""
-    indptr, indices, data = G
-    g = start
-    for j in range(gap0.size):
-        acc = 0.0
-        for kk in range(indptr[j], indptr[j + 1]):
-            acc += data[kk] * U[indices[kk]]
-        g = min(g, gap0[j] + acc)
-    return g
+    """min(start, the smallest gap of the contact points in U): gap0 + G U for G's CSR
+    arrays, the exact nonlinear gaps for a curved obstacle (`contact_bench.core.obstacle.
+    min_gap`)."""
+    return min_gap(G, gap0, U, start)
 
 
 @njit(cache=True)

@@ -24,6 +24,17 @@ response Z = S^-1 G^T (kept when it fits in `KEEP_Z_ENTRIES` values; else the co
 is one more solve with G^T mu); `contact_ops` builds it. A selection row keeps the exact
 arithmetic of the dof-by-dof kernels (its gap is gap0 + X[dof], an active one is put on
 the obstacle exactly: `hold`); a general row's gap is its CSR product.
+
+A curved obstacle (`contact_bench.core.obstacle.Sphere`: gap_j = |x_j + U_j - c| - R,
+nonlinear) keeps its tangent in the same `ContactOps` (`Curve`): `gaps(ct, X, out)`
+writes the exact gaps of X and first re-linearises there (`relinearise`): row j of G
+becomes the normal n_j = (x_j + X_j - c) / |...| on the point's d dofs, gap0 so that
+gap0 + G X is the exact gap at X, and W and Z follow the normals without a solve,
+W_ij = n_i^T B_ij n_j and Z_:j = Zd_:j n_j from B = S_d S^-1 S_d^T and Zd = S^-1 S_d^T,
+computed once for the d dofs of every contact point (S_d their selection). A scheme calls
+`gaps` on the step's contact-free prediction X_f before its contact solve, so the solve
+(the LCP, the spring law, a velocity law on G V) sees the tangent at X_f
+(docs/contact.md: the choice, its cost and its limits).
 """
 
 from __future__ import annotations
@@ -34,6 +45,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import Factor, lu
@@ -43,9 +55,29 @@ from contact_bench.kernels.solvers import lcp_solve
 KEEP_Z_ENTRIES = 10_000_000
 
 
+class Curve(NamedTuple):
+    """A curved obstacle's tangent, updated in place by `relinearise` (module
+    docstring); `on` False: a fixed G (`FLAT`)."""
+
+    on: bool
+    ob: Sphere
+    gpos: np.ndarray  # (n_c, d) int64: where normal component a of row j sits in G.data
+    tpos: np.ndarray  # (n_c, d) int64: the same in G^T's data
+    B: np.ndarray  # (n_c d, n_c d): S_d S^-1 S_d^T
+    Zd: np.ndarray  # (n, n_c d): S^-1 S_d^T when Z is kept, else (1, 1)
+    nrm: np.ndarray  # (n_c, d): the normals of the current tangent
+
+
+#: no curved obstacle: G fixed for the run
+FLAT = Curve(False, Sphere(np.zeros(1), 1.0, np.zeros((0, 1)), np.zeros((0, 1), np.int64)),
+             np.zeros((0, 1), np.int64), np.zeros((0, 1), np.int64), np.zeros((0, 0)),
+             np.zeros((1, 1)), np.zeros((0, 1)))
+
+
 class ContactOps(NamedTuple):
     """A gap operator with a factored S: G and G^T (CSR), gap0, `sel` (per row: the dof
-    it selects, or -1 for a general row), W = G S^-1 G^T, Z = S^-1 G^T when `keep_z`."""
+    it selects, or -1 for a general row), W = G S^-1 G^T, Z = S^-1 G^T when `keep_z`,
+    and a curved obstacle's tangent data (`cv`, `FLAT` for a fixed G)."""
 
     G: CSR
     GT: CSR
@@ -54,6 +86,7 @@ class ContactOps(NamedTuple):
     W: np.ndarray
     Z: np.ndarray
     keep_z: bool
+    cv: Curve = FLAT
 
 
 def selection_rows(G: sp.csr_matrix) -> np.ndarray:
@@ -75,11 +108,14 @@ def is_selection(G: sp.csr_matrix) -> bool:
 
 @phase("contact")
 def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
-                keep: bool | None = None) -> ContactOps:
+                keep: bool | None = None, obstacle: Sphere | None = None) -> ContactOps:
     """`ContactOps` of the gap operator G (n_c x n) with S's factor `fac`: W = G S^-1 G^T
     (symmetrised) from n_c solves in blocks, Z kept when `keep` (default: when n n_c <=
     `KEEP_Z_ENTRIES`). A selection G is solved with unit right-hand sides and W read off
-    Z's rows (the numbers of the dof-by-dof kernels)."""
+    Z's rows (the numbers of the dof-by-dof kernels). With a curved `obstacle` (its dofs
+    numbered as S's), G and gap0 are its tangent at X = 0 (`curved_ops`)."""
+    if obstacle is not None:
+        return curved_ops(fac, obstacle, keep)
     G = sp.csr_matrix(G, dtype=float)
     n, nc = fac.n, G.shape[0]
     keep = n * nc <= KEEP_Z_ENTRIES if keep is None else bool(keep)
@@ -95,6 +131,115 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
                       np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep)
 
 
+def restrict(ob: Sphere | None, cols: np.ndarray, n: int) -> Sphere | None:
+    """A curved obstacle with its dofs renumbered among `cols` (the unknowns of a
+    reduced system, e.g. the massless dofs); None stays None. ValueError when a contact
+    point's dof is not among them."""
+    if ob is None:
+        return None
+    pos = np.full(n, -1, np.int64)
+    pos[np.asarray(cols, np.int64)] = np.arange(len(cols))
+    dofs = np.where(ob.dofs >= 0, pos[np.maximum(ob.dofs, 0)], -1)
+    lost = (ob.dofs >= 0) & (dofs < 0)
+    if lost.any():
+        raise ValueError(f"dof {int(ob.dofs[lost][0])} of the curved obstacle's contact "
+                         "points is not among the reduced system's unknowns")
+    return ob._replace(dofs=np.ascontiguousarray(dofs))
+
+
+def curved_ops(fac: Factor, ob: Sphere, keep: bool | None = None) -> ContactOps:
+    """`ContactOps` of a curved obstacle (module docstring): B = S_d S^-1 S_d^T and, when
+    `keep` (default: when n n_c d <= `KEEP_Z_ENTRIES`), Zd = S^-1 S_d^T from n_c d solves
+    in blocks; G (a row of the free components per contact point), G^T, gap0, W and Z
+    then set to the tangent at X = 0. A component whose dof is -1 is held at zero (a
+    point on a symmetry axis): no entry, zero rows in B and Zd. A ValueError names a dof
+    that two contact points share."""
+    nc, dim = ob.dofs.shape
+    n = fac.n
+    flat = ob.dofs.ravel()
+    free = flat >= 0
+    used = flat[free]
+    if np.unique(used).size != used.size or (used.size and used.max() >= n):
+        raise ValueError(f"the curved obstacle's dofs {used.tolist()[:8]}...: each contact "
+                         "point needs its own free dofs")
+    keep = n * nc * dim <= KEEP_Z_ENTRIES if keep is None else bool(keep)
+    cols = np.flatnonzero(free)
+    Sd = sp.csc_matrix((np.ones(used.size), (used, cols)), shape=(n, flat.size))
+    Zd = np.zeros((n, flat.size)) if keep else np.zeros((1, 1))
+    B = np.zeros((flat.size, flat.size))
+    for j0, j1, X in fac.solve_blocks(Sd):
+        if keep:
+            Zd[:, j0:j1] = X
+        B[cols, j0:j1] = X[used]
+    gpos = np.full(flat.size, -1, np.int64)
+    gpos[free] = np.arange(used.size)
+    G = CSR(np.concatenate([[0], np.cumsum(free.reshape(nc, dim).sum(axis=1))]).astype(
+        np.int64), used.astype(np.int64), np.zeros(used.size))
+    order = np.argsort(used, kind="stable")  # G^T: one entry in each contact dof's row
+    counts = np.zeros(n + 1, np.int64)
+    counts[used + 1] = 1
+    GT = CSR(np.cumsum(counts), (cols[order] // dim).astype(np.int64), np.zeros(used.size))
+    tpos = np.full(flat.size, -1, np.int64)
+    tpos[cols[order]] = np.arange(used.size)
+    cv = Curve(True, ob, gpos.reshape(nc, dim), tpos.reshape(nc, dim),
+               np.ascontiguousarray(0.5 * (B + B.T)), np.ascontiguousarray(Zd),
+               np.zeros((nc, dim)))
+    ct = ContactOps(G, GT, np.zeros(nc), np.full(nc, -1, np.int64), np.zeros((nc, nc)),
+                    np.zeros((n, nc)) if keep else np.zeros((1, 1)), keep, cv)
+    relinearise(ct, np.zeros(n), np.zeros(nc))
+    return ct
+
+
+@njit(cache=True)
+def relinearise(ct, X, out):  # pragma: no cover - compiled
+    """The curved obstacle's tangent at X (module docstring): G's and G^T's normals,
+    gap0, W and (kept) Z updated in place; out = the exact gaps of X."""
+    cv = ct.cv
+    ob, nrm = cv.ob, cv.nrm
+    nc, dim = nrm.shape
+    for j in range(nc):
+        l2 = 0.0
+        for a in range(dim):
+            d = ob.points[j, a] + point_u(ob, j, a, X) - ob.centre[a]
+            nrm[j, a] = d
+            l2 += d * d
+        ln = np.sqrt(l2)
+        gx = 0.0
+        for a in range(dim):
+            nrm[j, a] /= ln
+            if cv.gpos[j, a] >= 0:
+                ct.G.data[cv.gpos[j, a]] = nrm[j, a]
+                ct.GT.data[cv.tpos[j, a]] = nrm[j, a]
+                gx += nrm[j, a] * X[ob.dofs[j, a]]
+        out[j] = ln - ob.radius
+        ct.gap0[j] = out[j] - gx
+    for i in range(nc):
+        for j in range(i, nc):
+            acc = 0.0
+            for a in range(dim):
+                for b in range(dim):
+                    acc += nrm[i, a] * cv.B[i * dim + a, j * dim + b] * nrm[j, b]
+            ct.W[i, j] = acc
+            ct.W[j, i] = acc
+    if ct.keep_z:
+        Z, Zd = ct.Z, cv.Zd
+        for r in range(Z.shape[0]):
+            for j in range(nc):
+                acc = 0.0
+                for a in range(dim):
+                    acc += Zd[r, j * dim + a] * nrm[j, a]
+                Z[r, j] = acc
+
+
+@njit(cache=True)
+def follow(ct, X, out):  # pragma: no cover - compiled
+    """A curved obstacle's tangent moved to X (out: its exact gaps there), for a step
+    whose contact law reads G without the gaps of a prediction (a velocity law); nothing
+    for a fixed G."""
+    if ct.cv.on:
+        relinearise(ct, X, out)
+
+
 @njit(cache=True)
 def row_dot(G, j, X):  # pragma: no cover - compiled
     """G_j X for row j of G (CSR arrays)."""
@@ -107,8 +252,14 @@ def row_dot(G, j, X):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def gaps(ct, X, out):  # pragma: no cover - compiled
-    """out = gap0 + G X; True if a gap is negative."""
+    """out = gap0 + G X; True if a gap is negative. A curved obstacle's: its exact gaps
+    at X, its tangent moved to X first (`relinearise`)."""
     pen = False
+    if ct.cv.on:
+        relinearise(ct, X, out)
+        for j in range(out.size):
+            pen = pen or out[j] < 0.0
+        return pen
     for j in range(ct.gap0.size):
         d = ct.sel[j]
         if d >= 0:

@@ -218,6 +218,7 @@ class MidpointContactStepper(LoopStepper):
     velocity and the update's M^-1 need inertia on every dof)."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, mode: int) -> None:
@@ -232,8 +233,10 @@ class MidpointContactStepper(LoopStepper):
         G = sp.csr_matrix(p.contact.gap_operator(n))
         gap0 = np.asarray(p.contact.gap0, float)
         fac = Factor.of(p.M + (0.25 * dt * dt) * p.K)
-        ct = contact_ops(fac, G, gap0)
-        keep_y = mode == SIGNORINI_VELOCITY_UPDATE and ct.keep_z
+        curved = p.contact.obstacle
+        ct = contact_ops(fac, G, gap0, obstacle=curved)
+        # M^-1 G^T kept for a fixed G; a curved obstacle's moving normals take a solve
+        keep_y = mode == SIGNORINI_VELOCITY_UPDATE and ct.keep_z and curved is None
         Y, marrays = np.zeros((1, 1)), fac.arrays
         if mode == SIGNORINI_VELOCITY_UPDATE:  # M^-1 G^T kept, or a solve per update
             mfac = Factor.of(sp.csr_matrix(p.M))

@@ -227,6 +227,7 @@ class MidpointPenaltyStepper(LoopStepper):
     (n_c solves, only its n_c x n_c values kept), sample 0's energy and stress."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(penalty_midpoint_loop)
 
     def __init__(self, p: SparseProblem, dt: float, kappa: np.ndarray) -> None:
@@ -240,7 +241,7 @@ class MidpointPenaltyStepper(LoopStepper):
         fac = Factor.of(S)
         gap0 = np.asarray(p.contact.gap0, float)
         G = sp.csr_matrix(p.contact.gap_operator(n))
-        ct = contact_ops(fac, G, gap0, keep=False)
+        ct = contact_ops(fac, G, gap0, keep=False, obstacle=p.contact.obstacle)
         weights = np.asarray(p.contact.weights, float)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         y = np.minimum(0.0, p.gaps(U))

@@ -148,6 +148,7 @@ class KaneStepper(LoopStepper):
     matrix and, with a projected predictor, M factored with C M^-1 C^T."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(kane_loop)
 
     def __init__(self, p: SparseProblem, dt: float, predictor: str = "none") -> None:
@@ -162,10 +163,10 @@ class KaneStepper(LoopStepper):
         gap0 = np.asarray(p.contact.gap0, float)
         M, K = sp.csr_matrix(p.M), sp.csr_matrix(p.K)
         fac = Factor.of(M + (0.25 * h * h) * K)
-        ct = contact_ops(fac, G, gap0)
+        ct = contact_ops(fac, G, gap0, obstacle=p.contact.obstacle)
         if PREDICTORS[predictor]:
             mfac = Factor.of(M)
-            ctm = contact_ops(mfac, G, gap0)
+            ctm = contact_ops(mfac, G, gap0, obstacle=p.contact.obstacle)
         else:  # no projection: placeholders the step never reads
             mfac, ctm = fac, ct
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))),

@@ -47,7 +47,14 @@ from contact_bench.core.sampling import (
 )
 from contact_bench.core.tridiag import eliminate_contact_node, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
-from contact_bench.kernels.contact import ContactOps, add_response, contact_ops, gaps, hold
+from contact_bench.kernels.contact import (
+    ContactOps,
+    add_response,
+    contact_ops,
+    gaps,
+    hold,
+    restrict,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import plain_sample
@@ -287,6 +294,7 @@ class BodyStepper(LoopStepper):
 
     adds_time_load = True
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(body_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -297,7 +305,8 @@ class BodyStepper(LoopStepper):
         fac = Factor.of(K[mv][:, mv])
         G = sp.csr_matrix(p.contact.gap_operator(p.nfree))[:, mv]
         gap0 = np.asarray(p.contact.gap0, float)
-        ct = contact_ops(fac, G, gap0, keep=True)
+        ct = contact_ops(fac, G, gap0, keep=True,
+                         obstacle=restrict(p.contact.obstacle, mv, p.nfree))
         keep = np.ones(p.nfree)
         keep[mv] = 0.0
         Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
@@ -308,6 +317,8 @@ class BodyStepper(LoopStepper):
         F0 = np.asarray(p.F, float) + (0.0 if ld is None else ld.at(0.0))  # the load at t = 0
         um = fac.solve(F0[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
         gf = gap0 + G @ um
+        if ct.cv.on:  # a curved obstacle: its exact gaps, its tangent at um
+            gaps(ct, um, gf)
         mu = np.zeros(gap0.size)
         if np.any(gf < 0.0):
             lcp_solve(ct.W, gf, mu, np.zeros(gap0.size, np.bool_), tol)

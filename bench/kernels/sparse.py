@@ -54,6 +54,7 @@ from contact_bench.kernels.contact import (
     gaps,
     hold,
     push,
+    restrict,
     row_dot,
     selection_rows,
 )
@@ -268,12 +269,21 @@ def response_rows(fac: Factor, G: sp.csr_matrix, keep: bool) -> tuple[np.ndarray
     return Z, Zr
 
 
+def is_spring(law: ContactLaw, G: sp.spmatrix) -> bool:
+    """Whether `law` is penalty springs on the gaps of G (P = Q = G, no added stiffness,
+    its force and energy unscaled): the law a curved obstacle's tangent can carry."""
+    return (law.K_extra is None and law.fscale == 1.0 and law.ew == 1.0
+            and all(A.shape == G.shape and (sp.csr_matrix(A) != G).nnz == 0
+                    for A in (law.P, law.Q)))
+
+
 class NewmarkStepper(LoopStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
 
     adds_time_load = True
     any_gap_operator = True
+    follows_curved = True  # exact contact and the penalty spring (not a general law)
     loop = staticmethod(newmark_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
@@ -286,24 +296,31 @@ class NewmarkStepper(LoopStepper):
         dt, beta, gamma = self.dt, float(beta), float(gamma)
         n = p.nfree
         G = sp.csr_matrix(p.contact.gap_operator(n))
+        curved = p.contact.obstacle
+        if curved is not None and law is not None and not is_spring(law, G):
+            raise ValueError("newmark_sparse follows a curved obstacle with exact contact "
+                             "or penalty springs on its gaps, not a general contact law")
         if kappa is not None:
             kappa = np.asarray(kappa, float)
             law = ContactLaw(G, G, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
         K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
         fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
         if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
-            Z = fac.solve_many(sp.csc_matrix(law.Q.T))
-            W = np.ascontiguousarray(law.P @ Z)
             Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
             lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
             fscale = float(law.fscale)
-            ct = ContactOps(csr_arrays(Pm), csr_arrays(sp.csr_matrix(law.Q).T), y0,
-                            selection_rows(Pm), W, np.ascontiguousarray(Z), True)
+            if curved is not None:  # the spring on the curved obstacle's tangent
+                ct = contact_ops(fac, G, y0, keep=True, obstacle=curved)
+            else:
+                Z = fac.solve_many(sp.csc_matrix(law.Q.T))
+                W = np.ascontiguousarray(law.P @ Z)
+                ct = ContactOps(csr_arrays(Pm), csr_arrays(sp.csr_matrix(law.Q).T), y0,
+                                selection_rows(Pm), W, np.ascontiguousarray(Z), True)
         else:
             Pm, y0 = G, np.asarray(p.contact.gap0, float)
             lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
             fscale = 1.0
-            ct = contact_ops(fac, G, y0)
+            ct = contact_ops(fac, G, y0, obstacle=curved)
         if law is not None:  # the sampled energy at t = 0 with the law's terms
             y = np.minimum(0.0, Pm @ p.U0 + y0)
             self.sample0["energy"] = float(p.energy(p.U0, p.V0)
@@ -396,7 +413,8 @@ class MasslessSplit:
         K = sp.csr_matrix(p.K)
         mfac = Factor.of(K[mv][:, mv])
         gap0 = np.asarray(p.contact.gap0, float)
-        ct = contact_ops(mfac, G[:, mv], gap0, keep=True)
+        ct = contact_ops(mfac, G[:, mv], gap0, keep=True,
+                         obstacle=restrict(p.contact.obstacle, mv, p.nfree))
         keep = np.ones(p.nfree)
         keep[mv] = 0.0
         Kmh = sp.csr_matrix(K[mv] @ sp.diags(keep))
@@ -645,6 +663,7 @@ class QuasistaticStepper(LoopStepper):
     initial acceleration computed once."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(quasistatic_loop)
 
     def __init__(self, p: SparseProblem, dt: float, gamma: float = 0.5) -> None:

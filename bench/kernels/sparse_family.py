@@ -234,6 +234,7 @@ class VerletStepper(LoopStepper):
     factored, the Delassus matrix) computed once."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(verlet_loop)
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
@@ -359,6 +360,7 @@ class AdaptiveStepper(SparseStepper):
     LCP's warm start included), so that two runs take the same steps."""
 
     any_gap_operator = True
+    follows_curved = True
 
     def __init__(self, p: SparseProblem, dt: float, rtol: float) -> None:
         self.split = MasslessSplit.of(p)

@@ -46,6 +46,8 @@ from contact_bench.core.loop import BLOWN, OK, START_LEVEL, drive
 from contact_bench.kernels.contact import (
     ContactOps,
     contact_ops,
+    curved_ops,
+    follow,
     gaps,
     hold,
     push,
@@ -132,8 +134,8 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
             X[i] = rhs[i] / o.sdiag[i]
     else:
         lu(o.fac, rhs, X, s.work)
-    gaps(ct, X, gf)
     gaps(ct, Um, gm)
+    gaps(ct, X, gf)  # the last: a curved obstacle's tangent at the prediction X
     pen = False
     finite = True
     for j in range(nc):  # the constrained combination g(X) + e g(U^{n-1})
@@ -152,7 +154,13 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
                 if d >= 0:
                     mu[j] = -gf[j] * o.sdiag[d] if active[j] else 0.0
                 else:
-                    mu[j] = -gf[j] * o.sw[j] if active[j] else 0.0
+                    swj = o.sw[j]
+                    if ct.cv.on:  # 1 / (G_j S^-1 G_j^T) of the moving normal
+                        acc = 0.0
+                        for kk in range(Gp[j], Gp[j + 1]):
+                            acc += Gx[kk] * Gx[kk] / o.sdiag[Gi[kk]]
+                        swj = 1.0 / acc
+                    mu[j] = -gf[j] * swj if active[j] else 0.0
                     for kk in range(Gp[j], Gp[j + 1]):
                         X[Gi[kk]] += Gx[kk] * mu[j] / o.sdiag[Gi[kk]]
         else:
@@ -196,6 +204,7 @@ class PaoliSchatzmanStepper(LoopStepper):
     matrix and the state (U^{-1}, U^0) computed once."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(ps_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, beta: float) -> None:
@@ -216,10 +225,13 @@ class PaoliSchatzmanStepper(LoopStepper):
             fac = Factor.of(sp.identity(1, format="csc"))
             ct = ContactOps(csr_arrays(G), csr_arrays(G.T), gap0, selection_rows(G),
                             np.zeros((1, 1)), np.zeros((1, 1)), False)
+            if p.contact.obstacle is not None:  # G, G^T, gap0 follow it (W unused)
+                ct = curved_ops(Factor.of(sp.csc_matrix(sp.diags(sd))), p.contact.obstacle,
+                                keep=False)
             sw = 1.0 / np.asarray(G.multiply(G) @ (1.0 / sd)).ravel()
         else:
             fac = Factor.of(S)
-            ct = contact_ops(fac, G, gap0)
+            ct = contact_ops(fac, G, gap0, obstacle=p.contact.obstacle)
             sw = np.zeros(0)
         U = p.U0.astype(float).copy()
         self.initial = (U - dt * p.V0 + 0.5 * dt * dt * initial_acceleration(p), U)  # (Um, U)
@@ -270,6 +282,7 @@ def mj_step(o, s, step):  # pragma: no cover - compiled
     n = U.size
     nc = sel.size
     c = theta * (1.0 - theta) * dt * dt
+    follow(ct, U, s.gf)  # a curved obstacle: its tangent at U^n
     # S X = M V + dt (F - K U) - c K V: the free velocity
     matvec(o.M, V, rhs)
     matvec(o.K, U, ku)
@@ -332,6 +345,7 @@ class MoreauJeanStepper(LoopStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
 
     any_gap_operator = True
+    follows_curved = True
     loop = staticmethod(mj_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
@@ -340,7 +354,8 @@ class MoreauJeanStepper(LoopStepper):
         dt, e, theta = self.dt, float(e), float(theta)
         n = p.nfree
         fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
-        ct = contact_ops(fac, p.contact.gap_operator(n), np.asarray(p.contact.gap0, float))
+        ct = contact_ops(fac, p.contact.gap_operator(n), np.asarray(p.contact.gap0, float),
+                         obstacle=p.contact.obstacle)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         self.initial = (U, V)
         # a velocity-level tolerance: round-off of the larger of the data's speeds

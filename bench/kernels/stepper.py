@@ -23,6 +23,7 @@ from contact_bench.api.problem import banded
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.contact_stats import new_stats
 from contact_bench.core.loop import START_DATA, Record
+from contact_bench.core.obstacle import Sphere
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.recording import SampleBuffers
 
@@ -39,10 +40,16 @@ class SparseStepper(Stepper, ABC):
     adds_time_load: bool = False
     #: the kernel takes any gap operator G (else only dof selections)
     any_gap_operator: bool = False
+    #: the kernel follows a curved obstacle (`ContactSet.obstacle`): its contact solve
+    #: re-linearises the gaps every step (`contact_bench.kernels.contact.gaps`)
+    follows_curved: bool = False
 
     def __init__(self, problem: SparseProblem, dt: float) -> None:
         if not self.any_gap_operator:
             problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
+        if getattr(problem.contact, "obstacle", None) is not None and not self.follows_curved:
+            raise ValueError(f"the compiled {type(self).__name__} does not follow a curved "
+                             "obstacle (its gap operator is fixed for the run)")
         if getattr(problem, "load", None) is not None and not self.adds_time_load:
             raise ValueError(f"the compiled {type(self).__name__} does not add a "
                              "time-dependent load (SparseProblem.load)")
@@ -83,9 +90,13 @@ class LoopStepper(SparseStepper):
         """A fresh state (the initial one, copied, and zeroed scratch) for one run."""
         raise NotImplementedError
 
-    def gap_operator(self) -> CSR:
-        """The gap operator G (gaps = gap0 + G U) the loop's bookkeeping reads."""
-        return csr_arrays(self.problem.contact.gap_operator(self.problem.nfree))
+    def gap_operator(self) -> CSR | Sphere:
+        """The gap operator G (gaps = gap0 + G U) the loop's bookkeeping reads, or the
+        curved obstacle (its exact gaps)."""
+        c = self.problem.contact
+        if getattr(c, "obstacle", None) is not None:
+            return c.obstacle
+        return csr_arrays(c.gap_operator(self.problem.nfree))
 
     def run(self, nsteps: int, stride: int) -> Trajectory:
         traj = self._run(nsteps, stride, None)
