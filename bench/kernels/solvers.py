@@ -123,90 +123,131 @@ COULOMB_RTOL = 1e-13
 #: angles scanned for the slip direction of a 3D contact point's local problem
 COULOMB_ANGLES = 64
 
-#: a contact point's status in `coulomb_solve`: apart, stuck, sliding (+ / - tangent)
-APART, STICK, SLIDE_PLUS, SLIDE_MINUS = 0, 1, 2, 3
+#: a contact point's status in `coulomb_solve`: NORMAL_* + TANGENT_* (apart: r_n = 0,
+#: u_n >= 0; in contact: u_n = 0, r_n >= 0; stuck: u_t = 0 inside the bound; sliding:
+#: r_t on the bound against the slip, + / - along the first tangent)
+APART, CONTACT = 0, 3
+STICK, SLIDE_PLUS, SLIDE_MINUS = 0, 1, 2
+
+
+@njit(cache=True)
+def _case_2d(Wl, ql, mu, thr, st, rl):  # pragma: no cover - compiled
+    """2D: the reactions rl of one point's status `st` (its two linear equations) and
+    how far they break its inequalities (<= 0: consistent)."""
+    contact = st >= CONTACT
+    tst = st - CONTACT if contact else st
+    A = np.zeros((2, 2))
+    b = np.zeros(2)
+    if contact:
+        A[0, 0], A[0, 1], b[0] = Wl[0, 0], Wl[0, 1], -ql[0]
+    else:
+        A[0, 0] = 1.0
+    if tst == STICK:
+        A[1, 0], A[1, 1], b[1] = Wl[1, 0], Wl[1, 1], -ql[1]
+    else:
+        sg = 1.0 if tst == SLIDE_PLUS else -1.0
+        A[1, 0], A[1, 1], b[1] = sg * mu, 1.0, -sg * thr
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    if det == 0.0:
+        return np.inf
+    rl[0] = (b[0] * A[1, 1] - A[0, 1] * b[1]) / det
+    rl[1] = (A[0, 0] * b[1] - b[0] * A[1, 0]) / det
+    un = ql[0] + Wl[0, 0] * rl[0] + Wl[0, 1] * rl[1]
+    ut = ql[1] + Wl[1, 0] * rl[0] + Wl[1, 1] * rl[1]
+    bad = -rl[0] if contact else -un
+    if tst == STICK:
+        bad = max(bad, abs(rl[1]) - (thr + mu * rl[0]))
+    else:
+        bad = max(bad, -(1.0 if tst == SLIDE_PLUS else -1.0) * ut)
+    return bad
 
 
 @njit(cache=True)
 def _coulomb_point(Wl, ql, mu, thr, rl):  # pragma: no cover - compiled
-    """One contact point's Coulomb problem, exactly (2D; 3D: the slip direction to
-    round-off): rl = (r_n, r_t...) with u = ql + Wl rl, 0 <= u_n _|_ r_n >= 0,
-    |r_t| <= thr + mu r_n, u_t = 0 where inside, r_t = -(thr + mu r_n) u_t / |u_t| on the
-    boundary. Returns its status (APART, STICK, SLIDE_PLUS / SLIDE_MINUS: the slip's
-    sign along the first tangent)."""
+    """One contact point's problem: rl = (r_n, r_t...) with u = ql + Wl rl, 0 <= u_n _|_
+    r_n >= 0, |r_t| <= thr + mu r_n, u_t = 0 inside the bound, r_t = -(thr + mu r_n)
+    u_t / |u_t| on it. 2D: the six statuses tried in turn, apart first, each two linear
+    equations solved exactly, the first consistent one taken (the least inconsistent
+    one when round-off leaves none). 3D: stuck (a 3 x 3 solve) or sliding on the circular
+    cone along the direction found by bisection to round-off (`_slip_cross`). Returns
+    its status."""
     k = ql.size
-    if ql[0] >= 0.0:
-        rl[:] = 0.0
-        return APART
-    sol = np.linalg.solve(Wl, -ql)  # stuck
-    bound = thr + mu * sol[0]
-    tn = 0.0
-    for a in range(1, k):
-        tn += sol[a] * sol[a]
-    if sol[0] >= 0.0 and np.sqrt(tn) <= bound:
-        rl[:] = sol
-        return STICK
     if k == 2:
-        for s in (1.0, -1.0):  # sliding with u_t of sign s: r_t = -s (thr + mu r_n)
-            den = Wl[0, 0] - s * mu * Wl[0, 1]
-            rn = (-ql[0] + s * thr * Wl[0, 1]) / den if den > 0.0 else -1.0
-            if rn >= 0.0:
-                rt = -s * (thr + mu * rn)
-                ut = ql[1] + Wl[1, 0] * rn + Wl[1, 1] * rt
-                if s * ut >= 0.0:
-                    rl[0], rl[1] = rn, rt
-                    return SLIDE_PLUS if s > 0.0 else SLIDE_MINUS
-        # no consistent case (round-off at a boundary): slide along the free slip
-        s = 1.0 if ql[1] >= 0.0 else -1.0
-        rn = max(0.0, -ql[0] / Wl[0, 0])
-        rl[0], rl[1] = rn, -s * (thr + mu * rn)
-        return SLIDE_PLUS if s > 0.0 else SLIDE_MINUS
-    # 3D: r_t = -(thr + mu r_n) d on the circular cone, d = (cos a, sin a) the slip's
-    # direction: u_n = 0 gives r_n(a), and u_t(a) must be a positive multiple of d. The
-    # cross product u_t x d is scanned over `COULOMB_ANGLES` angles and each sign change
-    # bisected to round-off; the root with u_t . d >= 0 and r_n >= 0 is taken.
-    best = -1.0
-    lo = 0.0
-    c_lo = _slip_cross(Wl, ql, mu, thr, 0.0, rl)
-    for m in range(1, COULOMB_ANGLES + 1):
-        hi = 2.0 * np.pi * m / COULOMB_ANGLES
-        c_hi = _slip_cross(Wl, ql, mu, thr, hi, rl)
-        if (c_lo <= 0.0) != (c_hi <= 0.0):
-            a0, a1, f0 = lo, hi, c_lo
-            for _ in range(80):
-                am = 0.5 * (a0 + a1)
-                fm = _slip_cross(Wl, ql, mu, thr, am, rl)
-                if (fm <= 0.0) == (f0 <= 0.0):
-                    a0, f0 = am, fm
-                else:
-                    a1 = am
-                if a1 - a0 <= 1e-16 * (1.0 + abs(a0)):
-                    break
-            am = 0.5 * (a0 + a1)
-            _slip_cross(Wl, ql, mu, thr, am, rl)
-            if rl[0] >= 0.0 and _slip_along(Wl, ql, rl, am) >= 0.0:
-                best = am
+        best, worst = -1, np.inf
+        tmp = np.empty(2)
+        for st in (APART + SLIDE_PLUS, APART + SLIDE_MINUS, APART + STICK,
+                   CONTACT + STICK, CONTACT + SLIDE_PLUS, CONTACT + SLIDE_MINUS):
+            if st == APART + STICK and thr == 0.0:
+                continue  # no tangential reaction apart under Coulomb
+            bad = _case_2d(Wl, ql, mu, thr, st, tmp)
+            if bad < worst:
+                best, worst = st, bad
+                rl[0], rl[1] = tmp[0], tmp[1]
+            if bad <= 0.0:
                 break
-        lo, c_lo = hi, c_hi
-    if best < 0.0:  # no consistent root (round-off at a boundary): slide along the free slip
-        best = np.arctan2(ql[2], ql[1]) if ql[1] != 0.0 or ql[2] != 0.0 else 0.0
-        _slip_cross(Wl, ql, mu, thr, best, rl)
         rl[0] = max(rl[0], 0.0)
-    else:
-        _slip_cross(Wl, ql, mu, thr, best, rl)
-    b = thr + mu * rl[0]
-    rl[1], rl[2] = -b * np.cos(best), -b * np.sin(best)
-    return SLIDE_PLUS if np.cos(best) >= 0.0 else SLIDE_MINUS
+        return best
+    # 3D
+    if ql[0] >= 0.0 and thr == 0.0:
+        rl[:] = 0.0
+        return APART + SLIDE_PLUS
+    for apart in (True, False):
+        if apart:  # stuck apart: u_t = 0 with r_n = 0
+            sol = np.zeros(k)
+            sol[1:] = np.linalg.solve(Wl[1:, 1:], -ql[1:])
+        else:
+            sol = np.linalg.solve(Wl, -ql)
+        un = ql[0] + Wl[0] @ sol
+        tn = np.sqrt(np.sum(sol[1:] * sol[1:]))
+        if (un >= 0.0 if apart else sol[0] >= 0.0) and tn <= thr + mu * sol[0]:
+            rl[:] = sol
+            return (APART if apart else CONTACT) + STICK
+        # sliding: r_t = -(thr + mu r_n) d, d = (cos a, sin a); u_t(a) a positive
+        # multiple of d: the cross product u_t x d scanned over `COULOMB_ANGLES` angles,
+        # each sign change bisected to round-off
+        lo = 0.0
+        c_lo = _slip_cross(Wl, ql, mu, thr, 0.0, rl, apart)
+        for m in range(1, COULOMB_ANGLES + 1):
+            hi = 2.0 * np.pi * m / COULOMB_ANGLES
+            c_hi = _slip_cross(Wl, ql, mu, thr, hi, rl, apart)
+            if (c_lo <= 0.0) != (c_hi <= 0.0):
+                a0, a1, f0 = lo, hi, c_lo
+                for _ in range(80):
+                    am = 0.5 * (a0 + a1)
+                    fm = _slip_cross(Wl, ql, mu, thr, am, rl, apart)
+                    if (fm <= 0.0) == (f0 <= 0.0):
+                        a0, f0 = am, fm
+                    else:
+                        a1 = am
+                    if a1 - a0 <= 1e-16 * (1.0 + abs(a0)):
+                        break
+                am = 0.5 * (a0 + a1)
+                _slip_cross(Wl, ql, mu, thr, am, rl, apart)
+                un = ql[0] + Wl[0] @ rl
+                ok = un >= 0.0 if apart else rl[0] >= 0.0
+                if ok and _slip_along(Wl, ql, rl, am) >= 0.0:
+                    return ((APART if apart else CONTACT)
+                            + (SLIDE_PLUS if np.cos(am) >= 0.0 else SLIDE_MINUS))
+            lo, c_lo = hi, c_hi
+    # no consistent root (round-off at a boundary): slide along the free slip
+    am = np.arctan2(ql[2], ql[1]) if ql[1] != 0.0 or ql[2] != 0.0 else 0.0
+    _slip_cross(Wl, ql, mu, thr, am, rl, False)
+    if rl[0] < 0.0:
+        _slip_cross(Wl, ql, mu, thr, am, rl, True)
+    return CONTACT + (SLIDE_PLUS if np.cos(am) >= 0.0 else SLIDE_MINUS)
 
 
 @njit(cache=True)
-def _slip_cross(Wl, ql, mu, thr, a, rl):  # pragma: no cover - compiled
-    """3D sliding along d = (cos a, sin a): rl = (r_n, -(thr + mu r_n) d) with u_n = 0;
-    returns u_t x d."""
+def _slip_cross(Wl, ql, mu, thr, a, rl, apart):  # pragma: no cover - compiled
+    """3D sliding along d = (cos a, sin a): rl = (r_n, -(thr + mu r_n) d) with r_n = 0
+    (`apart`) or u_n = 0; returns u_t x d."""
     c, s = np.cos(a), np.sin(a)
     wd = Wl[0, 1] * c + Wl[0, 2] * s
     den = Wl[0, 0] - mu * wd
-    rn = (-ql[0] + thr * wd) / den if den > 0.0 else -1.0
+    if apart:
+        rn = 0.0
+    else:
+        rn = (-ql[0] + thr * wd) / den if den > 0.0 else -1.0
     b = thr + mu * rn
     rl[0], rl[1], rl[2] = rn, -b * c, -b * s
     u1 = ql[1] + Wl[1, 0] * rl[0] + Wl[1, 1] * rl[1] + Wl[1, 2] * rl[2]
@@ -224,53 +265,48 @@ def _slip_along(Wl, ql, rl, a):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _coulomb_finish(W, q, mu, thr, status, r, tol, tol_r):  # pragma: no cover - compiled
-    """2D: the linear system of the statuses found (apart: r = 0; stuck: u_n = u_t = 0;
-    sliding with sign s: u_n = 0, r_t = -s (thr + mu r_n)) solved exactly; True (and r
-    set) when its solution satisfies every status's inequalities."""
+    """2D: the linear system of the statuses found (`_case_2d`'s equations, every point
+    at once) solved exactly; True (and r set) when its solution satisfies every
+    status's inequalities to the round-off tolerances."""
     nc = mu.size
     n = 2 * nc
     A = np.zeros((n, n))
     b = np.zeros(n)
     for j in range(nc):
         t = nc + j
-        st = status[j]
-        if st == APART:
-            A[j, j] = 1.0
-            A[t, t] = 1.0
-        else:
+        contact = status[j] >= CONTACT
+        tst = status[j] - CONTACT if contact else status[j]
+        if contact:
             A[j, :] = W[j, :]
             b[j] = -q[j]
-            if st == STICK:
-                A[t, :] = W[t, :]
-                b[t] = -q[t]
-            else:
-                s = 1.0 if st == SLIDE_PLUS else -1.0
-                A[t, t] = 1.0
-                A[t, j] = s * mu[j]
-                b[t] = -s * thr[j]
+        else:
+            A[j, j] = 1.0
+        if tst == STICK:
+            A[t, :] = W[t, :]
+            b[t] = -q[t]
+        else:
+            sg = 1.0 if tst == SLIDE_PLUS else -1.0
+            A[t, t] = 1.0
+            A[t, j] = sg * mu[j]
+            b[t] = -sg * thr[j]
     x = np.linalg.solve(A, b)
     u = q + W @ x
     for j in range(nc):
         t = nc + j
-        st = status[j]
-        if st == APART:
-            if u[j] < -tol:
-                return False
-        elif x[j] < -tol_r:
+        contact = status[j] >= CONTACT
+        tst = status[j] - CONTACT if contact else status[j]
+        if contact and x[j] < -tol_r:
             return False
-        elif st == STICK:
+        if not contact and u[j] < -tol:
+            return False
+        if tst == STICK:
             if abs(x[t]) > thr[j] + mu[j] * x[j] + tol_r:
                 return False
-        else:
-            s = 1.0 if st == SLIDE_PLUS else -1.0
-            if s * u[t] < -tol:
-                return False
+        elif (1.0 if tst == SLIDE_PLUS else -1.0) * u[t] < -tol:
+            return False
     r[:] = x
-    for j in range(nc):  # the exact zeros of the statuses
-        if status[j] == APART:
-            r[j] = 0.0
-            r[nc + j] = 0.0
-        elif r[j] < 0.0:
+    for j in range(nc):
+        if r[j] < 0.0:
             r[j] = 0.0
     return True
 
