@@ -1,27 +1,20 @@
 """An elastic block resting on a plane tilted by `angle`, with Coulomb friction `mu`.
 
-The block (2D plane strain, width 2, height 1, lambda = mu_L = 20, rho = 1, P1 or P2 on
-a structured triangle mesh with `nx` elements along the height and 2 nx along the width)
-starts at rest, undeformed, its bottom on the plane (gaps 0), under vertical gravity g =
-1. The tilted plane is `slanted_drop`'s: every node's dofs turned by its rotation R of
-`angle` (M kept, K' = Q K Q^T, G' = G Q^T; `slanted_drop.rotation`), gravity left
-vertical. Each bottom node is a contact point: its normal row R e_y and one tangent row,
-the downhill direction t (`slanted_drop.tangent`), with Coulomb's coefficient `mu`.
+The block (2D plane strain, 2 x 1, lambda = mu_L = 20, rho = 1, P1 or P2 on a structured
+triangle mesh, `nx` elements along the height) starts at rest, undeformed, its bottom on
+the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s (its rotation R of
+`angle`: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point with its normal
+row R e_y and one tangent row, the downhill direction t (`slanted_drop.tangent`).
 
-Exact references. K' does not act on a rigid translation, and each contact point's
-normal and tangent rows are the unit vectors n and t on that node, so the block's
-momenta p_t = t.M V and p_n = n.M V change over a step by dt t.F plus the tangential
-impulses and dt n.F plus the normal ones. While every contact point slides downhill
-(or is apart), each one's tangential impulse is -mu times its normal one, so
-
+K' does not act on a rigid translation and each point's rows are unit vectors on its
+node, so while every contact point slides downhill (or is apart) its tangential impulse
+is -mu times its normal one and, step by step,
     d(p_t + mu p_n) = dt (t.F + mu n.F) = dt m g (sin(angle) - mu cos(angle))
-
-at every step, whatever the elastic motion: `err_sliding_momentum` is the largest
-departure from it over the sample intervals at both ends of which every contact point
-moves downhill (the law acts on the sampled velocity of the frictional schemes; with
-stride 1 every step is checked), relative to m g |sin - mu cos| T + |p_t + mu p_n| at T.
-With mu > tan(angle) the block sticks: its tangential momentum stays within the elastic
-vibration's bound (tests/test_friction.py).
+(p_t = t.M V, p_n = n.M V): `err_sliding_momentum` is its largest departure over the
+sample intervals with every contact point moving downhill at both ends, relative to
+|rate| T + |p_t + mu p_n| at T. With mu > tan(angle) the block sticks: its tangential
+momentum stays within the elastic vibration's bound (tests/test_friction.py).
+Derivation and measurements: docs/scenes.md.
 """
 
 from __future__ import annotations
