@@ -1,10 +1,10 @@
 """An elastic block resting on a plane tilted by `angle`, with Coulomb friction `mu`.
 
-The block (2D plane strain, 2 x 1, lambda = mu_L = 20, rho = 1, P1 or P2 on a structured
-triangle mesh, `nx` elements along the height) starts at rest, undeformed, its bottom on
-the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s (its rotation R of
-`angle`: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point with its normal
-row R e_y and one tangent row, the downhill direction t (`slanted_drop.tangent`).
+The block (2D plane strain, 2 x 1, lambda = mu_L = 20, rho = 1, P1 or P2, structured
+triangles, `nx` elements along the height) starts undeformed, moving downhill at `speed`,
+its bottom on the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s (its
+rotation R of `angle`: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point with
+its normal row R e_y and one tangent row, the downhill direction t.
 
 K' does not act on a rigid translation and each point's rows are unit vectors on its
 node, so while every contact point slides downhill (or is apart) its tangential impulse
@@ -42,13 +42,14 @@ class SlidingBlock(BodyCase):
         "angle": Param(30.0, "the plane's tilt, degrees", low=0.0, high=75.0),
         "mu": Param(0.3, "Coulomb's friction coefficient", low=0.0, high=10.0),
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
+        "speed": Param(0.2, "initial speed downhill (0: at rest)", low=0.0, high=100.0),
     }
     width, height = 2.0, 1.0
     lam = mu_l = 20.0
     rho, g = 1.0, 1.0
     T, nx, dt, stride = 2.0, 2, 0.01, 1
     quantities = frozenset({"sliding_momentum"})
-    study = StudyGrid(specs=("sliding_block",), nx=(2, 4), T=2.0, small="sliding_block",
+    study = StudyGrid(specs=("sliding_block",), nx=(2, 4), T=2.0, small="sliding_block[mu=0]",
                       small_nx=(2, 3), small_T=0.5, in_default_study=False)
 
     def validate(self) -> None:
@@ -111,7 +112,8 @@ class SlidingBlock(BodyCase):
         # the energy's zero: gravity's potential zero on the horizontal line through the
         # plane's point under the block's centre (E(0) = m g times the centre's height)
         X = Q @ np.asarray(body.dof_coordinates).T.ravel()
-        return SparseProblem(M=M, K=K, F=F, U0=np.zeros(n), V0=np.zeros(n), contact=contact,
+        V0 = float(self.speed) * down  # a rigid motion downhill
+        return SparseProblem(M=M, K=K, F=F, U0=np.zeros(n), V0=V0, contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              energy_offset=float(-F @ X),
                              mass_kind=mass_kind, E_contact=self.lam + 2 * self.mu_l,
