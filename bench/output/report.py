@@ -54,6 +54,7 @@ HEADERS = {
     "err_stress_l2": "error stress, L2 (rel.)",
     "err_free_fall": "error free fall (rel. to the lift)",
     "err_plane_momentum": "error momentum along the plane (rel.)",
+    "err_sliding_momentum": "error sliding momentum identity (rel.)",
     "err_contact_duration": "error contact duration (rel.)",
     "err_peak_force": "error peak contact force (rel.)",
     "err_hertz_contact_time": "gap to Hertz's contact time (rel.)",
