@@ -370,3 +370,89 @@ def coulomb_solve(W, q, mu, thr, r, status, tol):  # pragma: no cover - compiled
         if dmax <= COULOMB_RTOL * rmax:
             return sweep + 1
     return -1
+
+
+@njit(cache=True)
+def _penalty_case_2d(Wl, ql, mu, c, rho, st, rl):  # pragma: no cover - compiled
+    """2D, penalty springs of stiffness c (normal and tangential) with Coulomb's bound: the
+    reactions rl of one point's status `st` and how far they break its inequalities.
+    Apart: r_n = 0 (u_n >= 0); in contact: r_n = -c u_n (u_n <= 0). Stuck: r_t = rho - c
+    u_t (the previous tangential reaction plus the spring's, inside mu r_n); sliding with
+    sign s: r_t = s mu r_n, the trial rho - c u_t beyond the bound on that side."""
+    contact = st >= CONTACT
+    if not contact:  # no spring acts
+        rl[0], rl[1] = 0.0, 0.0
+        return -ql[0]
+    tst = st - CONTACT
+    A = np.zeros((2, 2))
+    b = np.zeros(2)
+    if contact:  # r_n + c (q_n + W_nn r_n + W_nt r_t) = 0
+        A[0, 0], A[0, 1], b[0] = 1.0 + c * Wl[0, 0], c * Wl[0, 1], -c * ql[0]
+    else:
+        A[0, 0] = 1.0
+    if tst == STICK:  # r_t + c (q_t + W_tn r_n + W_tt r_t) = rho
+        A[1, 0], A[1, 1], b[1] = c * Wl[1, 0], 1.0 + c * Wl[1, 1], rho - c * ql[1]
+    else:
+        sg = 1.0 if tst == SLIDE_PLUS else -1.0
+        A[1, 0], A[1, 1] = -sg * mu, 1.0
+    det = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    if det == 0.0:
+        return np.inf
+    rl[0] = (b[0] * A[1, 1] - A[0, 1] * b[1]) / det
+    rl[1] = (A[0, 0] * b[1] - b[0] * A[1, 0]) / det
+    un = ql[0] + Wl[0, 0] * rl[0] + Wl[0, 1] * rl[1]
+    ut = ql[1] + Wl[1, 0] * rl[0] + Wl[1, 1] * rl[1]
+    bad = un if contact else -un
+    if tst == STICK:
+        bad = max(bad, abs(rl[1]) - mu * rl[0])
+    else:
+        sg = 1.0 if tst == SLIDE_PLUS else -1.0
+        bad = max(bad, mu * rl[0] - sg * (rho - c * ut))
+    return bad
+
+
+@njit(cache=True)
+def penalty_coulomb_solve(W, q, mu, c, rho, r):  # pragma: no cover - compiled
+    """2D penalty contact with Coulomb friction on the Delassus matrix of [normals;
+    tangents] (`coulomb_solve`'s layout): per point r_n = c max(0, -u_n) and the
+    tangential spring's return map r_t = proj_[-mu r_n, mu r_n](rho - c u_t) (rho: the
+    previous step's r_t), u = q + W r. Nonsmooth block Gauss-Seidel as `coulomb_solve`,
+    each point's six statuses tried in turn (`_penalty_case_2d`, the least inconsistent
+    kept when round-off leaves none), until a sweep changes no reaction by more than
+    `COULOMB_RTOL` of the largest; a sliding point's r_t is on the bound exactly.
+    Returns the sweeps (-1 after `COULOMB_MAX_SWEEPS`)."""
+    nc = mu.size
+    n = q.size
+    u = q + W @ r
+    Wl = np.empty((2, 2))
+    ql = np.empty(2)
+    rl = np.empty(2)
+    tmp = np.empty(2)
+    for sweep in range(COULOMB_MAX_SWEEPS):
+        dmax = 0.0
+        rmax = 0.0
+        for j in range(nc):
+            i0, i1 = j, nc + j
+            Wl[0, 0], Wl[0, 1], Wl[1, 0], Wl[1, 1] = W[i0, i0], W[i0, i1], W[i1, i0], W[i1, i1]
+            ql[0] = u[i0] - Wl[0, 0] * r[i0] - Wl[0, 1] * r[i1]
+            ql[1] = u[i1] - Wl[1, 0] * r[i0] - Wl[1, 1] * r[i1]
+            worst = np.inf
+            for st in (APART + SLIDE_PLUS, CONTACT + STICK, CONTACT + SLIDE_PLUS,
+                       CONTACT + SLIDE_MINUS):
+                bad = _penalty_case_2d(Wl, ql, mu[j], c[j], rho[j], st, tmp)
+                if bad < worst:
+                    worst = bad
+                    rl[0], rl[1] = tmp[0], tmp[1]
+                if bad <= 0.0:
+                    break
+            for a, i in ((0, i0), (1, i1)):
+                dr = rl[a] - r[i]
+                if dr != 0.0:
+                    for k in range(n):
+                        u[k] += W[k, i] * dr
+                    r[i] = rl[a]
+                    dmax = max(dmax, abs(dr))
+                rmax = max(rmax, abs(rl[a]))
+        if dmax <= COULOMB_RTOL * rmax:
+            return sweep + 1
+    return -1

@@ -64,7 +64,7 @@ from contact_bench.kernels.contact import (
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import csr_energy, plain_sample
-from contact_bench.kernels.solvers import lcp_solve, penalty_solve
+from contact_bench.kernels.solvers import lcp_solve, penalty_coulomb_solve, penalty_solve
 from contact_bench.kernels.stepper import LoopStepper
 
 # ------------------------------------------------------------------------ CSR kernels
@@ -289,6 +289,52 @@ def newmark_friction_step(o, s, step):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def newmark_penalty_friction_step(o, s, step):  # pragma: no cover - compiled
+    """Newmark with penalty springs and Coulomb friction at t_{n+1} (2D): the normal
+    spring r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
+    increment T (X - U^n) from the previous step's tangential force, returned onto
+    [-mu r_n, mu r_n] (`penalty_coulomb_solve`; r = lambda beta dt^2, c = kappa beta dt^2).
+    A sliding point's tangential force is mu times its normal one, exactly. s.mu holds
+    (r_n, r_t): r_t is the next step's rho."""
+    b, fr = o.base, o.fr
+    n = s.U.size
+    ct, cf = b.ct, fr.ct
+    nc = ct.gap0.size
+    bdt2 = b.beta * b.dt * b.dt
+    X, rhs, w, gf = s.X, s.rhs, s.w, s.gf
+    _newmark_free(b, s, step)
+    pen = gaps(ct, X, gf)
+    r = s.mu
+    if pen:
+        q = np.empty(r.size)
+        Y = np.empty(n)
+        for i in range(n):
+            Y[i] = X[i] - s.U[i]
+        for j in range(nc):
+            q[j] = gf[j]
+        for i in range(nc, r.size):
+            q[i] = row_value(cf, i, Y)
+        rho = r[nc:].copy()
+        penalty_coulomb_solve(cf.W, q, fr.mu, b.cpen, rho, r)
+        push(cf, b.fac, r, X, (rhs, w, s.work))
+    else:
+        r[:] = 0.0
+    for j in range(nc):
+        s.force[j] = b.fscale * r[j] / bdt2
+    s.was[0] = pen
+    _newmark_update(b, s)
+    return OK
+
+
+@njit(cache=True)
+def newmark_penalty_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover
+    """The one loop (`contact_bench.core.loop.drive`) with
+    `newmark_penalty_friction_step`."""
+    return drive(newmark_penalty_friction_step, newmark_friction_sample, ops, st, rec,
+                 nsteps, stride)
+
+
+@njit(cache=True)
 def newmark_friction_sample(o, s):  # pragma: no cover - compiled
     """`newmark_sample` of the base operators."""
     return newmark_sample(o.base, s)
@@ -323,6 +369,9 @@ class ContactLaw:
     #: the force on the contact dofs is fscale mu / (beta dt^2) (Q's coefficient of C:
     #: 1 for the penalty, gam for Nitsche), for the peak-force column
     fscale: float = 1.0
+    #: the springs take Coulomb friction on a frictional problem: a tangential spring of
+    #: the same stiffness with Coulomb's return map (`newmark_penalty_friction_step`)
+    friction: bool = False
 
 
 def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
@@ -442,8 +491,8 @@ class FrictionalNewmarkStepper(NewmarkStepper):
     loop = staticmethod(newmark_friction_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
-                 alpha: float = 0.0) -> None:
-        super().__init__(p, dt, beta, gamma, alpha=alpha)
+                 alpha: float = 0.0, law: ContactLaw | None = None) -> None:
+        super().__init__(p, dt, beta, gamma, law=law, alpha=alpha)
         self.ops = FrictionalNewmarkOps(self.ops, friction_ops(self.factor, p.contact,
                                                                p.nfree))
 
@@ -458,6 +507,20 @@ class FrictionalNewmarkStepper(NewmarkStepper):
                             np.empty(nc), np.empty(nc))
 
 
+class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
+    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a 2D problem with
+    Coulomb friction: `newmark_penalty_friction_step`."""
+
+    loop = staticmethod(newmark_penalty_friction_loop)
+
+    def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
+                 law: ContactLaw) -> None:
+        if p.contact.tangents.shape[0] != p.contact.size or p.contact.tresca is not None:
+            raise ValueError("penalty friction is built for 2D Coulomb friction (one tangent "
+                             "per contact point, no Tresca threshold)")
+        super().__init__(p, dt, beta, gamma, law=law)
+
+
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
                     kappa: np.ndarray | None = None, law: ContactLaw | None = None,
                     alpha: float = 0.0) -> NewmarkStepper:
@@ -470,9 +533,12 @@ def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
     problem with friction (`ContactSet.frictional`): Coulomb's law on V^{n+1}
     (`FrictionalNewmarkStepper`); with a law, friction is refused in one line."""
     if p.contact.frictional:
+        if law is not None and law.friction and kappa is None and alpha == 0.0:
+            return FrictionalPenaltyStepper(p, dt, beta, gamma, law)
         if kappa is not None or law is not None:
-            raise ValueError("newmark_sparse with a contact law (penalty, Nitsche) has no "
-                             "friction; this problem's contact has mu > 0")
+            raise ValueError("newmark_sparse with this contact law (Nitsche, or penalty "
+                             "stiffnesses alone) has no friction; this problem's contact "
+                             "has mu > 0")
         return FrictionalNewmarkStepper(p, dt, beta, gamma, alpha)
     return NewmarkStepper(p, dt, beta, gamma, kappa, law, alpha)
 
