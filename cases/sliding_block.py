@@ -40,7 +40,8 @@ class SlidingBlock(BodyCase):
     summary = "elastic block on a tilted plane with Coulomb friction (slides or sticks)"
     params = {
         "angle": Param(30.0, "the plane's tilt, degrees", low=0.0, high=75.0),
-        "mu": Param(0.3, "Coulomb's friction coefficient", low=0.0, high=10.0),
+        "mu": Param(0.0, "Coulomb's friction coefficient (0: frictionless, every scheme "
+                    "runs it)", low=0.0, high=10.0),
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
         "speed": Param(0.2, "initial speed downhill (0: at rest)", low=0.0, high=100.0),
     }
@@ -49,7 +50,7 @@ class SlidingBlock(BodyCase):
     rho, g = 1.0, 1.0
     T, nx, dt, stride = 2.0, 2, 0.01, 1
     quantities = frozenset({"sliding_momentum"})
-    study = StudyGrid(specs=("sliding_block",), nx=(2, 4), T=2.0, small="sliding_block[mu=0]",
+    study = StudyGrid(specs=("sliding_block[mu=0.3]",), nx=(2, 4), T=2.0, small="sliding_block",
                       small_nx=(2, 3), small_T=0.5, in_default_study=False)
 
     def validate(self) -> None:
