@@ -11,9 +11,12 @@ predicted gap u0^n + dt/2 v0^n <= 0; the impulse P >= 0 then satisfies the Newto
 0 <= v0^{n+1} + e v0^n _|_ P. The reported contact stress is -P / dt.
 
 The constraint holds on velocities only, so the end may penetrate by O(dt v_impact).
-A massless contact node is refused: it has no momentum for an impact law to act on
-(`redistributed` is the sound treatment). Declared bounds and their measurements:
-docs/schemes.md.
+Friction (a body's `ContactSet.friction`): the Coulomb cone on velocities, as Siconos'
+MoreauJeanOSI with its NSGS: the impulses (P_n, P_t) of the points in the index set
+solve Newton's law on v_n and Coulomb's on v_t^{n+1} (`contact_bench.kernels.contact.
+coulomb`); mu = 0 is the frictionless step itself. A massless contact node is refused:
+it has no momentum for an impact law to act on (`redistributed` is the sound treatment).
+Declared bounds and their measurements: docs/schemes.md.
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ class MoreauJean(MassiveContactNodeScheme):
         return Traits(implicit=True, massless_contact_node=False,
                       contact=Contact.VELOCITY_LEVEL,
                       energy=Energy.CONSERVED if conserved else Energy.DISSIPATED,
-                      order=2 if self.theta == 0.5 else 1)
+                      order=2 if self.theta == 0.5 else 1, friction=True)
 
     def penetration_bound(self, problem, dt: float) -> float:
         return 4.0 * dt * velocity_scale(banded(problem))

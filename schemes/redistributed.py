@@ -42,7 +42,7 @@ class Redistributed(Scheme):
     def traits(self, problem=None) -> Traits:
         return Traits(implicit=self.beta > 0, massless_contact_node=True, contact=Contact.EXACT,
                       energy=Energy.DISSIPATED if self.gamma > 0.5 else Energy.CONSERVED,
-                      order=2 if self.gamma == 0.5 else 1)
+                      order=2 if self.gamma == 0.5 else 1, friction=self.beta > 0)
 
     def stability_limit(self, problem) -> float | None:
         if self.beta == 0.0 and banded(problem) is None:

@@ -41,7 +41,7 @@ class Standard(Scheme):
                   else Energy.MAY_GROW)
         order = (2 if self.gamma == 0.5 else 1) if massless else None  # see the docstring
         return Traits(implicit=True, massless_contact_node=massless, contact=Contact.EXACT,
-                      energy=energy, order=order)
+                      energy=energy, order=order, friction=True)
 
     def stability_limit(self, problem) -> float | None:
         return newmark_limit(self.beta, self.gamma, problem.hmin, problem.c_max,

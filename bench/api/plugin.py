@@ -391,10 +391,18 @@ class BodyCase(Case):
         default): the scene gives none."""
         return None
 
+    def friction(self) -> float:
+        """The largest friction coefficient (or Tresca threshold) of the scene's contact;
+        0 (the default): frictionless."""
+        return 0.0
+
     def cannot_run(self, scheme: Scheme) -> str | None:
         if self.time_load and not scheme.adds_time_load():
             return ("the scene has a time-dependent load, which this scheme's stepper "
                     "does not add (Scheme.adds_time_load)")
+        if self.friction() > 0 and not scheme.traits().friction:
+            return (f"the scene has friction (mu = {self.friction():g} > 0) and this scheme "
+                    "declares no friction law (Traits.friction)")
         return None
 
 
@@ -527,6 +535,9 @@ class Traits:
     energy: Energy
     order: int | None = None  # expected time order away from impacts
     family: Family | None = None  # Doyen-Ern-Piperno's class; None: `default_family`
+    #: the scheme applies a friction law (`ContactSet.friction` / `tresca`); a scheme
+    #: without one is refused a scene with friction (`BodyCase.cannot_run`)
+    friction: bool = False
 
     def __post_init__(self) -> None:
         for name, kind in (("contact", Contact), ("energy", Energy), ("family", Family)):

@@ -59,6 +59,23 @@ class ContactSet:
     #: exact nonlinear ones, `operator` and `gap0` their tangent at U = 0 (a stepper
     #: updates the tangent every step, or refuses: `SparseStepper.follows_curved`)
     obstacle: Sphere | None = None
+    #: friction (`contact_bench.kernels.contact.friction_ops`): the tangent rows T
+    #: (n_t n_c x n, CSR, point by point: row j n_t + k is point j's k-th unit tangent
+    #: on its dofs; n_t = dim - 1), Coulomb's coefficient per point (`friction`) and
+    #: Tresca's threshold per point (`tresca`, an impulse or force as the scheme's law
+    #: reads it); None: frictionless
+    tangents: sp.csr_matrix | None = None
+    friction: np.ndarray | None = None
+    tresca: np.ndarray | None = None
+
+    @property
+    def frictional(self) -> bool:
+        """Whether a friction law acts: tangents given and some mu or threshold > 0 (mu
+        = 0 everywhere is the frictionless contact, on its own exact path)."""
+        if self.tangents is None:
+            return False
+        return bool(any(v is not None and np.any(np.asarray(v) > 0)
+                        for v in (self.friction, self.tresca)))
 
     @property
     def size(self) -> int:
@@ -215,6 +232,14 @@ class SparseProblem:
         if c.operator is not None and c.operator.shape != (c.size, n):
             raise ValueError(f"the gap operator has shape {c.operator.shape}, expected "
                              f"{(c.size, n)}")
+        if c.tangents is not None and (c.size == 0 or c.tangents.shape[0] % c.size
+                                       or c.tangents.shape[1] != n):
+            raise ValueError(f"the tangent operator has shape {c.tangents.shape}, expected "
+                             f"(n_t {c.size}, {n})")
+        for name in ("friction", "tresca"):
+            v = getattr(c, name)
+            if v is not None and (np.shape(v) != (c.size,) or not np.all(np.asarray(v) >= 0)):
+                raise ValueError(f"contact {name} must be {c.size} values >= 0")
         if np.any(self.gaps(self.U0) < 0):
             raise ValueError("the initial state penetrates the obstacle")
 

@@ -49,7 +49,7 @@ from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import Factor, lu
-from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.solvers import coulomb_solve, lcp_solve
 
 #: largest n x n_c response matrix Z = S^-1 G^T kept (values); beyond, a second solve
 KEEP_Z_ENTRIES = 10_000_000
@@ -336,3 +336,71 @@ def signorini(ct, fac, X, mu, active, warm, tol, scr):  # pragma: no cover - com
     else:
         mu[:] = 0.0
     return pen
+
+
+# ------------------------------------------------------------------ friction
+# (separate from the frictionless path above: mu = 0 never reaches it)
+
+
+class Friction(NamedTuple):
+    """Frictional contact with a factored S: `ContactOps` of the stacked rows H = [G; T]
+    (the n_c normal rows, then the n_t tangent rows of each point, point by point; their
+    W = H S^-1 H^T, gap0 zero on the tangents), Coulomb's mu and Tresca's threshold per
+    point, n_t."""
+
+    ct: ContactOps
+    mu: np.ndarray
+    thr: np.ndarray
+    nt: int
+
+
+def friction_ops(fac: Factor, contact, n: int, keep: bool | None = None) -> Friction:
+    """`Friction` of a `ContactSet` with tangents (`ContactSet.frictional`), S's factor
+    `fac`: the stacked operator's W and Z as `contact_ops` builds them (Z kept under the
+    same `KEEP_Z_ENTRIES` rule)."""
+    nc = contact.size
+    T = sp.csr_matrix(contact.tangents, dtype=float)
+    H = sp.vstack([sp.csr_matrix(contact.gap_operator(n), dtype=float), T], format="csr")
+    gap0 = np.concatenate([np.asarray(contact.gap0, float), np.zeros(T.shape[0])])
+    mu = np.zeros(nc) if contact.friction is None else np.asarray(contact.friction, float)
+    thr = np.zeros(nc) if contact.tresca is None else np.asarray(contact.tresca, float)
+    return Friction(contact_ops(fac, H, gap0, keep), mu.copy(), thr.copy(), T.shape[0] // nc)
+
+
+@njit(cache=True)
+def row_value(ct, i, X):  # pragma: no cover - compiled
+    """H_i X for row i of a `ContactOps` (a selection row: X at its dof)."""
+    d = ct.sel[i]
+    return X[d] if d >= 0 else row_dot(ct.G, i, X)
+
+
+@njit(cache=True)
+def coulomb(fr, pts, q, r, tol):  # pragma: no cover - compiled
+    """The frictional subproblem of the contact points `pts` (the others carry no
+    reaction): r (all rows of H: in, the previous step's, a warm start; out) with
+    u = q + W r obeying Signorini and Coulomb / Tresca on those points
+    (`coulomb_solve`); q: all rows of H (normals: gaps or velocities; tangents: slips
+    in the normals' units). Returns `coulomb_solve`'s sweeps."""
+    nc = fr.mu.size
+    nt = fr.nt
+    m = pts.size
+    k = m * (1 + nt)
+    rows = np.empty(k, np.int64)
+    for a in range(m):
+        rows[a] = pts[a]
+        for b in range(nt):
+            rows[m + a * nt + b] = nc + pts[a] * nt + b
+    Ws = np.empty((k, k))
+    qs = np.empty(k)
+    rs = np.empty(k)
+    for a in range(k):
+        qs[a] = q[rows[a]]
+        rs[a] = r[rows[a]]
+        for b in range(k):
+            Ws[a, b] = fr.ct.W[rows[a], rows[b]]
+    status = np.empty(m, np.int64)
+    sweeps = coulomb_solve(Ws, qs, fr.mu[pts], fr.thr[pts], rs, status, tol)
+    r[:] = 0.0
+    for a in range(k):
+        r[rows[a]] = rs[a]
+    return sweeps

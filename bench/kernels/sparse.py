@@ -49,19 +49,23 @@ from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
 from contact_bench.kernels.contact import (
     ContactOps,
+    Friction,
     add_response,
     contact_ops,
+    coulomb,
+    friction_ops,
     gaps,
     hold,
     push,
     restrict,
     row_dot,
+    row_value,
     selection_rows,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import csr_energy, plain_sample
-from contact_bench.kernels.solvers import lcp_solve, penalty_solve
+from contact_bench.kernels.solvers import lcp_solve, penalty_coulomb_solve, penalty_solve
 from contact_bench.kernels.stepper import LoopStepper
 
 # ------------------------------------------------------------------------ CSR kernels
@@ -128,19 +132,13 @@ def NO_LOAD(x, y, z, t, code):  # pragma: no cover - compiled
     return 0.0
 
 
-@njit(cache=True)
-def newmark_step(o, s, step):  # pragma: no cover - compiled
-    """One Newmark step (module docstring; `loop.drive`'s step)."""
+@njit(inline="always")
+def _newmark_free(o, s, step):  # pragma: no cover - compiled
+    """The step's contact-free solution X of S X = M P + beta dt^2 (F_n + alpha K U^n)."""
     n = s.U.size
-    nc = o.ct.gap0.size
-    beta, gamma, dt = o.beta, o.gamma, o.dt
-    U, V, P, Q, X, rhs, w, gf = s.U, s.V, s.P, s.Q, s.X, s.rhs, s.w, s.gf
+    beta, dt = o.beta, o.dt
+    U, P, X, rhs, w = s.U, s.P, s.X, s.rhs, s.w
     bdt2 = beta * dt * dt
-    k1 = (gamma + 0.5 - beta) / beta
-    k2 = 1.0 / beta
-    kv = gamma / (beta * dt)
-    idt = 1.0 / dt
-    penalty = o.kappa.size > 0
     # a time-dependent load (`TimeLoad`) at the equation's time t_{n+1} + alpha dt:
     # Fn = F + B v(t)
     Fn = s.Fn
@@ -160,6 +158,40 @@ def newmark_step(o, s, step):  # pragma: no cover - compiled
         for i in range(n):
             rhs[i] += bdt2 * Fn[i]
     lu(o.fac, rhs, X, s.work)
+
+
+@njit(inline="always")
+def _newmark_update(o, s):  # pragma: no cover - compiled
+    """U, V and the predictors P, Q from the step's solution X."""
+    n = s.U.size
+    beta, gamma, dt = o.beta, o.gamma, o.dt
+    U, V, P, Q, X = s.U, s.V, s.P, s.Q, s.X
+    k1 = (gamma + 0.5 - beta) / beta
+    k2 = 1.0 / beta
+    kv = gamma / (beta * dt)
+    idt = 1.0 / dt
+    for i in range(n):
+        if o.massless[i]:  # no inertia: backward-difference velocity, no acceleration
+            v = X[i] - U[i]
+            V[i] = v * idt
+            P[i] = X[i] + v
+            Q[i] = v
+        else:  # d = beta dt^2 a^{n+1}
+            d = X[i] - P[i]
+            V[i] = kv * d + Q[i] * idt
+            P[i] = k1 * d + (X[i] + Q[i])
+            Q[i] = k2 * d + Q[i]
+        U[i] = X[i]
+
+
+@njit(cache=True)
+def newmark_step(o, s, step):  # pragma: no cover - compiled
+    """One Newmark step (module docstring; `loop.drive`'s step)."""
+    nc = o.ct.gap0.size
+    bdt2 = o.beta * o.dt * o.dt
+    X, rhs, w, gf = s.X, s.rhs, s.w, s.gf
+    penalty = o.kappa.size > 0
+    _newmark_free(o, s, step)
     pen = gaps(o.ct, X, gf)
     lam, mu, active = s.force, s.mu, s.active
     if pen:
@@ -176,18 +208,7 @@ def newmark_step(o, s, step):  # pragma: no cover - compiled
         mu[:] = 0.0
         lam[:] = 0.0
     s.was[0] = pen
-    for i in range(n):
-        if o.massless[i]:  # no inertia: backward-difference velocity, no acceleration
-            v = X[i] - U[i]
-            V[i] = v * idt
-            P[i] = X[i] + v
-            Q[i] = v
-        else:  # d = beta dt^2 a^{n+1}
-            d = X[i] - P[i]
-            V[i] = kv * d + Q[i] * idt
-            P[i] = k1 * d + (X[i] + Q[i])
-            Q[i] = k2 * d + Q[i]
-        U[i] = X[i]
+    _newmark_update(o, s)
     return OK
 
 
@@ -214,6 +235,118 @@ def newmark_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     return drive(newmark_step, newmark_sample, ops, st, rec, nsteps, stride)
 
 
+# ------------------------------------------------- Newmark with Coulomb friction
+
+
+class FrictionalNewmarkOps(NamedTuple):
+    """Newmark's operators (`NewmarkOps`, exact contact) and the frictional contact
+    (`contact_bench.kernels.contact.Friction`)."""
+
+    base: NewmarkOps
+    fr: Friction
+
+
+@njit(cache=True)
+def newmark_friction_step(o, s, step):  # pragma: no cover - compiled
+    """Newmark with exact contact and Coulomb friction at t_{n+1}: Signorini on the gaps
+    of X and Coulomb on the velocity V^{n+1} along the tangents (`contact.coulomb`).
+    V^{n+1} is affine in X with a positive factor per dof, kv (X - P + Q beta / gamma)
+    with mass, (X - U) / dt without, the same on a contact node's dofs, so a tangent
+    row's slip is its row of X - Y with Y those origins, scaled (the law does not see the
+    scale); a sliding point's tangential force is mu times its normal one, exactly. s.mu
+    holds (r_n, r_t), the next step's warm start; the step's force is r_n / (beta dt^2)."""
+    b, fr = o.base, o.fr
+    n = s.U.size
+    ct, cf = b.ct, fr.ct
+    nc = ct.gap0.size
+    bdt2 = b.beta * b.dt * b.dt
+    X, rhs, w, gf = s.X, s.rhs, s.w, s.gf
+    _newmark_free(b, s, step)
+    pen = gaps(ct, X, gf)
+    r, active = s.mu, s.active
+    if pen:
+        q = np.empty(r.size)
+        Y = np.empty(n)
+        bg = b.beta / b.gamma
+        for i in range(n):
+            Y[i] = X[i] - (s.U[i] if b.massless[i] else s.P[i] - bg * s.Q[i])
+        for j in range(nc):
+            q[j] = gf[j]
+        for i in range(nc, r.size):
+            q[i] = row_value(cf, i, Y)
+        coulomb(fr, np.arange(nc), q, r, max(b.tol, 1e-13 * np.max(np.abs(q))))
+        push(cf, b.fac, r, X, (rhs, w, s.work))
+        for j in range(nc):
+            active[j] = r[j] > 0.0
+        hold(ct, active, X, b.at_contact)  # in contact: the gap is 0 exactly
+    else:
+        r[:] = 0.0
+        active[:] = False
+    for j in range(nc):
+        s.force[j] = r[j] / bdt2
+    s.was[0] = pen
+    _newmark_update(b, s)
+    return OK
+
+
+@njit(cache=True)
+def newmark_penalty_friction_step(o, s, step):  # pragma: no cover - compiled
+    """Newmark with penalty springs and Coulomb friction at t_{n+1} (2D): the normal
+    spring r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
+    increment T (X - U^n) from the previous step's tangential force, returned onto
+    [-mu r_n, mu r_n] (`penalty_coulomb_solve`; r = lambda beta dt^2, c = kappa beta dt^2).
+    A sliding point's tangential force is mu times its normal one, exactly. s.mu holds
+    (r_n, r_t): r_t is the next step's rho."""
+    b, fr = o.base, o.fr
+    n = s.U.size
+    ct, cf = b.ct, fr.ct
+    nc = ct.gap0.size
+    bdt2 = b.beta * b.dt * b.dt
+    X, rhs, w, gf = s.X, s.rhs, s.w, s.gf
+    _newmark_free(b, s, step)
+    pen = gaps(ct, X, gf)
+    r = s.mu
+    if pen:
+        q = np.empty(r.size)
+        Y = np.empty(n)
+        for i in range(n):
+            Y[i] = X[i] - s.U[i]
+        for j in range(nc):
+            q[j] = gf[j]
+        for i in range(nc, r.size):
+            q[i] = row_value(cf, i, Y)
+        rho = r[nc:].copy()
+        penalty_coulomb_solve(cf.W, q, fr.mu, b.cpen, rho, r)
+        push(cf, b.fac, r, X, (rhs, w, s.work))
+    else:
+        r[:] = 0.0
+    for j in range(nc):
+        s.force[j] = b.fscale * r[j] / bdt2
+    s.was[0] = pen
+    _newmark_update(b, s)
+    return OK
+
+
+@njit(cache=True)
+def newmark_penalty_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover
+    """The one loop (`contact_bench.core.loop.drive`) with
+    `newmark_penalty_friction_step`."""
+    return drive(newmark_penalty_friction_step, newmark_friction_sample, ops, st, rec,
+                 nsteps, stride)
+
+
+@njit(cache=True)
+def newmark_friction_sample(o, s):  # pragma: no cover - compiled
+    """`newmark_sample` of the base operators."""
+    return newmark_sample(o.base, s)
+
+
+@njit(cache=True)
+def newmark_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `newmark_friction_step`."""
+    return drive(newmark_friction_step, newmark_friction_sample, ops, st, rec, nsteps, stride)
+
+
 @dataclass
 class ContactLaw:
     """A piecewise-linear contact force at t_{n+1}: on y = P U + y0 (n_c values) the
@@ -237,6 +370,9 @@ class ContactLaw:
     #: the force on the contact dofs is fscale mu / (beta dt^2) (Q's coefficient of C:
     #: 1 for the penalty, gam for Nitsche), for the peak-force column
     fscale: float = 1.0
+    #: the springs take Coulomb friction on a frictional problem: a tangential spring of
+    #: the same stiffness with Coulomb's return map (`newmark_penalty_friction_step`)
+    friction: bool = False
 
 
 def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
@@ -305,6 +441,7 @@ class NewmarkStepper(LoopStepper):
             law = ContactLaw(G, G, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
         K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
         fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
+        self.factor = fac
         if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
             Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
             lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
@@ -363,6 +500,44 @@ class NewmarkStepper(LoopStepper):
                             np.empty(n), np.empty(n), np.empty(nc), np.empty(nc))
 
 
+class FrictionalNewmarkStepper(NewmarkStepper):
+    """`NewmarkStepper` (exact contact) on a problem with friction
+    (`ContactSet.frictional`): the same set-up, the stacked normal and tangent rows'
+    Delassus matrix, `newmark_friction_step`."""
+
+    loop = staticmethod(newmark_friction_loop)
+
+    def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
+                 alpha: float = 0.0, law: ContactLaw | None = None) -> None:
+        super().__init__(p, dt, beta, gamma, law=law, alpha=alpha)
+        self.ops = FrictionalNewmarkOps(self.ops, friction_ops(self.factor, p.contact,
+                                                               p.nfree))
+
+    def new_state(self) -> NewmarkState:
+        n, b = self.problem.nfree, self.ops.base
+        nc = b.ct.gap0.size
+        U, V, P, Q = (a.copy() for a in self.initial)
+        return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(self.ops.fr.ct.gap0.size),
+                            np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
+                            np.asarray(b.F, float).copy(), np.empty(b.bcodes.size),
+                            np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                            np.empty(nc), np.empty(nc))
+
+
+class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
+    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a 2D problem with
+    Coulomb friction: `newmark_penalty_friction_step`."""
+
+    loop = staticmethod(newmark_penalty_friction_loop)
+
+    def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
+                 law: ContactLaw) -> None:
+        if p.contact.tangents.shape[0] != p.contact.size or p.contact.tresca is not None:
+            raise ValueError("penalty friction is built for 2D Coulomb friction (one tangent "
+                             "per contact point, no Tresca threshold)")
+        super().__init__(p, dt, beta, gamma, law=law)
+
+
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
                     kappa: np.ndarray | None = None, law: ContactLaw | None = None,
                     alpha: float = 0.0) -> NewmarkStepper:
@@ -371,7 +546,17 @@ def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
     stiffness per contact dof) gives the force kappa_i max(0, -g_i) at t_{n+1}; the
     law's step is solved exactly (`penalty_solve`), its energy is sampled. `alpha` != 0:
     HHT-alpha, M A1 + (1 + alpha) K U1 - alpha K U0 = F + C^T lambda, S = M + (1 + alpha)
-    beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's)."""
+    beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's). Exact contact on a
+    problem with friction (`ContactSet.frictional`): Coulomb's law on V^{n+1}
+    (`FrictionalNewmarkStepper`); with a law, friction is refused in one line."""
+    if p.contact.frictional:
+        if law is not None and law.friction and kappa is None and alpha == 0.0:
+            return FrictionalPenaltyStepper(p, dt, beta, gamma, law)
+        if kappa is not None or law is not None:
+            raise ValueError("newmark_sparse with this contact law (Nitsche, or penalty "
+                             "stiffnesses alone) has no friction; this problem's contact "
+                             "has mu > 0")
+        return FrictionalNewmarkStepper(p, dt, beta, gamma, alpha)
     return NewmarkStepper(p, dt, beta, gamma, kappa, law, alpha)
 
 

@@ -229,7 +229,8 @@ def penalty_law(p: SparseProblem, kappa: np.ndarray) -> ContactLaw:
     the gap operator)."""
     C = p.contact.gap_operator(p.nfree)
     kappa = np.asarray(kappa, float)
-    return ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
+    return ContactLaw(C, C, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa,
+                      friction=True)
 
 
 def _stiffness(p: SparseProblem, law: ContactLaw) -> sp.csr_matrix:

@@ -45,13 +45,17 @@ from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, START_LEVEL, drive
 from contact_bench.kernels.contact import (
     ContactOps,
+    Friction,
     contact_ops,
+    coulomb,
     curved_ops,
     follow,
+    friction_ops,
     gaps,
     hold,
     push,
     row_dot,
+    row_value,
     selection_rows,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
@@ -341,6 +345,81 @@ def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     return drive(mj_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
+# ------------------------------------------------- Moreau-Jean with Coulomb friction
+
+
+class FrictionalImpactOps(NamedTuple):
+    """Moreau-Jean's operators (`ImpactOps`) and the frictional contact (`Friction`)."""
+
+    base: ImpactOps
+    fr: Friction
+
+
+@njit(cache=True)
+def mjf_step(o, s, step):  # pragma: no cover - compiled
+    """Moreau-Jean with the Coulomb cone on velocities: the step of `mj_step`, with the
+    impulses (P_n, P_t) of the points whose predicted gap is <= 0 solving Signorini on
+    v_n^{n+1} + e v_n^n and Coulomb on v_t^{n+1} (`contact.coulomb`): a sliding point's
+    tangential impulse is mu P_n against its slip, exactly. s.mu holds (P_n, P_t), the
+    next step's warm start."""
+    b, fr = o.base, o.fr
+    U, V, X, rhs, ku, kv = s.U, s.V, s.X, s.rhs, s.tmp, s.w
+    ct, cf, theta, e, dt = b.ct, fr.ct, b.a, b.e, b.dt
+    n = U.size
+    nc = ct.gap0.size
+    c = theta * (1.0 - theta) * dt * dt
+    matvec(b.M, V, rhs)
+    matvec(b.K, U, ku)
+    matvec(b.K, V, kv)
+    for i in range(n):
+        rhs[i] += dt * (b.F[i] - ku[i]) - c * kv[i]
+    lu(b.fac, rhs, X, s.work)
+    r, active, held, idx = s.mu, s.active, s.gm, s.idx
+    nh = r.size
+    q = np.empty(nh)
+    m = 0
+    pen = False
+    for j in range(nc):
+        xn, vn, un = row_value(ct, j, X), row_value(ct, j, V), row_value(ct, j, U)
+        if not np.isfinite(xn):  # blown up between samples
+            return BLOWN
+        held[j] = -e * vn
+        q[j] = xn + e * vn
+        if ct.gap0[j] + un + 0.5 * dt * vn <= 0.0:
+            idx[m] = j
+            m += 1
+            pen = pen or q[j] < 0.0
+    active[:] = False
+    if pen:
+        for i in range(nc, nh):
+            q[i] = row_value(cf, i, X)
+        coulomb(fr, idx[:m], q, r, max(b.tol, 1e-13 * np.max(np.abs(q))))
+        push(cf, b.fac, r, X, (rhs, kv, s.work))
+        for j in range(nc):
+            active[j] = r[j] > 0.0
+        hold(ct, active, X, held)  # on Newton's law exactly
+    else:
+        r[:] = 0.0
+    for j in range(nc):
+        s.force[j] = r[j] / dt
+    for i in range(n):
+        U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
+        V[i] = X[i]
+    return OK
+
+
+@njit(cache=True)
+def mjf_sample(o, s):  # pragma: no cover - compiled
+    """`plain_sample` of the base operators."""
+    return plain_sample(o.base, s)
+
+
+@njit(cache=True)
+def mjf_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `mjf_step`."""
+    return drive(mjf_step, mjf_sample, ops, st, rec, nsteps, stride)
+
+
 class MoreauJeanStepper(LoopStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
 
@@ -354,6 +433,7 @@ class MoreauJeanStepper(LoopStepper):
         dt, e, theta = self.dt, float(e), float(theta)
         n = p.nfree
         fac = Factor.of(p.M + ((theta * dt) ** 2) * p.K)
+        self.factor = fac
         ct = contact_ops(fac, p.contact.gap_operator(n), np.asarray(p.contact.gap0, float),
                          obstacle=p.contact.obstacle)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
@@ -371,10 +451,30 @@ class MoreauJeanStepper(LoopStepper):
         return impact_state(np.zeros(0), U, V, self.ops.ct.gap0.size)
 
 
+class FrictionalMoreauJeanStepper(MoreauJeanStepper):
+    """`MoreauJeanStepper` on a problem with friction (`ContactSet.frictional`): the
+    same set-up, the stacked normal and tangent rows' Delassus matrix, `mjf_step`."""
+
+    loop = staticmethod(mjf_loop)
+
+    def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:
+        super().__init__(p, dt, e, theta)
+        self.ops = FrictionalImpactOps(self.ops, friction_ops(self.factor, p.contact,
+                                                              p.nfree))
+
+    def new_state(self) -> ImpactState:
+        U, V = (a.copy() for a in self.initial)
+        st = impact_state(np.zeros(0), U, V, self.ops.base.ct.gap0.size)
+        return st._replace(mu=np.zeros(self.ops.fr.ct.gap0.size))
+
+
 def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float
                         ) -> MoreauJeanStepper:
-    """Moreau-Jean with restitution e and the theta-method (module docstring).
+    """Moreau-Jean with restitution e and the theta-method (module docstring); with
+    friction (`ContactSet.frictional`) the Coulomb cone on velocities (`mjf_step`).
     ValueError on a problem with massless dofs."""
+    if p.contact.frictional:
+        return FrictionalMoreauJeanStepper(p, dt, e, theta)
     return MoreauJeanStepper(p, dt, e, theta)
 
 

@@ -55,6 +55,7 @@ HEADERS = {
     "err_free_fall": "error free fall (rel. to the lift)",
     "err_plane_momentum": "error momentum along the plane (rel.)",
     "err_pair_momentum": "drift of the pair's momentum (rel.)",
+    "err_sliding_momentum": "error sliding momentum identity (rel.)",
     "err_contact_duration": "error contact duration (rel.)",
     "err_peak_force": "error peak contact force (rel.)",
     "err_hertz_contact_time": "gap to Hertz's contact time (rel.)",
