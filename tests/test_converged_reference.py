@@ -53,13 +53,14 @@ def test_the_artefact_is_the_scene_variant_with_its_command_and_levels():
 
 def test_disc_drop_errors_against_it_decrease_under_refinement():
     """redistributed at nx 5, 10, 20 (from t = 0, the artefact's CFL): the force history's
-    error decreases strictly; the contact duration's decreases too, up to one time step of
-    the finer run (the resolution of a duration measured in steps: nx 10 and 20 give
-    17.575 and 17.5625, one nx 20 step apart, while the reference is 17.714). The
-    reference's own estimated error is at least 10x below the nx 20 run's error for the
-    duration, the contact end, the rebound velocity and the energy left in vibration
-    (docs/production-cases.md: not yet for the peak force, the impulse and the force
-    history)."""
+    error decreases strictly, and so do the contact end's and duration's, their instants
+    interpolated within the step (`contact_bench.core.contact_stats`; counted in whole
+    steps, nx 10 and 20 gave durations 17.575 and 17.5625 against the reference's 17.714,
+    not decreasing); the start is the free fall's, exact at every level (t = 10 is a step
+    of each). The reference's own estimated error is at least 10x below the nx 20 run's
+    error for the duration, the contact end, the rebound velocity and the energy left in
+    vibration (docs/production-cases.md: not yet for the peak force, the impulse and the
+    force history)."""
     case = make_case("disc_drop[degree=1]")
     scheme = make_scheme("redistributed")
     nx0, dt0, T = ART["nx0"], ART["dt0"], ART["T"]
@@ -72,11 +73,11 @@ def test_disc_drop_errors_against_it_decrease_under_refinement():
         dts.append(dt)
     fh = [r["err_force_history"] for r in rows]
     assert fh[0] > fh[1] > fh[2], fh
-    dur = ART["scalars"]["contact_duration"]
-    errs = [r["err_contact_duration"] for r in rows]
-    for k in (1, 2):
-        assert errs[k] <= errs[k - 1] + 1.001 * dts[k] / dur["value"], (errs, dts)
-    assert errs[2] < errs[0] / 3
+    for q in ("contact_end", "contact_duration"):
+        errs = [r[f"err_{q}"] for r in rows]
+        assert errs[0] > errs[1] > errs[2], (q, errs)
+    assert rows[2]["err_contact_duration"] < rows[0]["err_contact_duration"] / 3
+    assert all(r["err_contact_start"] < 1e-9 for r in rows), rows  # round-off
     for q in ("contact_duration", "contact_end", "rebound_velocity", "vibration_energy"):
         ref = ART["scalars"][q]
         assert rows[2][f"err_{q}"] * abs(ref["value"]) > 10 * ref["error"], q
@@ -159,7 +160,7 @@ def test_hertz_rows_carry_the_gaps_to_hertz_and_the_converged_columns():
     assert {"err_hertz_contact_time", "err_hertz_peak_force", "err_contact_duration",
             "err_peak_force", "err_force_history", "err_vibration_energy"} <= set(out)
     assert out["err_hertz_contact_time"] == pytest.approx(
-        abs(11.0 / case.hertz().contact_time - 1.0))
+        abs((11.0 - 0.01) / case.hertz().contact_time - 1.0))
     assert "err_contact_start" not in out  # the reference's contact starts at t = 0
 
 

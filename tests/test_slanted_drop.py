@@ -65,7 +65,9 @@ def test_tilted_with_gravity_is_the_untilted_scene_in_a_rotated_frame(spec, base
     # componentwise error norm takes other steps)
     rtol = getattr(make_scheme(spec), "rtol", 0.0) * 100
     assert _rel(ta.U[fall], back[fall]) <= max(1e-9, rtol)
-    assert tb.extra["first_contact_start"] == ta.extra["first_contact_start"]
+    # the start is interpolated from the smallest gap, computed in each frame
+    assert _rel(tb.extra["first_contact_start"], ta.extra["first_contact_start"]) <= max(
+        1e-9, rtol)
     if not _lipschitz(spec):
         return
     for key in ("first_contact_end", "peak_contact_force", "contact_impulse", "chatter"):

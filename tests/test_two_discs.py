@@ -37,7 +37,8 @@ def test_two_discs_are_each_a_disc_on_the_symmetry_line(spec):
         return
     a, b = half.trajectory, two.trajectory
     assert half.row["status"] == two.row["status"] == "ok"
-    assert b.extra["first_contact_start"] == a.extra["first_contact_start"]
+    # the start is interpolated from the smallest gap, the plane's or the two bodies'
+    assert _rel(b.extra["first_contact_start"], a.extra["first_contact_start"]) <= 1e-9
     assert 0.5 - 1e-12 <= a.extra["first_contact_start"] <= 0.52 + 1e-12  # the arrival
     scheme = make_scheme(spec)
     if scheme.traits().family == Family.EXACT or spec.startswith(("ode_adaptive",

@@ -151,6 +151,10 @@ class Exact(Protocol):
 #: integral over it; force and impulse per unit section)
 CONTACT_QUANTITIES = ("contact_start", "contact_end", "contact_duration", "peak_force",
                       "contact_impulse")
+#: the impulse a run transfers over the reference's first contact interval, against that
+#: contact's impulse (a run whose first contact breaks into bounces is measured on the
+#: momentum it transfers: `contact_bench.harness.quantities`)
+INTERVAL_IMPULSE = "impulse_over_reference_contact"
 
 
 @dataclass(frozen=True)
@@ -270,12 +274,13 @@ class Case(Plugin):
     def reference_quantities(self) -> frozenset[str]:
         """Every quantity q whose relative error err_q the row gets: the scene's own
         (`quantities`, computed by `quantity_errors`) and, when its reference is exact
-        and provides the contact stress, the first contact's (`CONTACT_QUANTITIES`,
+        and provides the contact stress, the first contact's (`CONTACT_QUANTITIES`
+        and `INTERVAL_IMPULSE`,
         computed once for all such scenes by the harness from `exact(T).stress`:
         `contact_bench.harness.quantities`). A reference without a positive contact
         force in [0, T] (a grazing touch) or whose contact lasts to T gives fewer."""
         if self.reference == "exact" and "stress" in self.provides:
-            return self.quantities | frozenset(CONTACT_QUANTITIES)
+            return self.quantities | frozenset((*CONTACT_QUANTITIES, INTERVAL_IMPULSE))
         return self.quantities
 
     #: the study's and the tests' grids of a sparse scene (`StudyGrid`); every sparse

@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from contact_bench.api.plugin import Semidiscrete, Trajectory
-from contact_bench.core.contact_stats import contact_extra, new_stats
+from contact_bench.core.contact_stats import contact_extra, new_stats, stats_gap
 from contact_bench.core.loop import START_DATA, Record, book_sample, book_step, smallest_gap
 from contact_bench.core.sampling import Samples, energy_of, is_sample, n_samples
 
@@ -79,6 +79,7 @@ class TrajectoryRecorder:
                                       G.data.astype(float)), np.asarray(p.contact.gap0, float),
                            self.dt, float(gamma), START_DATA)
         self.min_contact_u = self._gap(p.U0, np.inf)
+        stats_gap(self.stats, self.min_contact_u, 0.0)  # the free gap at t = 0
         self._forces_given = False
         self.energy[0] = self.energy0
         book_sample(self._rec, 0, 0.0, self._state(p.U0), self._state(p.V0), 0.0,
@@ -106,10 +107,11 @@ class TrajectoryRecorder:
         and the scheme's own energy (default: `problem.energy`, computed at samples
         only). Returns True when the run has blown up: stop stepping then."""
         self.steps_done = step
-        self.min_contact_u = self._gap(U, self.min_contact_u)
+        gap = self._gap(U, np.inf)
+        self.min_contact_u = min(self.min_contact_u, gap)
         if forces is not None:  # the compiled loop's statistics, impulse included
             self._forces_given = True
-            book_step(self._rec, self._state(forces), step)
+            book_step(self._rec, self._state(forces), gap, step)
         if not is_sample(step, self.nsteps, self.stride):
             return False
         e = self.problem.energy(U, V) if energy is None else float(energy)

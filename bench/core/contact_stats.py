@@ -1,5 +1,21 @@
 """The contact statistics of a run: one float array with named slots, updated each step
-from the step's contact forces, read into `Trajectory.extra`.
+from the step's contact forces and smallest gap, read into `Trajectory.extra`.
+
+The first contact's start and end are instants between steps, not step times: a step
+with a force after one without (or the reverse) brackets the switch, and the switch is
+put where the free motion's smallest gap crosses zero (`free_crossing`): the secant of the
+two free steps before the start, extrapolated forward, and the secant of the two free
+steps after the end, extrapolated backward (the end is settled one step late), each
+clipped to the step that brackets the switch. The free side is used because it means the
+same for every contact law: inside the contact the gap is held at exactly zero by an exact
+(Lagrange) scheme, negative by the compliance of a penalty or Nitsche law, and whatever a
+velocity-level (Moreau-Jean, restitution) law leaves, while on the free side every scheme
+integrates the same free motion. The force is not used: it has no linear trend across a
+switch (an exact contact's force jumps, the clamped bar's from 0 to 1/2 and back), so its
+linear zero crossing would put every switch at a step. Without two free steps on the side
+(a contact from the first step, a release at the run's last step, a contact that resumes
+at once) the switch is the midpoint of its step; a contact whose last step without
+force already touches (gap <= 0: a body that starts on the obstacle) starts at that step.
 
 The compiled sparse kernels (`contact_bench.kernels`) and the plain-numpy
 `contact_bench.api.TrajectoryRecorder` keep them with the same functions, so that a
@@ -17,9 +33,11 @@ from numba import njit
 
 #: status switches of the contact dofs (chatter)
 CHATTER = 0
-#: the time of the first step with a positive contact force (NaN before)
+#: the first contact's start, between the last step without force and the first with
+#: (module docstring; NaN before)
 FIRST_CONTACT_START = 1
-#: the time of the first step after the first contact without force (NaN before)
+#: the first contact's end, between its last step with force and the first without
+#: (module docstring; NaN before)
 FIRST_CONTACT_END = 2
 #: the peak total contact force over the run
 PEAK_CONTACT_FORCE = 3
@@ -33,12 +51,20 @@ CONTACT_IMPULSE = 6
 LAST_FORCE = 7
 #: the impulse up to the end of the first contact (NaN until it ends)
 FIRST_CONTACT_IMPULSE = 8
+#: the smallest gap of the last update and its time (NaN before any)
+GAP_1 = 9
+TIME_1 = 10
+#: the smallest gap of the update before it and its time (NaN before)
+GAP_2 = 11
+TIME_2 = 12
+#: 1 while the first contact's end waits for the next step's gap to be settled
+END_PENDING = 13
 #: the first of the per-sample slots: the impulse accumulated up to each sample
-SAMPLE_IMPULSE = 9
+SAMPLE_IMPULSE = 14
 #: the names of the slots before `SAMPLE_IMPULSE`, in slot order
 STATS_FIELDS = ("chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
                 "contact_steps", "first_contact_peak", "contact_impulse", "last_force",
-                "first_contact_impulse")
+                "first_contact_impulse", "gap_1", "time_1", "gap_2", "time_2", "end_pending")
 
 
 def new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
@@ -49,15 +75,68 @@ def new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
     A kernel calls `stats_update` each step, and `impulse_update` if its velocity update
     is a weighted sum of the end forces of the step."""
     out = np.zeros(SAMPLE_IMPULSE + int(samples))
-    out[:SAMPLE_IMPULSE] = [0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan]
+    out[:SAMPLE_IMPULSE] = [0.0, np.nan, np.nan, 0.0, 0.0, 0.0, np.nan, float(force0), np.nan,
+                            np.nan, np.nan, np.nan, np.nan, 0.0]
     return out
 
 
 @njit(cache=True)
-def stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
-    """Update the contact statistics with the step's contact forces lam (one per contact
-    dof, >= 0; the force of step `step`, at t = step dt); status (in/out) the previous
-    contact status of each contact dof, updated."""
+def free_crossing(ta, ga, tb, gb, lo, hi):  # pragma: no cover - compiled
+    """The time where the line through the free gaps (ta, ga), (tb, gb) crosses zero,
+    clipped to [lo, hi] (the step that brackets the switch); its midpoint when the gaps
+    are not both finite or the line is flat."""
+    if not (np.isfinite(ta) and np.isfinite(ga) and np.isfinite(tb) and np.isfinite(gb)) \
+            or ga == gb or ta == tb:
+        return 0.5 * (lo + hi)
+    t = tb - gb * (tb - ta) / (gb - ga)
+    return min(max(t, lo), hi)
+
+
+def sampled_switches(t: np.ndarray, on: np.ndarray, gap: np.ndarray
+                     ) -> tuple[int, int, float, float | None] | None:
+    """The first contact of sampled states, by the rule of the per-step statistics: the
+    first sample a in contact (`on`), the first sample b after it not in contact (t.size
+    if none), the start (t[0] if a = 0) and the end (None if b = t.size) interpolated
+    from the samples' smallest gaps `gap` (`free_crossing` on the two free samples next
+    to each switch; the midpoint without them). None without contact."""
+    if not on.any():
+        return None
+    a = int(np.argmax(on))
+    off = np.flatnonzero(~on[a:])
+    b = a + int(off[0]) if off.size else t.size
+    nan = np.nan
+    if a == 0:
+        start = float(t[0])
+    elif gap[a - 1] <= 0.0:  # touching already at the last sample without force
+        start = float(t[a - 1])
+    else:
+        ta, ga = (float(t[a - 2]), float(gap[a - 2])) if a >= 2 else (nan, nan)
+        start = float(free_crossing(ta, ga, float(t[a - 1]), float(gap[a - 1]),
+                                    float(t[a - 1]), float(t[a])))
+    end = None
+    if b < t.size:
+        free = b + 1 < t.size and not on[b + 1]
+        tb, gb = (float(t[b + 1]), float(gap[b + 1])) if free else (nan, nan)
+        end = float(free_crossing(float(t[b]), float(gap[b]), tb, gb, float(t[b - 1]),
+                                  float(t[b])))
+    return a, b, start, end
+
+
+@njit(cache=True)
+def stats_gap(stats, gap, t):  # pragma: no cover - compiled
+    """Keep the smallest gap `gap` at time t as the last one (the one before it shifts)."""
+    stats[GAP_2] = stats[GAP_1]
+    stats[TIME_2] = stats[TIME_1]
+    stats[GAP_1] = gap
+    stats[TIME_1] = t
+
+
+@njit(cache=True)
+def stats_update(stats, status, lam, gap, t):  # pragma: no cover - compiled
+    """Update the contact statistics with the contact forces lam of the state at time t
+    (one per contact dof, >= 0) and its smallest gap; status (in/out) the previous
+    contact status of each contact dof, updated. The first contact's start and end are
+    interpolated from the free gaps (module docstring)."""
     total = 0.0
     anyc = False
     for i in range(lam.size):
@@ -67,16 +146,30 @@ def stats_update(stats, status, lam, step, dt):  # pragma: no cover - compiled
             status[i] = now
         total += lam[i]
         anyc = anyc or now
+    t0 = stats[TIME_1]  # the previous update's time (NaN: none)
+    if stats[END_PENDING] > 0.0:  # the end's step, settled by this step's free gap
+        stats[END_PENDING] = 0.0
+        if not anyc:
+            stats[FIRST_CONTACT_END] = free_crossing(stats[TIME_1], stats[GAP_1], t, gap,
+                                                     stats[TIME_2], stats[TIME_1])
     if anyc:
         stats[CONTACT_STEPS] += 1.0
         if np.isnan(stats[FIRST_CONTACT_START]):
-            stats[FIRST_CONTACT_START] = step * dt
+            if np.isnan(t0):  # in contact from the start
+                stats[FIRST_CONTACT_START] = t
+            elif stats[GAP_1] <= 0.0:  # touching already at the last step without force
+                stats[FIRST_CONTACT_START] = t0
+            else:
+                stats[FIRST_CONTACT_START] = free_crossing(stats[TIME_2], stats[GAP_2], t0,
+                                                           stats[GAP_1], t0, t)
         if np.isnan(stats[FIRST_CONTACT_END]) and total > stats[FIRST_CONTACT_PEAK]:
             stats[FIRST_CONTACT_PEAK] = total
     elif not np.isnan(stats[FIRST_CONTACT_START]) and np.isnan(stats[FIRST_CONTACT_END]):
-        stats[FIRST_CONTACT_END] = step * dt
+        stats[FIRST_CONTACT_END] = 0.5 * (t0 + t)  # until the next step settles it
+        stats[END_PENDING] = 1.0
     if total > stats[PEAK_CONTACT_FORCE]:
         stats[PEAK_CONTACT_FORCE] = total
+    stats_gap(stats, gap, t)
 
 
 @njit(cache=True)

@@ -12,9 +12,10 @@ place):
   it here).
 
 `drive(step, sample, ops, st, rec, nsteps, stride)` makes the steps and does the
-bookkeeping, here and nowhere else: the contact statistics (chatter, first contact,
-peak force, impulse: `contact_bench.core.contact_stats`) after every step, the smallest
-gap over every step, a sample every `stride` steps and at the last one (time, U, V,
+bookkeeping, here and nowhere else: the contact statistics (chatter, first contact with
+its start and end interpolated within the step from the smallest gap, peak force,
+impulse: `contact_bench.core.contact_stats`) after every step, the smallest gap over
+every step, a sample every `stride` steps and at the last one (time, U, V,
 smallest gap, stress, energy, the impulse so far), and the blow-up rule
 (`contact_bench.core.sampling.blown_up`) at each sample. Each distinct step function
 compiles its own specialisation of the loop (numba dispatchers as arguments), so the
@@ -50,6 +51,7 @@ from contact_bench.core.contact_stats import (
     LAST_FORCE,
     impulse_sample,
     impulse_update,
+    stats_gap,
     stats_update,
 )
 from contact_bench.core.obstacle import min_gap
@@ -124,10 +126,10 @@ def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def book_step(rec, force, n):  # pragma: no cover - compiled
-    """The statistics of step n from its contact forces (`stats_update`,
-    `impulse_update` with the record's weight)."""
-    stats_update(rec.stats, rec.status, force, n, rec.dt)
+def book_step(rec, force, gap, n):  # pragma: no cover - compiled
+    """The statistics of step n from its contact forces and its smallest gap
+    (`stats_update`, `impulse_update` with the record's weight)."""
+    stats_update(rec.stats, rec.status, force, gap, n * rec.dt)
     impulse_update(rec.stats, force, rec.dt, rec.gamma)
 
 
@@ -152,7 +154,7 @@ def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - com
     blow-up step or -1)."""
     if rec.start == START_LEVEL:
         step(ops, st, 0)
-        book_step(rec, st.force, 0)
+        book_step(rec, st.force, smallest_gap(rec.G, rec.gap0, st.U, np.inf), 0)
         rec.stress[0] = sample(ops, st)[1]
     elif rec.start == START_PROJECTED:
         step(ops, st, 0)
@@ -161,12 +163,15 @@ def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - com
         rec.energy[0] = e
         book_sample(rec, 0, 0.0, st.U, V, stress, e)
     min_gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
+    if rec.start != START_LEVEL:
+        stats_gap(rec.stats, min_gap, 0.0)  # the free gap at t = 0
     k = 1
     for n in range(1, nsteps + 1):
         if step(ops, st, n) == BLOWN:
             return k, n, min_gap, n
-        book_step(rec, st.force, n)
-        min_gap = smallest_gap(rec.G, rec.gap0, st.U, min_gap)
+        gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
+        book_step(rec, st.force, gap, n)
+        min_gap = min(min_gap, gap)
         if n % stride == 0 or n == nsteps:
             e, stress, V = sample(ops, st)
             blown = book_sample(rec, k, n * rec.dt, st.U, V, stress, e)

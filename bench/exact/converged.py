@@ -7,9 +7,10 @@ and writes results/references/<scene>.json and .md). What is compared is what do
 depend on the mesh (`observables`):
 
 * contact_start, contact_end, contact_duration: the first contact (a positive total
-  contact force), with the kernel's per-step statistics where the trajectory has them
-  (the switch half a step before the first step on the other side, as the harness's
-  first-contact columns), else the midpoints between the samples around each switch;
+  contact force), with the kernel's per-step statistics where the trajectory has them,
+  else from the samples, its start and end interpolated within the step that brackets
+  each switch where the free motion's smallest gap crosses zero (as the harness's
+  first-contact columns: `contact_bench.core.contact_stats`);
 * peak_force, contact_impulse: the largest total contact force (the resultant, not per
   unit area: the contact zone's measure depends on the mesh) over the first contact, and
   its integral over it;
@@ -40,6 +41,8 @@ from typing import Any
 
 import numpy as np
 
+from contact_bench.core.contact_stats import sampled_switches
+
 #: the artefacts' folder: results/references in the repository
 REFERENCES = Path(__file__).resolve().parents[2] / "results" / "references"
 #: the scalar observables, in the artefact's order
@@ -64,26 +67,23 @@ def first_contact(problem: Any, traj: Any, dt: float) -> dict[str, float]:
     if start is not None and "first_contact_peak" in extra:
         if not math.isfinite(start):
             return {}
-        out = {"contact_start": float(start) - 0.5 * dt,
+        out = {"contact_start": float(start),
                "peak_force": float(extra["first_contact_peak"])}
         end = extra.get("first_contact_end")
         if end is not None and math.isfinite(end):
-            out["contact_end"] = float(end) - 0.5 * dt
+            out["contact_end"] = float(end)
             if extra.get("first_contact_impulse") is not None:
                 out["contact_impulse"] = float(extra["first_contact_impulse"])
         return out
     t = np.asarray(traj.t, float)
     force = total_force(problem, traj)
-    on = force > 0.0
-    if not on.any():
+    switches = sampled_switches(t, force > 0.0, np.asarray(traj.contact_u, float))
+    if switches is None:
         return {}
-    a = int(np.argmax(on))
-    off = np.flatnonzero(~on[a:])
-    b = a + int(off[0]) if off.size else t.size
-    out = {"contact_start": float(t[0]) if a == 0 else 0.5 * float(t[a - 1] + t[a]),
-           "peak_force": float(np.max(force[a:b]))}
-    if b < t.size:
-        out["contact_end"] = 0.5 * float(t[b - 1] + t[b])
+    a, b, start, end = switches
+    out = {"contact_start": start, "peak_force": float(np.max(force[a:b]))}
+    if end is not None:
+        out["contact_end"] = end
         lo = max(a - 1, 0)
         out["contact_impulse"] = float(np.sum(0.5 * (force[lo:b] + force[lo + 1:b + 1])
                                               * np.diff(t[lo:b + 1])))

@@ -8,22 +8,29 @@ integrated on the exact sigma(0, t)) against the run's own, as relative errors
 err_contact_duration, err_peak_force and err_contact_impulse.
 
 The run's own first contact (`run_first_contact`), with "in contact" meaning a
-positive contact force, as in the reference:
-* per-step statistics of the kernel where it keeps them (the sparse kernels:
-  `Trajectory.extra` first_contact_start / first_contact_end, the times of the first
-  step with a force and of the first step after it without, first_contact_peak, the
-  largest total force over the steps of that contact, and first_contact_impulse, the
-  impulse up to its end with the velocity update's weights): the switch is put half a
-  step before each (the midpoint between the last step on one side and the first on the
-  other), so start and end are within dt / 2 of the scheme's own switch; peak and
-  impulse are divided by the contact area (per unit section, as the 1D reference's
-  -sigma(0, t); the embedded bar's section has measure 1);
+positive contact force, as in the reference, its start and end interpolated within the
+step (or sample spacing) that brackets each switch, where the free motion's smallest gap
+crosses zero (`contact_bench.core.contact_stats`: the secant of the two free steps next
+to the switch; the midpoint without them):
+* per-step statistics of the kernel where it keeps them (the sparse kernels and the
+  recorder: `Trajectory.extra` first_contact_start / first_contact_end, interpolated from
+  every step's smallest gap, first_contact_peak, the largest total force over the steps
+  of that contact, and first_contact_impulse, the impulse up to its end with the velocity
+  update's weights); peak and impulse are divided by the contact area (per unit section,
+  as the 1D reference's -sigma(0, t); the embedded bar's section has measure 1);
 * else the samples (the 1D kernels): the force -stress of each sample, start and end
-  at the midpoints between the samples around each switch (within half a sample
-  spacing: a stride above 1 blurs them by up to stride dt / 2), the peak over the
-  samples of the contact (a stride can miss it), the impulse by the trapezoid rule
-  over the contact's samples and the one on each side (the velocity update of
-  Newmark with gamma = 1/2 at stride 1).
+  by the same rule on the samples' smallest gaps (contact_u; a stride above 1 spaces the
+  free samples it reads by stride dt), the peak over the samples of the contact (a stride
+  can miss it), the impulse by the trapezoid rule over the contact's samples and the one
+  on each side (the velocity update of Newmark with gamma = 1/2 at stride 1).
+Beside them, err_impulse_over_reference_contact: the impulse the run transfers over the
+reference's first contact interval [start, end] (whatever its own contacts there: a
+first contact that breaks into bounces after a few steps ends early, and its
+err_contact_impulse measures the first bounce only), the integral of its force -stress
+by the trapezoid rule over its samples, linear between them and at the interval's ends
+(`interval_impulse`; a stride above 1 reads the force between samples linearly), against
+the reference's impulse. None when the reference's contact does not end, or ends after
+the run's last sample.
 A run without contact has err_peak_force 1 and no time columns; a run whose first
 contact lasts to its end has no end or duration column, and neither has a reference
 whose contact lasts to T. A reference start at t = 0 gives no err_contact_start (no
@@ -38,7 +45,14 @@ from typing import Any
 import numpy as np
 
 from contact_bench.api.kept import Kept
-from contact_bench.api.plugin import CONTACT_QUANTITIES, Case, Exact, Trajectory
+from contact_bench.api.plugin import (
+    CONTACT_QUANTITIES,
+    INTERVAL_IMPULSE,
+    Case,
+    Exact,
+    Trajectory,
+)
+from contact_bench.core.contact_stats import sampled_switches
 from contact_bench.exact.contacts import FirstContact, first_contact
 
 KEEP = 8
@@ -67,23 +81,19 @@ def run_first_contact(traj: Trajectory, dt: float, area: float = 1.0
         end = extra.get("first_contact_end")
         ended = end is not None and math.isfinite(end)
         impulse = extra.get("first_contact_impulse")
-        return FirstContact(start=float(start) - 0.5 * dt,
-                            end=float(end) - 0.5 * dt if ended else None,
+        return FirstContact(start=float(start),
+                            end=float(end) if ended else None,
                             peak_force=float(extra["first_contact_peak"]) / area,
                             impulse=float(impulse) / area if ended and impulse is not None
                             else None)
     t = np.asarray(traj.t, float)
     force = -np.asarray(traj.stress, float)
-    on = force > 0.0
-    if not on.any():
+    switches = sampled_switches(t, force > 0.0, np.asarray(traj.contact_u, float))
+    if switches is None:
         return None
-    a = int(np.argmax(on))
-    off = np.flatnonzero(~on[a:])
-    b = a + int(off[0]) if off.size else t.size
-    start = float(t[0]) if a == 0 else 0.5 * float(t[a - 1] + t[a])
-    end = impulse = None
+    a, b, start, end = switches
+    impulse = None
     if b < t.size:
-        end = 0.5 * float(t[b - 1] + t[b])
         lo = max(a - 1, 0)
         impulse = float(np.sum(0.5 * (force[lo:b] + force[lo + 1:b + 1]) * np.diff(t[lo:b + 1])))
     return FirstContact(start=start, end=end, peak_force=float(np.max(force[a:b])),
@@ -105,6 +115,20 @@ def contact_quantity_errors(reference: FirstContact | None, run: FirstContact | 
             if q in ref and q in mine}
 
 
+def interval_impulse(traj: Trajectory, start: float, end: float) -> float | None:
+    """The integral of the run's force -stress over [start, end] by the trapezoid rule on
+    its samples and the interval's ends (the force linear between samples); None when
+    the interval is not inside the run's samples."""
+    t = np.asarray(traj.t, float)
+    if t.size < 2 or start < t[0] or end > t[-1] or end <= start:
+        return None
+    force = -np.asarray(traj.stress, float)
+    inside = (t > start) & (t < end)
+    tt = np.concatenate(([start], t[inside], [end]))
+    ff = np.interp(tt, t, force)
+    return float(np.sum(0.5 * (ff[1:] + ff[:-1]) * np.diff(tt)))
+
+
 def first_contact_errors(case: Case, exact: Exact, T: float, traj: Trajectory, dt: float,
                          problem: Any = None) -> dict[str, float]:
     """The row's first-contact error columns of a run of `case` (against `exact` on
@@ -113,9 +137,14 @@ def first_contact_errors(case: Case, exact: Exact, T: float, traj: Trajectory, d
         return {}
     contact = getattr(problem, "contact", None)
     area = float(np.sum(contact.weights)) if contact is not None else 1.0
-    return contact_quantity_errors(reference_first_contact(exact, T),
-                                   run_first_contact(traj, dt, area))
+    ref = reference_first_contact(exact, T)
+    out = contact_quantity_errors(ref, run_first_contact(traj, dt, area))
+    if ref is not None and ref.end is not None and ref.impulse:
+        moved = interval_impulse(traj, ref.start, ref.end)
+        if moved is not None:
+            out[f"err_{INTERVAL_IMPULSE}"] = abs(moved / ref.impulse - 1.0)
+    return out
 
 
-__all__ = ["contact_quantity_errors", "first_contact_errors", "reference_first_contact",
-           "run_first_contact"]
+__all__ = ["contact_quantity_errors", "first_contact_errors", "interval_impulse",
+           "reference_first_contact", "run_first_contact"]

@@ -27,9 +27,12 @@ diagonal) is invertible and Newton, with a backtracking line search on |R|, is r
 round-off (`discrete_gradient_solve`). Without penetration at either end of the step f
 is 0 and the step is the trapezoidal Newmark step.
 
-The recorded energy is E above (the springs' at t_{n+1}); the stress sum_i kappa_i
-min(0, g_i) / (the zone's measure), as `penalty`; each contact dof's force (chatter,
-contact times, peak, impulse) is the step's f_i.
+The recorded energy is E above (the springs' at t_{n+1}); the stress is the force the
+step applies, -sum_i f_i / (the zone's measure) (the discrete gradient acts over the
+whole step, so its integral over the steps is the momentum balance's impulse; the
+springs' force at t_{n+1}, kappa_i min(0, g_i), is not the one the velocity update
+feels), and each contact dof's force (chatter, contact times, peak, impulse) is the
+step's f_i.
 """
 
 from __future__ import annotations
@@ -205,14 +208,14 @@ def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def penalty_midpoint_sample(o, s):  # pragma: no cover - compiled
-    """The energy with the springs' at t_{n+1}, their stress and V."""
+    """The energy with the springs' at t_{n+1}, the stress of the step's force and V."""
     e = csr_energy(o.M, o.K, o.F, s.U, s.V, o.offset, s.w)
     gaps(o.ct, s.U, s.gn)
     st = 0.0
     for j in range(o.kappa.size):
         y = min(0.0, s.gn[j])
         e += 0.5 * o.kappa[j] * y * y
-        st += o.kappa[j] * y
+        st -= s.force[j]
     return e, st / o.weights.sum(), s.V
 
 

@@ -52,6 +52,7 @@ from contact_bench.core.contact_stats import (
     contact_extra,
     first_contact_impulse,
     new_stats,
+    stats_gap,
     stats_update,
 )
 from contact_bench.core.loop import OK, START_PROJECTED, drive
@@ -409,11 +410,13 @@ class AdaptiveStepper(SparseStepper):
                   + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
         gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)
         area = float(np.sum(p.contact.weights))
+        cu = gaps.min(axis=1)
         stats = new_stats(samples=k)
         stats[SAMPLE_IMPULSE:] = impulse
         status = np.zeros(nc, bool)
+        stats_gap(stats, float(cu[0]), float(steps[0]) * dt)
         for s in range(1, k):  # the contact statistics at the samples (not the inner steps)
-            stats_update(stats, status, lam[s], int(steps[s]), dt)
+            stats_update(stats, status, lam[s], float(cu[s]), int(steps[s]) * dt)
             first_contact_impulse(stats, impulse[s])
         blow = None
         bad = [blown_up(e, energy[0]) for e in energy]
@@ -426,7 +429,6 @@ class AdaptiveStepper(SparseStepper):
             stats[CONTACT_IMPULSE] = impulse[k - 1]
         extra = contact_extra(stats, k)
         extra.update(nfev=int(sol.nfev), message=str(sol.message), rtol=rtol)
-        cu = gaps.min(axis=1)
         return Trajectory(t=sol.t[:k], U=Us[:k], V=Vs[:k], contact_u=cu[:k],
                           stress=-lam[:k].sum(axis=1) / area, energy=energy[:k],
                           min_contact_u=float(cu[:k].min()) if k else 0.0,
