@@ -69,6 +69,9 @@ class ArmeroPetocz(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return DRIFT_BOUND
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's midpoint step adds it at t_{n+1/2}
+
     def prepare(self, problem, dt: float) -> Stepper:
         # one path for the bar and the bodies: the sparse midpoint kernel with the
         # discrete-gradient springs (`contact_bench.kernels.energy_penalty`)

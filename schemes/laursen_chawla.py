@@ -65,6 +65,9 @@ class LaursenChawla(Scheme):
         e[0] = 1.0
         return float(dt * math.sqrt(2.0 * ekin * spsolve(M, e)[0]))
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's midpoint step adds it at t_{n+1/2}
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar (its CSR matrices) and a body: one compiled midpoint step
         return prepare_midpoint_contact(problem, dt, PERSISTENCY)

@@ -44,6 +44,9 @@ class LaursenLove(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return ROUNDOFF_DRIFT
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's midpoint step adds it at t_{n+1/2}
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar (its CSR matrices) and a body: one compiled midpoint step
         return prepare_midpoint_contact(problem, dt, SIGNORINI_VELOCITY_UPDATE)

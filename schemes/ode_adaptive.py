@@ -57,6 +57,9 @@ class OdeAdaptive(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e3 * self.rtol
 
+    def adds_time_load(self) -> bool:
+        return True  # the ODE's right-hand side adds it at the integrator's stage times
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: DOP853 on the dofs with mass, the massless ones solved from their rows
         # (`contact_bench.kernels.sparse_family.adaptive_sparse`)

@@ -68,6 +68,10 @@ class OdeVerlet(Scheme):
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 2.0 * (problem.c_max * dt / problem.hmin) ** 2
 
+    def adds_time_load(self) -> bool:
+        # Verlet's acceleration and massless rows at U_{n+1} add it at t_{n+1}
+        return True
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: velocity Verlet on the dofs with mass, the massless ones solved from
         # their rows (`contact_bench.kernels.sparse_family.verlet_sparse`)
