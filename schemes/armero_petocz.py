@@ -81,6 +81,9 @@ class ArmeroPetocz(Scheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's midpoint step adds it at t_{n+1/2}
+
     def prepare(self, problem, dt: float) -> Stepper:
         # one path for the bar and the bodies: the sparse midpoint kernel with the
         # discrete-gradient springs (`contact_bench.kernels.energy_penalty`)

@@ -46,6 +46,10 @@ class Kane(Scheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        # the body's trapezoidal step adds the mean of its values at t_n and t_{n+1}
+        return True
+
     def prepare(self, problem, dt: float) -> Stepper:
         semi = banded(problem)  # the bar: its tridiagonal kernel; a body: the sparse one
         if semi is not None:

@@ -56,6 +56,9 @@ class LaursenLove(Scheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's midpoint step adds it at t_{n+1/2}
+
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar (its CSR matrices) and a body: one compiled midpoint step
         return prepare_midpoint_contact(problem, dt, SIGNORINI_VELOCITY_UPDATE)

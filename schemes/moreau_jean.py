@@ -78,6 +78,9 @@ class MoreauJean(MassiveContactNodeScheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        return True  # the body's theta-method adds it at its theta point t_n + theta dt
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: the same step, Newton's law on the contact dofs whose predicted gap is
         # <= 0 (the LCP on the Delassus matrix of M + theta^2 dt^2 K); the sampled stress

@@ -143,7 +143,7 @@ class Nitsche(Scheme):
                           K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
 
     def adds_time_load(self) -> bool:
-        return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
+        return True  # implicit: Newmark's at t_{n+1}; explicit: A_{n+1} at U_{n+1}, t_{n+1}
 
     def prepare(self, problem, dt: float) -> Stepper:
         # the bar: the first element's boundary kernel; a body: implicit Newmark with

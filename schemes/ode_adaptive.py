@@ -62,6 +62,9 @@ class OdeAdaptive(Scheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        return True  # the ODE's right-hand side adds it at the integrator's stage times
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: DOP853 on the dofs with mass, the massless ones solved from their rows
         # (`contact_bench.kernels.sparse_family.adaptive_sparse`)

@@ -71,6 +71,10 @@ class OdeVerlet(Scheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        # Verlet's acceleration and massless rows at U_{n+1} add it at t_{n+1}
+        return True
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: velocity Verlet on the dofs with mass, the massless ones solved from
         # their rows (`contact_bench.kernels.sparse_family.verlet_sparse`)

@@ -102,7 +102,7 @@ class Penalty(Scheme):
                 if self.mass in MASSLESS_KINDS and semi is not None else None)
 
     def adds_time_load(self) -> bool:
-        return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
+        return True  # implicit: Newmark's at t_{n+1}; explicit: A_{n+1} at U_{n+1}, t_{n+1}
 
     def follows_curved_obstacle(self) -> bool:
         return self.beta > 0.0  # the sparse Newmark stepper, not the explicit one

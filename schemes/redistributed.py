@@ -62,7 +62,9 @@ class Redistributed(Scheme):
         return self.beta, self.gamma
 
     def adds_time_load(self) -> bool:
-        return self.beta > 0.0  # the sparse Newmark stepper adds it, not the explicit one
+        # the body's steppers add it: Newmark's equation at t_{n+1} (beta > 0: with the
+        # predictor, the trapezoidal mean of t_n and t_{n+1}); beta = 0, at t_{n+1}
+        return True
 
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step

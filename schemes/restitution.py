@@ -92,6 +92,9 @@ class Restitution(MassiveContactNodeScheme):
     def follows_curved_obstacle(self) -> bool:
         return True  # its sparse stepper re-linearises the gaps every step
 
+    def adds_time_load(self) -> bool:
+        return True  # the two-step scheme adds it at the centre level t_n
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: the same two-step scheme, the impact law on every contact dof (a per-dof
         # projection with a lumped mass and beta = 0, else the LCP on the Delassus matrix

@@ -89,6 +89,9 @@ class TaylorFlanagan(MassiveContactNodeScheme):
         # contact held under gravity gains energy at every step (module docstring)
         return None
 
+    def adds_time_load(self) -> bool:
+        return True  # the central difference's acceleration at U_n adds it at t_n
+
     def prepare(self, problem, dt: float) -> Stepper:
         # a body: with the lumped mass each contact dof is stopped on its own
         # (`contact_bench.kernels.sparse.central_sparse`); with the consistent one the

@@ -12,6 +12,7 @@ import importlib.util
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from contact_bench.api.registry import cases, schemes
@@ -187,3 +188,24 @@ def test_block_width_prints_a_time_per_column_for_each_width(capsys):
     rows = [line for line in out.splitlines() if line.startswith("| disc_drop")]
     assert [r.split("|")[4].strip() for r in rows] == ["2", "5"]
     assert all(float(r.split("|")[5]) > 0 for r in rows)
+
+
+def test_manufactured_orders_gives_each_scheme_a_stable_fixed_cfl(tmp_path, capsys):
+    """An explicit scheme whose declared limit is below --cfl runs at 0.9 of it (the same
+    CFL on each grid); an unconditionally stable one at --cfl; a tiny table has a row per
+    grid with an order from the second on."""
+    mod = _script("manufactured_orders")
+    case = "manufactured[dim=2]"
+    assert mod.scheme_cfl(case, "standard", 4, 0.5) == 0.5
+    own = mod.scheme_cfl(case, "taylor_flanagan", 4, 0.5)
+    limit = mod.declared_limit(mod.make_case(case), mod.make_scheme("taylor_flanagan"),
+                               mod.problem_for(mod.make_case(case),
+                                               mod.make_scheme("taylor_flanagan"), 4))
+    assert own < 0.5 and own / (4 * mod.C_P) <= 0.9 * limit < (own + 0.01) / (4 * mod.C_P)
+    out = tmp_path / "orders.md"
+    assert mod.main(["--out", str(out), "--nx2", "2", "3", "--nx3", "2", "--schemes",
+                     "taylor_flanagan"]) == 0
+    df = mod.measure(2, [2, 3], 0.5, ["taylor_flanagan"])
+    assert list(df["status"]) == ["ok", "ok"] and df["cfl"].nunique() == 1
+    assert np.isnan(df["order_u_l2_l2"].iat[0]) and np.isfinite(df["order_u_l2_l2"].iat[1])
+    assert "taylor_flanagan" in out.read_text()

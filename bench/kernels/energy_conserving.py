@@ -7,6 +7,7 @@ midpoint,
 
     M (V1 - V0) / dt + K (U0 + U1) / 2 = F + C^T lambda,    U1 - U0 = dt (V0 + V1) / 2,
 
+(a time-dependent load F at the midpoint t_{n+1/2})
 in displacement form S U1 = M (U0 + dt V0) + dt^2 / 4 (2 F - K U0) + C^T mu with
 S = M + dt^2 / 4 K factored once and mu = dt^2 / 2 lambda (C picks the contact dofs).
 Its energy E = 1/2 V.M.V + 1/2 U.K.U - F.U changes by exactly lambda . (g1 - g0) over a
@@ -60,6 +61,7 @@ from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
 
 #: Laursen-Chawla: the persistency condition on the dofs closed at t_n
 PERSISTENCY = 0
@@ -88,11 +90,13 @@ class MidpointOps(NamedTuple):
     mode: int
     offset: float
     tol: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class MidpointState(NamedTuple):
     """(U, V), the obstacle's force lambda and the step's force with Laursen-Love's update
-    (`force`), the LCP's unknowns and active set, the gaps at t_n and t_{n+1}, scratch."""
+    (`force`), the LCP's unknowns and active set, the gaps at t_n and t_{n+1}, the load,
+    scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -109,11 +113,14 @@ class MidpointState(NamedTuple):
     w: np.ndarray
     work: np.ndarray
     y: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def midpoint_step(o, s, step):  # pragma: no cover - compiled
-    """The midpoint step with the contact condition `o.mode` (module docstring)."""
+    """The midpoint step with the contact condition `o.mode` (module docstring); F is the
+    load at the midpoint t_{n+1/2}."""
     U, V, X, rhs, w, work, qg = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg
     mu, lam, kick, active, y, g0, g1 = s.mu, s.lam, s.force, s.active, s.y, s.g0, s.g1
     ct, dt, mode, tol = o.ct, o.dt, o.mode, o.tol
@@ -122,12 +129,13 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
     nc = sel.size
     q = 0.25 * dt * dt
     to_force = 2.0 / (dt * dt)
+    F = force_at(o.load, o.F, (step - 0.5) * dt, s.vals, s.Fn)
     for i in range(n):
         w[i] = U[i] + dt * V[i]
     matvec(o.M, w, rhs)
     matvec(o.K, U, w)
     for i in range(n):
-        rhs[i] += q * (2.0 * o.F[i] - w[i])
+        rhs[i] += q * (2.0 * F[i] - w[i])
     lu(o.fac, rhs, X, work)
     gaps(ct, U, g0)
     gaps(ct, X, g1)
@@ -217,6 +225,7 @@ class MidpointContactStepper(LoopStepper):
     M factored (M^-1 C^T kept when Z is). ValueError for a mass with massless dofs (the midpoint
     velocity and the update's M^-1 need inertia on every dof)."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(midpoint_loop)
@@ -249,15 +258,16 @@ class MidpointContactStepper(LoopStepper):
         self.ops = MidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
                                fac.arrays, ct, -gap0, np.asarray(p.contact.weights, float),
                                marrays, np.ascontiguousarray(Y), keep_y, dt, int(mode),
-                               float(p.energy_offset), tol)
+                               float(p.energy_offset), tol, load_ops(p))
 
     def new_state(self) -> MidpointState:
         n, nc = self.problem.nfree, self.ops.at_contact.size
         U, V = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(self.ops.load, n)
         return MidpointState(U, V, np.empty(nc), np.empty(nc), np.zeros(nc), np.zeros(nc),
                              np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
                              np.empty(nc), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                             np.empty(n))
+                             np.empty(n), Fn, vals)
 
 
 def prepare_midpoint_contact(p: SparseProblem, dt: float, mode: int) -> MidpointContactStepper:

@@ -4,7 +4,7 @@ The implicit midpoint rule in first-order form, the penalty springs entering thr
 discrete gradient of their energy Phi(g) = kappa/2 min(0, g)^2 (one spring per contact
 dof, g_i = gap0_i + U[dof_i]):
 
-    M (V_{n+1} - V_n) / dt = F - K (U_n + U_{n+1}) / 2 + C^T f,
+    M (V_{n+1} - V_n) / dt = F - K (U_n + U_{n+1}) / 2 + C^T f,   (F at t_{n+1/2})
     (U_{n+1} - U_n) / dt = (V_n + V_{n+1}) / 2,
     f_i = -(Phi_i(g_{n+1,i}) - Phi_i(g_{n,i})) / (g_{n+1,i} - g_{n,i})   (>= 0),
 
@@ -51,6 +51,7 @@ from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
 
 #: Newton iterations of `discrete_gradient_solve` before it gives up
 NEWTON_MAX = 100
@@ -150,11 +151,12 @@ class PenaltyMidpointOps(NamedTuple):
     kappa: np.ndarray
     dt: float
     offset: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class PenaltyMidpointState(NamedTuple):
     """(U, V), the springs' forces, the gaps (free, at t_n, at t_{n+1}), the discrete
-    gradient phi, scratch."""
+    gradient phi, the load, scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -170,12 +172,14 @@ class PenaltyMidpointState(NamedTuple):
     work: np.ndarray
     mv: np.ndarray
     ku: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     """Advance (U, V) in place (module docstring); a step whose Newton iteration does not
-    converge stops the run as blown up."""
+    converge stops the run as blown up. F is the load at the midpoint t_{n+1/2}."""
     U, V, X, rhs, mv, ku = s.U, s.V, s.X, s.rhs, s.mv, s.ku
     gf, gn, lam, mu, dt = s.gf, s.gn, s.force, s.mu, o.dt
     n = U.size
@@ -184,10 +188,11 @@ def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     q = 0.25 * dt * dt
     for i in range(n):
         mv[i] = U[i] + dt * V[i]
+    F = force_at(o.load, o.F, (step - 0.5) * dt, s.vals, s.Fn)
     matvec(o.M, mv, rhs)
     matvec(o.K, U, ku)
     for i in range(n):
-        rhs[i] += a * o.F[i] - q * ku[i]
+        rhs[i] += a * F[i] - q * ku[i]
     lu(o.fac, rhs, X, s.work)
     pen = gaps(o.ct, U, gn)
     pen = gaps(o.ct, X, gf) or pen
@@ -229,6 +234,7 @@ class MidpointPenaltyStepper(LoopStepper):
     """`prepare_midpoint_penalty` prepared: S = M + dt^2/4 K factored, W = C S^-1 C^T
     (n_c solves, only its n_c x n_c values kept), sample 0's energy and stress."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(penalty_midpoint_loop)
@@ -254,17 +260,18 @@ class MidpointPenaltyStepper(LoopStepper):
         self.gamma = 1.0  # the step's force acts over the whole step
         self.ops = PenaltyMidpointOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
                                       fac.arrays, ct, weights, kappa, dt,
-                                      float(p.energy_offset))
+                                      float(p.energy_offset), load_ops(p))
         self.initial = (U, V)
         self.springs = kappa
 
     def new_state(self) -> PenaltyMidpointState:
         n, nc = self.problem.nfree, self.ops.kappa.size
         U, V = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(self.ops.load, n)
         return PenaltyMidpointState(U, V, np.zeros(nc), np.empty(nc), np.empty(nc),
                                     np.empty(nc), np.empty(nc), np.zeros(nc), np.empty(n),
                                     np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                                    np.empty(n))
+                                    np.empty(n), Fn, vals)
 
     def law_energy(self, U: np.ndarray) -> float:
         """The springs' energy sum_i kappa_i/2 min(0, g_i)^2 in state U."""

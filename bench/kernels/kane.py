@@ -12,7 +12,8 @@ beta = 1/4):
    argmin_{gap0 + C U >= 0} |U - U^n - h V^n|_M: U~ + M^-1 C^T mu_p with the linear
    complementarity problem of the Delassus matrix C M^-1 C^T (M factored once; a
    lumped M makes it one clamp per contact dof);
-2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu, exact contact at t_{n+1}
+2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu (a time-dependent F: the mean of
+   its values at t_n and t_{n+1}, the trapezoidal rule), exact contact at t_{n+1}
    through the Delassus matrix C S^-1 C^T (`contact_bench.kernels.sparse`: `lcp_solve`,
    `correct`); the obstacle's force lambda = 2 mu / h^2, applied over the whole step
    (backward Euler for the contact force, the trapezoidal rule for the others);
@@ -54,6 +55,7 @@ from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
 
 #: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
 PREDICTORS = {"none": 0, "projected": 1, "projected_klapproth": 2}
@@ -78,10 +80,12 @@ class KaneOps(NamedTuple):
     predictor: int
     offset: float
     tol: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class KaneState(NamedTuple):
-    """(U, V), the step's force, the two LCPs' unknowns and active sets, scratch."""
+    """(U, V), the step's force, the two LCPs' unknowns and active sets, the loads at
+    t_n and t_{n+1}, scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -97,11 +101,15 @@ class KaneState(NamedTuple):
     w: np.ndarray
     work: np.ndarray
     gf: np.ndarray
+    Fa: np.ndarray
+    Fb: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def kane_step(o, s, step):  # pragma: no cover - compiled
-    """Kane's step, with the predictor `o.predictor` (module docstring)."""
+    """Kane's step, with the predictor `o.predictor` (module docstring); 2 F is the sum
+    of the loads at t_n and t_{n+1} (the trapezoidal rule)."""
     U, V, Ut, X, rhs, w, work, gf = s.U, s.V, s.Ut, s.X, s.rhs, s.w, s.work, s.gf
     mu, mup, lam, dt, predictor = s.mu, s.mup, s.force, o.dt, o.predictor
     n = U.size
@@ -118,11 +126,13 @@ def kane_step(o, s, step):  # pragma: no cover - compiled
             push(o.ctm, o.mfac, mup, Ut, (rhs, w, work))
             hold(o.ctm, s.activep, Ut, o.at_contact)
         s.was[1] = pen
-    # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/2 F + C^T mu
+    # 2. S U^{n+1} = M U~ - h^2/4 K U^n + h^2/4 (F(t_n) + F(t_{n+1})) + C^T mu
+    Fa = force_at(o.load, o.F, (step - 1) * dt, s.vals, s.Fa)
+    Fb = force_at(o.load, o.F, step * dt, s.vals, s.Fb)
     matvec(o.M, Ut, rhs)
     matvec(o.K, U, w)
     for i in range(n):
-        rhs[i] += c * (2.0 * o.F[i] - w[i])
+        rhs[i] += c * (Fa[i] + Fb[i] - w[i])
     lu(o.fac, rhs, X, work)
     s.was[0] = signorini(o.ct, o.fac, X, mu, s.active, s.was[0], o.tol, (gf, rhs, w, work))
     for j in range(nc):
@@ -147,6 +157,7 @@ class KaneStepper(LoopStepper):
     """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
     matrix and, with a projected predictor, M factored with C M^-1 C^T."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(kane_loop)
@@ -173,15 +184,17 @@ class KaneStepper(LoopStepper):
                           float(np.max(np.abs(p.contact.gap0), initial=0.0)), 1e-300)
         self.ops = KaneOps(csr_arrays(M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, ct,
                            -gap0, np.asarray(p.contact.weights, float), mfac.arrays, ctm, h,
-                           PREDICTORS[predictor], float(p.energy_offset), tol)
+                           PREDICTORS[predictor], float(p.energy_offset), tol, load_ops(p))
         self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
 
     def new_state(self) -> KaneState:
         n, nc = self.problem.nfree, self.ops.at_contact.size
         U, V = (a.copy() for a in self.initial)
+        vals, Fa = load_scratch(self.ops.load, n)
         return KaneState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
                          np.zeros(nc, np.bool_), np.zeros(2, np.bool_), np.empty(n),
-                         np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(nc))
+                         np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(nc),
+                         Fa, np.empty(n), vals)
 
 
 def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneStepper:

@@ -59,8 +59,8 @@ from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
-from contact_bench.kernels.sparse import NO_LOAD
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, initial_load, load_ops, load_scratch
 
 # ------------------------------------------------------------------------------ the bar
 
@@ -159,11 +159,7 @@ class BodyOps(NamedTuple):
     ct: ContactOps
     at_contact: np.ndarray  # -gap0
     weights: np.ndarray
-    has_load: bool
-    load: object  # the `TimeLoad`'s density (a cfunc), or `NO_LOAD`
-    B: CSR
-    BX: np.ndarray
-    bcodes: np.ndarray
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
     dt: float
     offset: float
     tol: float
@@ -192,18 +188,11 @@ class BodyState(NamedTuple):
 @njit(cache=True)
 def body_step(o, s, step):  # pragma: no cover - compiled
     """One step on a body (module docstring)."""
-    U, V, A, Fn, rm, um, rh, mu = s.U, s.V, s.A, s.Fn, s.rm, s.um, s.rh, s.force
+    U, V, A, rm, um, rh, mu = s.U, s.V, s.A, s.rm, s.um, s.rh, s.force
     hv, mv, dt, m = o.hv, o.mv, o.dt, o.m
-    n = U.size
     nh, nm = hv.size, mv.size
     h = 0.5 * dt
-    if o.has_load:  # the load at the step's end: F + B v(t_{n+1})
-        tl = step * dt
-        for j in range(o.bcodes.size):
-            s.vals[j] = o.load(o.BX[0, j], o.BX[1, j], o.BX[2, j], tl, o.bcodes[j])
-        matvec(o.B, s.vals, Fn)
-        for i in range(n):
-            Fn[i] += o.F[i]
+    Fn = force_at(o.load, o.F, step * dt, s.vals, s.Fn)  # the load at the step's end
     for a in range(nh):
         i = hv[a]
         V[i] += h * A[i]
@@ -299,7 +288,6 @@ class BodyStepper(LoopStepper):
 
     def __init__(self, p: SparseProblem, dt: float) -> None:
         super().__init__(p, dt)
-        ld = getattr(p, "load", None)
         m, hv, mv, _ = split(p)
         K = sp.csr_matrix(p.K)
         fac = Factor.of(K[mv][:, mv])
@@ -314,7 +302,7 @@ class BodyStepper(LoopStepper):
         tol = 1e-13 * max(float(np.max(np.abs(p.U0))), float(np.max(np.abs(gap0), initial=0.0)),
                           1e-300)
         U = np.asarray(p.U0, float).copy()
-        F0 = np.asarray(p.F, float) + (0.0 if ld is None else ld.at(0.0))  # the load at t = 0
+        F0 = initial_load(p)  # the load at t = 0
         um = fac.solve(F0[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
         gf = gap0 + G @ um
         if ct.cv.on:  # a curved obstacle: its exact gaps, its tangent at um
@@ -328,23 +316,19 @@ class BodyStepper(LoopStepper):
         A[hv] = (F0[hv] - K[hv] @ U) / m[hv]
         self.initial = (U, np.asarray(p.V0, float).copy(), A)
         self.gamma = 0.5
-        n = p.nfree
         self.ops = BodyOps(
             csr_arrays(p.M), csr_arrays(K), m, np.asarray(p.F, float), hv, mv,
             csr_arrays(K[hv]), csr_arrays(Kmh), fac.arrays, ct, -gap0,
-            np.asarray(p.contact.weights, float), ld is not None,
-            NO_LOAD if ld is None else ld.density,
-            csr_arrays(sp.csr_matrix((n, 0)) if ld is None else ld.B),
-            np.zeros((3, 0)) if ld is None else np.ascontiguousarray(ld.points, float),
-            np.zeros(0, np.int64) if ld is None else np.asarray(ld.codes, np.int64),
-            self.dt, float(p.energy_offset), tol)
+            np.asarray(p.contact.weights, float), load_ops(p), self.dt,
+            float(p.energy_offset), tol)
 
     def new_state(self) -> BodyState:
         o = self.ops
         n, nh, nm, nc = self.problem.nfree, o.hv.size, o.mv.size, o.at_contact.size
         U, V, A = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(o.load, n)
         return BodyState(U, V, A, np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
-                         o.F.copy(), np.empty(o.bcodes.size), np.empty(nm), np.empty(nm),
+                         Fn, vals, np.empty(nm), np.empty(nm),
                          np.empty(nm), np.empty(nh), np.empty(n), np.empty(nc))
 
 

@@ -42,7 +42,7 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from numba import cfunc, float64, int64, njit
+from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
@@ -67,6 +67,14 @@ from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve, penalty_coulomb_solve, penalty_solve
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import (
+    LoadOps,
+    force_at,
+    initial_load,
+    last_force,
+    load_ops,
+    load_scratch,
+)
 
 # ------------------------------------------------------------------------ CSR kernels
 
@@ -97,11 +105,7 @@ class NewmarkOps(NamedTuple):
     sc: np.ndarray
     fscale: float
     alpha: float
-    has_load: bool
-    load: object  # the `TimeLoad`'s density (a cfunc), or `NO_LOAD`
-    B: CSR
-    BX: np.ndarray
-    bcodes: np.ndarray
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class NewmarkState(NamedTuple):
@@ -126,12 +130,6 @@ class NewmarkState(NamedTuple):
     y: np.ndarray
 
 
-@cfunc(float64(float64, float64, float64, float64, int64))
-def NO_LOAD(x, y, z, t, code):  # pragma: no cover - compiled
-    """The time load's density of a problem without one (never called)."""
-    return 0.0
-
-
 @njit(inline="always")
 def _newmark_free(o, s, step):  # pragma: no cover - compiled
     """The step's contact-free solution X of S X = M P + beta dt^2 (F_n + alpha K U^n)."""
@@ -139,16 +137,10 @@ def _newmark_free(o, s, step):  # pragma: no cover - compiled
     beta, dt = o.beta, o.dt
     U, P, X, rhs, w = s.U, s.P, s.X, s.rhs, s.w
     bdt2 = beta * dt * dt
-    # a time-dependent load (`TimeLoad`) at the equation's time t_{n+1} + alpha dt:
-    # Fn = F + B v(t)
-    Fn = s.Fn
-    if o.has_load:
-        tl = (step + o.alpha) * dt
-        for j in range(o.bcodes.size):
-            s.vals[j] = o.load(o.BX[0, j], o.BX[1, j], o.BX[2, j], tl, o.bcodes[j])
-        matvec(o.B, s.vals, Fn)
-        for i in range(n):
-            Fn[i] += o.F[i]
+    # the load at the equation's time t_{n+1} + alpha dt (`force_at`; F without a time
+    # load): with a_n in the predictors, the trapezoidal rule's average of the loads at
+    # t_n and t_{n+1}; HHT's at t_{n+1+alpha}
+    Fn = force_at(o.load, o.F, (step + o.alpha) * dt, s.vals, s.Fn)
     matvec(o.M, P, rhs)
     if o.alpha != 0.0:  # HHT: + alpha beta dt^2 K U^n
         matvec(o.K, U, w)
@@ -377,9 +369,9 @@ class ContactLaw:
 
 def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
     """M A0 = r on the dofs with mass (0 on the massless ones); r = F - K U0 unless
-    given (a contact law's force at t = 0 included)."""
+    given (a contact law's force at t = 0 included), F with the time load at t = 0."""
     if r is None:
-        r = p.F - p.K @ p.U0
+        r = initial_load(p) - p.K @ p.U0
     A = np.zeros(p.nfree)
     heavy = ~p.massless
     Mh = p.M[heavy][:, heavy]
@@ -467,7 +459,7 @@ class NewmarkStepper(LoopStepper):
         self.force0 = (fscale * float(np.sum(lk * np.maximum(0.0, -(Pm @ p.U0 + y0))))
                        if law is not None else 0.0)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        F0 = p.F if p.load is None else p.F + p.load.at(0.0)
+        F0 = initial_load(p)
         if law is not None:  # the full force at t = 0: K' and the law's, if active
             r = F0 - K @ U - law.Q.T @ (lk * np.minimum(0.0, Pm @ U + y0))
             A = initial_acceleration(p, r)
@@ -479,24 +471,19 @@ class NewmarkStepper(LoopStepper):
                         dt * V + dt * dt * (1.0 - gamma) * A)
         tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                                  initial=0.0)), 1e-300)
-        ld = p.load
         self.gamma = gamma
         self.ops = NewmarkOps(
             csr_arrays(p.M), csr_arrays(K), np.asarray(p.F, float), fac.arrays, ct,
             -np.asarray(p.contact.gap0, float), np.asarray(p.contact.weights, float),
             p.massless, beta, gamma, dt, float(p.energy_offset), tol, lk,
-            lk * (beta * dt * dt), ew, sc, fscale, float(alpha),
-            ld is not None, NO_LOAD if ld is None else ld.density,
-            csr_arrays(sp.csr_matrix((n, 0)) if ld is None else ld.B),
-            np.zeros((3, 0)) if ld is None else np.ascontiguousarray(ld.points, float),
-            np.zeros(0, np.int64) if ld is None else np.asarray(ld.codes, np.int64))
+            lk * (beta * dt * dt), ew, sc, fscale, float(alpha), load_ops(p))
 
     def new_state(self) -> NewmarkState:
         n, nc = self.problem.nfree, self.ops.ct.gap0.size
         U, V, P, Q = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(self.ops.load, n)
         return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
-                            np.zeros(1, np.bool_), np.asarray(self.ops.F, float).copy(),
-                            np.empty(self.ops.bcodes.size), np.empty(n), np.empty(n),
+                            np.zeros(1, np.bool_), Fn, vals, np.empty(n), np.empty(n),
                             np.empty(n), np.empty(n), np.empty(nc), np.empty(nc))
 
 
@@ -517,9 +504,9 @@ class FrictionalNewmarkStepper(NewmarkStepper):
         n, b = self.problem.nfree, self.ops.base
         nc = b.ct.gap0.size
         U, V, P, Q = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(b.load, n)
         return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(self.ops.fr.ct.gap0.size),
-                            np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
-                            np.asarray(b.F, float).copy(), np.empty(b.bcodes.size),
+                            np.zeros(nc, np.bool_), np.zeros(1, np.bool_), Fn, vals,
                             np.empty(n), np.empty(n), np.empty(n), np.empty(n),
                             np.empty(nc), np.empty(nc))
 
@@ -631,16 +618,19 @@ class CentralOps(NamedTuple):
     weights: np.ndarray
     dt: float
     offset: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class CentralState(NamedTuple):
-    """(U^n, V^{n-1/2}), the contact forces and scratch."""
+    """(U^n, V^{n-1/2}), the contact forces, the load at t_n and scratch."""
 
     U: np.ndarray
     Vh: np.ndarray
     force: np.ndarray
     Un: np.ndarray
     tmp: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
@@ -648,16 +638,18 @@ def central_step(o, s, step):  # pragma: no cover - compiled
     """Kick-drift central difference with a diagonal mass m (> 0 everywhere), carrying
     (U^n, V^{n-1/2}); a contact point whose predicted gap is negative gets the force
     lambda = max(0, -m_j G_j V^{n+1/2} / dt) that stops it (Taylor-Flanagan; m_j the mass
-    along its row, a selected dof's own mass)."""
+    along its row, a selected dof's own mass). The kick from U^n feels the load at t_n,
+    evaluated at the end of the step that reached U^n."""
     U, Vh, Un, lam, c, dt = s.U, s.Vh, s.Un, s.force, o.c, o.dt
     n = U.size
     Kp, Ki, Kx = o.K
     if step > 1:  # kick and drift fused with the product K U: one pass
+        F = last_force(o.load, o.F, s.Fn)  # at t_n
         for i in range(n):
             ku = 0.0
             for kk in range(Kp[i], Kp[i + 1]):
                 ku += Kx[kk] * U[Ki[kk]]
-            v = Vh[i] + c[i] * (o.F[i] - ku)
+            v = Vh[i] + c[i] * (F[i] - ku)
             Vh[i] = v
             Un[i] = U[i] + dt * v
     else:
@@ -683,16 +675,19 @@ def central_step(o, s, step):  # pragma: no cover - compiled
                     Un[i] += dt * c[i] * Gx[kk] * lj
                     Vh[i] += c[i] * Gx[kk] * lj
     U[:] = Un
+    force_at(o.load, o.F, step * dt, s.vals, s.Fn)  # the next kick's and the sample's
     return OK
 
 
 @njit(cache=True)
 def central_sample(o, s):  # pragma: no cover - compiled
-    """The energy with the velocity V^n = V^{n-1/2} + dt/2 M^-1 (F - K U^n)."""
+    """The energy with the velocity V^n = V^{n-1/2} + dt/2 M^-1 (F(t_n) - K U^n) (the
+    energy's potential with the constant F)."""
     U, tmp, m, F = s.U, s.tmp, o.m, o.F
+    Ft = last_force(o.load, F, s.Fn)
     matvec(o.K, U, tmp)
     for i in range(U.size):
-        tmp[i] = s.Vh[i] + 0.5 * o.dt * ((F[i] - tmp[i]) / m[i])
+        tmp[i] = s.Vh[i] + 0.5 * o.dt * ((Ft[i] - tmp[i]) / m[i])
     e = -(F @ U) + o.offset
     for i in range(U.size):
         e += 0.5 * m[i] * tmp[i] * tmp[i]
@@ -710,6 +705,7 @@ def central_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 class CentralStepper(LoopStepper):
     """`central_sparse` prepared: the diagonal mass and the initial half-step velocity."""
 
+    adds_time_load = True
     any_gap_operator = True
     loop = staticmethod(central_loop)
 
@@ -729,12 +725,14 @@ class CentralStepper(LoopStepper):
                               csr_arrays(G), selection_rows(G), meff,
                               np.asarray(p.contact.gap0, float),
                               np.asarray(p.contact.weights, float), self.dt,
-                              float(p.energy_offset))
+                              float(p.energy_offset), load_ops(p))
 
     def new_state(self) -> CentralState:
         n = self.problem.nfree
         U, Vh = (a.copy() for a in self.initial)
-        return CentralState(U, Vh, np.zeros(self.ops.sel.size), np.empty(n), np.empty(n))
+        vals, Fn = load_scratch(self.ops.load, n)
+        return CentralState(U, Vh, np.zeros(self.ops.sel.size), np.empty(n), np.empty(n),
+                            Fn, vals)
 
 
 def prepare_central(p: SparseProblem, dt: float) -> CentralStepper:
@@ -774,10 +772,11 @@ class QuasistaticOps(NamedTuple):
     gamma: float
     offset: float
     tol: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class QuasistaticState(NamedTuple):
-    """(U, V, A), the obstacle's forces mu, the active set and scratch."""
+    """(U, V, A), the obstacle's forces mu, the active set, the load and scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -793,13 +792,17 @@ class QuasistaticState(NamedTuple):
     wh: np.ndarray
     w: np.ndarray
     gf: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def quasistatic_step(o, s, step):  # pragma: no cover - compiled
     """Central differences on the dofs with mass (hv), the massless ones (mv) solved
-    from their own rows each step, with exact contact on the contact dofs among them."""
+    from their own rows each step, with exact contact on the contact dofs among them;
+    both at U_{n+1} with the load at t_{n+1}."""
     U, V, A, mu, dt, gamma = s.U, s.V, s.A, s.force, o.dt, o.gamma
+    F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
     hv, mv = o.hv, o.mv
     rm, um, rh, ah, gf = s.rm, s.um, s.rh, s.ah, s.gf
     nh, nm = hv.size, mv.size
@@ -808,7 +811,7 @@ def quasistatic_step(o, s, step):  # pragma: no cover - compiled
         U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
     matvec(o.Km, U, rm)  # K_mh u_h (the massless columns dropped)
     for b in range(nm):
-        rm[b] = o.F[mv[b]] - rm[b]
+        rm[b] = F[mv[b]] - rm[b]
     lu(o.mfac, rm, um, s.wm)
     pen = gaps(o.ct, um, gf)
     if pen:
@@ -824,7 +827,7 @@ def quasistatic_step(o, s, step):  # pragma: no cover - compiled
         U[i] = um[b]
     matvec(o.Kh, U, rh)  # (K U) on the dofs with mass
     for a in range(nh):
-        rh[a] = o.F[hv[a]] - rh[a]
+        rh[a] = F[hv[a]] - rh[a]
     if o.diag_h.size:
         for a in range(nh):
             ah[a] = rh[a] / o.diag_h[a]
@@ -847,6 +850,7 @@ class QuasistaticStepper(LoopStepper):
     """`quasistatic_sparse` prepared: K_mm and M_hh factored, the Delassus matrix and the
     initial acceleration computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(quasistatic_loop)
@@ -863,16 +867,17 @@ class QuasistaticStepper(LoopStepper):
             csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), split.hv, split.mv,
             split.Kh, split.Kmh, split.mfac, split.hfac, split.diag_h, split.ct,
             split.at_contact, np.asarray(p.contact.weights, float), self.dt, float(gamma),
-            float(p.energy_offset), split.tol)
+            float(p.energy_offset), split.tol, load_ops(p))
 
     def new_state(self) -> QuasistaticState:
         n, nh, nm = self.problem.nfree, self.ops.hv.size, self.ops.mv.size
         nc = self.ops.at_contact.size
         U, V, A = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(self.ops.load, n)
         return QuasistaticState(U, V, A, np.zeros(nc), np.zeros(nc, np.bool_),
                                 np.zeros(1, np.bool_), np.empty(nm), np.empty(nm),
                                 np.empty(nm), np.empty(nh), np.empty(nh), np.empty(nh),
-                                np.empty(n), np.empty(nc))
+                                np.empty(n), np.empty(nc), Fn, vals)
 
 
 def prepare_quasistatic(p: SparseProblem, dt: float, gamma: float = 0.5

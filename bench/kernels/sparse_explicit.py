@@ -70,6 +70,13 @@ from contact_bench.kernels.sparse import (
     response_rows,
 )
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import (
+    LoadOps,
+    force_at,
+    initial_load,
+    load_ops,
+    load_scratch,
+)
 
 #: below this many dofs with mass the eigenvalue of `omega_max_squared` is taken densely
 SMALL_DENSE = 64
@@ -109,11 +116,12 @@ class ExplicitLawOps(NamedTuple):
     dt: float
     gamma: float
     offset: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class ExplicitLawState(NamedTuple):
     """(U, V, A), the law's forces (mu, and the contact points' force fscale mu), its
-    active set and values y, scratch."""
+    active set and values y, the load, scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -131,12 +139,16 @@ class ExplicitLawState(NamedTuple):
     ah: np.ndarray
     wh: np.ndarray
     w: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def explicit_law_step(o, s, step):  # pragma: no cover - compiled
-    """Advance (U, V, A) in place (module docstring)."""
+    """Advance (U, V, A) in place (module docstring); the massless rows and A_{n+1} at
+    U_{n+1} with the load at t_{n+1}."""
     U, V, A, mu, y, dt, gamma = s.U, s.V, s.A, s.mu, s.y, o.dt, o.gamma
+    F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
     hv, mv = o.hv, o.mv
     rm, um, wm, rh, ah = s.rm, s.um, s.wm, s.rh, s.ah
     nh, nm, nc = hv.size, mv.size, o.y0.size
@@ -146,7 +158,7 @@ def explicit_law_step(o, s, step):  # pragma: no cover - compiled
     if nm:  # the massless dofs from their rows, the law solved exactly
         matvec(o.Km, U, rm)
         for b in range(nm):
-            rm[b] = o.F[mv[b]] - rm[b]
+            rm[b] = F[mv[b]] - rm[b]
         lu(o.mfac, rm, um, wm)
         for b in range(nm):
             i = mv[b]
@@ -183,7 +195,7 @@ def explicit_law_step(o, s, step):  # pragma: no cover - compiled
     matvec(o.Kh, U, rh)
     for a in range(nh):
         i = hv[a]
-        rh[a] = o.F[i] - rh[a] + s.f[i]
+        rh[a] = F[i] - rh[a] + s.f[i]
     if o.diag_h.size:
         for a in range(nh):
             ah[a] = rh[a] / o.diag_h[a]
@@ -241,6 +253,7 @@ class ExplicitLawStepper(LoopStepper):
     """`explicit_law_sparse` prepared: K'_mm and M_hh factored, the massless elimination's
     matrices, the initial acceleration and sample 0's energy and stress computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     loop = staticmethod(explicit_law_loop)
 
@@ -282,7 +295,7 @@ class ExplicitLawStepper(LoopStepper):
         hfac = Factor.of(sp.identity(1, format="csc")) if diag else Factor.of(Mhh)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
         mu0 = c * np.maximum(0.0, -(Pm @ U + y0))
-        A = initial_acceleration(p, p.F - K @ U + Qm.T @ mu0)
+        A = initial_acceleration(p, initial_load(p) - K @ U + Qm.T @ mu0)
         self.initial = (U, V, A)
         yneg = np.minimum(0.0, Pm @ U + y0)
         self.sample0 = {  # sample 0's energy and stress, with the law's terms
@@ -299,16 +312,18 @@ class ExplicitLawStepper(LoopStepper):
             Mhh.diagonal() if diag else np.zeros(0), csr_arrays(Pm), csr_arrays(Qm.T),
             csr_arrays(sp.csr_matrix(Qm[:, mv].T)), y0, c, float(law.ew),
             np.asarray(law.sc, float), float(law.fscale), W, np.ascontiguousarray(Z), keep_z,
-            np.asarray(p.contact.weights, float), self.dt, gamma, float(p.energy_offset))
+            np.asarray(p.contact.weights, float), self.dt, gamma, float(p.energy_offset),
+            load_ops(p))
 
     def new_state(self) -> ExplicitLawState:
         n, o = self.problem.nfree, self.ops
         nh, nm, nc = o.hv.size, o.mv.size, o.y0.size
         U, V, A = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(o.load, n)
         return ExplicitLawState(U, V, A, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
                                 np.empty(nc), np.empty(n), np.empty(nm), np.empty(nm),
                                 np.empty(nm), np.empty(nm), np.empty(nh), np.empty(nh),
-                                np.empty(nh), np.empty(n))
+                                np.empty(nh), np.empty(n), Fn, vals)
 
 
 def prepare_explicit_law(p: SparseProblem, dt: float, gamma: float, law: ContactLaw
@@ -407,10 +422,12 @@ class TaylorFlanaganOps(NamedTuple):
     Zc: np.ndarray
     dt: float
     offset: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class TaylorFlanaganState(NamedTuple):
-    """(U, V, A), the contact forces, the impulses mu = dt lam, the stopped set, scratch."""
+    """(U, V, A), the contact forces, the impulses mu = dt lam, the stopped set, the
+    load, scratch."""
 
     U: np.ndarray
     V: np.ndarray
@@ -422,13 +439,15 @@ class TaylorFlanaganState(NamedTuple):
     rhs: np.ndarray
     work: np.ndarray
     w: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def tf_step(o, s, step):  # pragma: no cover - compiled
     """Taylor-Flanagan on many contact dofs with a factored mass (`prepare_taylor_flanagan`);
     with a diagonal mass the acceleration's solve is a division (the factor's numbers to
-    the bit)."""
+    the bit). A_{n+1} at U_{n+1} with the load at t_{n+1}."""
     U, V, A, lam, mu, inJ, rhs, w = s.U, s.V, s.A, s.force, s.mu, s.inJ, s.rhs, s.w
     ct, Zc, dt, g = o.ct, o.Zc, o.dt, s.g
     sel, W = ct.sel, ct.W
@@ -499,9 +518,10 @@ def tf_step(o, s, step):  # pragma: no cover - compiled
     for j in range(nc):
         lam[j] = mu[j] / dt
         mu[j] = 0.0
+    F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
     matvec(o.K, U, rhs)  # A = M^-1 (F - K U)
     for i in range(n):
-        rhs[i] = o.F[i] - rhs[i]
+        rhs[i] = F[i] - rhs[i]
     if o.mdiag.size:
         for i in range(n):
             A[i] = rhs[i] / o.mdiag[i]
@@ -533,6 +553,7 @@ class TaylorFlanaganStepper(LoopStepper):
     """`taylor_flanagan_sparse` prepared: M factored, the response Z = M^-1 C^T and the
     Delassus matrix W = C Z, the initial acceleration computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     loop = staticmethod(tf_loop)
 
@@ -549,7 +570,7 @@ class TaylorFlanaganStepper(LoopStepper):
         ct = ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(p.contact.gap0, float),
                         selection_rows(G), W, np.ascontiguousarray(Z), keep_z)
         U, V = p.U0.astype(float).copy(), p.V0.astype(float).copy()
-        self.initial = (U, V, fac.solve(p.F - p.K @ U))
+        self.initial = (U, V, fac.solve(initial_load(p) - p.K @ U))
         self.gamma = 1.0  # the impulses dt lam, applied whole
         M = sp.csr_matrix(p.M)
         diagonal = M.nnz == np.count_nonzero(M.diagonal())
@@ -557,13 +578,15 @@ class TaylorFlanaganStepper(LoopStepper):
             csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float), fac.arrays,
             np.asarray(M.diagonal(), float) if diagonal else np.zeros(0), ct,
             np.asarray(p.contact.weights, float), np.ascontiguousarray(Zc), self.dt,
-            float(p.energy_offset))
+            float(p.energy_offset), load_ops(p))
 
     def new_state(self) -> TaylorFlanaganState:
         n, nc = self.problem.nfree, self.ops.ct.sel.size
         U, V, A = (a.copy() for a in self.initial)
+        vals, Fn = load_scratch(self.ops.load, n)
         return TaylorFlanaganState(U, V, A, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
-                                   np.empty(nc), np.empty(n), np.empty(n), np.empty(n))
+                                   np.empty(nc), np.empty(n), np.empty(n), np.empty(n), Fn,
+                                   vals)
 
 
 def prepare_taylor_flanagan(p: SparseProblem, dt: float) -> TaylorFlanaganStepper:

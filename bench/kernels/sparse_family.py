@@ -64,6 +64,7 @@ from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, MasslessSplit
 from contact_bench.kernels.stepper import LoopStepper, SparseStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
 
 
 class MasslessOps(NamedTuple):
@@ -83,27 +84,29 @@ class MasslessOps(NamedTuple):
     ct: ContactOps  # G restricted to the massless dofs, with K_mm's factor
     at_contact: np.ndarray  # -gap0
     tol: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 def massless_ops(split: MasslessSplit, p: SparseProblem) -> MasslessOps:
     """`MasslessOps` of a problem's split."""
     return MasslessOps(np.asarray(p.F, float), split.hv, split.mv, split.Kh, split.Kmh,
                        split.mfac, split.hfac, split.diag_h, split.ct, split.at_contact,
-                       split.tol)
+                       split.tol, load_ops(p))
 
 
 @njit(cache=True)
-def massless_solve(o, U, mu, active, warm, scr):  # pragma: no cover - compiled
-    """U[mv] <- u_m(u_h), the massless rows solved with exact contact; mu (out) the
-    obstacle's forces, active (in/out) the contact dofs on the obstacle; scr: scratch
-    (rm, um, wm of the massless dofs' size, gf of the contact's). Returns whether any
-    contact dof would penetrate without the obstacle (the LCP ran)."""
+def massless_solve(o, F, U, mu, active, warm, scr):  # pragma: no cover - compiled
+    """U[mv] <- u_m(u_h), the massless rows solved with exact contact under the load F
+    (o.F, or the time load's `force_at`); mu (out) the obstacle's forces, active (in/out)
+    the contact dofs on the obstacle; scr: scratch (rm, um, wm of the massless dofs'
+    size, gf of the contact's). Returns whether any contact dof would penetrate without
+    the obstacle (the LCP ran)."""
     rm, um, wm, gf = scr
     mv = o.mv
     nm = mv.size
     matvec(o.Km, U, rm)  # K_mh u_h
     for b in range(nm):
-        rm[b] = o.F[mv[b]] - rm[b]
+        rm[b] = F[mv[b]] - rm[b]
     lu(o.mfac, rm, um, wm)
     pen = gaps(o.ct, um, gf)
     if pen:
@@ -119,12 +122,12 @@ def massless_solve(o, U, mu, active, warm, scr):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def heavy_acceleration(o, U, rh, ah, wh):  # pragma: no cover - compiled
+def heavy_acceleration(o, F, U, rh, ah, wh):  # pragma: no cover - compiled
     """ah = M_hh^-1 (F - K U)_h (rh, wh: scratch)."""
     nh = o.hv.size
     matvec(o.Kh, U, rh)
     for a in range(nh):
-        rh[a] = o.F[o.hv[a]] - rh[a]
+        rh[a] = F[o.hv[a]] - rh[a]
     if o.diag_h.size:
         for a in range(nh):
             ah[a] = rh[a] / o.diag_h[a]
@@ -135,7 +138,9 @@ def heavy_acceleration(o, U, rh, ah, wh):  # pragma: no cover - compiled
 @njit(cache=True)
 def massless_velocity(o, V, active, rm, vm, wm):  # pragma: no cover - compiled
     """V[mv] <- d u_m / dt: K_mm v_m = -K_mh v_h, with G_A v_m = 0 on the active contact
-    points (a correction Z nu, W_AA nu = -(G v)_A)."""
+    points (a correction Z nu, W_AA nu = -(G v)_A). A time load's rate dF_m/dt is left
+    out of it (its term K_mm^-1 dF_m/dt is of the order of the space discretisation's
+    error); the displacements feel the whole load."""
     ct, mv = o.ct, o.mv
     W, Z, sel = ct.W, ct.Z, ct.sel
     nm = mv.size
@@ -191,26 +196,30 @@ class VerletState(NamedTuple):
     rh: np.ndarray
     wh: np.ndarray
     w: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def verlet_step(o, s, step):  # pragma: no cover - compiled
     """Velocity Verlet on the dofs with mass, the massless ones u_m(u_h) at every step
-    (module docstring); step 0 projects the initial state (`loop.START_PROJECTED`)."""
-    ode, U, V, A = o.ode, s.U, s.V, s.A
+    (module docstring); step 0 projects the initial state (`loop.START_PROJECTED`). The
+    massless rows and the acceleration at U_{n+1} feel the load at t_{n+1}."""
+    ode, U, V, A, dt = o.ode, s.U, s.V, s.A, o.dt
+    F = force_at(ode.load, ode.F, step * dt, s.vals, s.Fn)
     if step == 0:
-        s.was[0] = massless_solve(ode, U, s.force, s.active, False, s.scr)
-        heavy_acceleration(ode, U, s.rh, A, s.wh)
+        s.was[0] = massless_solve(ode, F, U, s.force, s.active, False, s.scr)
+        heavy_acceleration(ode, F, U, s.rh, A, s.wh)
         massless_velocity(ode, V, s.active, s.scr[0], s.scr[1], s.scr[2])
         return OK
-    hv, dt = ode.hv, o.dt
+    hv = ode.hv
     h = 0.5 * dt
     for a in range(hv.size):
         i = hv[a]
         V[i] += h * A[a]
         U[i] += dt * V[i]
-    s.was[0] = massless_solve(ode, U, s.force, s.active, s.was[0], s.scr)
-    heavy_acceleration(ode, U, s.rh, A, s.wh)
+    s.was[0] = massless_solve(ode, F, U, s.force, s.active, s.was[0], s.scr)
+    heavy_acceleration(ode, F, U, s.rh, A, s.wh)
     for a in range(hv.size):
         V[hv[a]] += h * A[a]
     return OK
@@ -234,6 +243,7 @@ class VerletStepper(LoopStepper):
     """`verlet_sparse` prepared: the massless split (`MasslessSplit`: K_mm and M_hh
     factored, the Delassus matrix) computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(verlet_loop)
@@ -250,11 +260,12 @@ class VerletStepper(LoopStepper):
     def new_state(self) -> VerletState:
         p, o = self.problem, self.ops.ode
         n, nh, nm, nc = p.nfree, o.hv.size, o.mv.size, o.at_contact.size
+        vals, Fn = load_scratch(o.load, n)
         return VerletState(p.U0.astype(float).copy(), p.V0.astype(float).copy(),
                            np.empty(nh), np.zeros(nc), np.zeros(nc, np.bool_),
                            np.zeros(1, np.bool_),
                            (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)),
-                           np.empty(nh), np.empty(nh), np.empty(n))
+                           np.empty(nh), np.empty(nh), np.empty(n), Fn, vals)
 
 
 def prepare_verlet(p: SparseProblem, dt: float) -> VerletStepper:
@@ -307,40 +318,43 @@ def massless_ode_omega(p: SparseProblem) -> float:
 
 
 @njit(cache=True)
-def ode_rhs(y, U, o, mu, active):  # pragma: no cover - compiled
-    """d/dt (u_h, v_h) = (v_h, M_hh^-1 (F - K U)_h) with U = (u_h, u_m(u_h)); U (the
-    full displacement), mu and active are scratch (active: the last evaluation's
-    contact set, the LCP's warm start)."""
+def ode_rhs(t, y, U, o, mu, active):  # pragma: no cover - compiled
+    """d/dt (u_h, v_h) = (v_h, M_hh^-1 (F(t) - K U)_h) with U = (u_h, u_m(u_h)) (the
+    massless rows under F(t) too); U (the full displacement), mu and active are scratch
+    (active: the last evaluation's contact set, the LCP's warm start)."""
     hv = o.hv
     nh, nm, nc = hv.size, o.mv.size, o.at_contact.size
+    F = force_at(o.load, o.F, t, np.empty(o.load.codes.size), np.empty(U.size))
     for a in range(nh):
         U[hv[a]] = y[a]
-    massless_solve(o, U, mu, active, True,
+    massless_solve(o, F, U, mu, active, True,
                    (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc)))
     dy = np.empty(2 * nh)
     dy[:nh] = y[nh:]
     ah = np.empty(nh)
-    heavy_acceleration(o, U, np.empty(nh), ah, np.empty(nh))
+    heavy_acceleration(o, F, U, np.empty(nh), ah, np.empty(nh))
     dy[nh:] = ah
     return dy
 
 
 @njit(cache=True)
-def ode_samples(Ys, o, U_out, V_out, lam_out):  # pragma: no cover - compiled
-    """The full samples from the integrator's (u_h, v_h) columns: u_m(u_h), its
-    derivative and the obstacle's forces (lam_out, n_c per sample)."""
+def ode_samples(Ys, ts, o, U_out, V_out, lam_out):  # pragma: no cover - compiled
+    """The full samples from the integrator's (u_h, v_h) columns at times ts: u_m(u_h),
+    its derivative and the obstacle's forces (lam_out, n_c per sample)."""
     hv = o.hv
     nh, nm, nc = hv.size, o.mv.size, o.at_contact.size
     scr = (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
     mu = np.zeros(nc)
     active = np.zeros(nc, np.bool_)
+    vals, Fn = np.empty(o.load.codes.size), np.empty(U_out.shape[1])
     for s in range(Ys.shape[1]):
         for a in range(nh):
             U_out[s, hv[a]] = Ys[a, s]
             V_out[s, hv[a]] = Ys[nh + a, s]
         U = U_out[s]
         V = V_out[s]
-        massless_solve(o, U, mu, active, False, scr)
+        F = force_at(o.load, o.F, ts[s], vals, Fn)
+        massless_solve(o, F, U, mu, active, False, scr)
         massless_velocity(o, V, active, scr[0], scr[1], scr[2])
         lam_out[s, :] = mu
 
@@ -358,8 +372,10 @@ def speed_scale(p: SparseProblem) -> float:
 class AdaptiveStepper(SparseStepper):
     """`adaptive_sparse` prepared: the massless split (`MasslessSplit`) and the absolute
     tolerances computed once; `run` integrates from t = 0 with fresh scratch arrays (the
-    LCP's warm start included), so that two runs take the same steps."""
+    LCP's warm start included), so that two runs take the same steps. The right-hand
+    side feels the time load at the integrator's stage times."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
 
@@ -396,7 +412,7 @@ class AdaptiveStepper(SparseStepper):
         active = np.zeros(nc, np.bool_)
 
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            return np.append(ode_rhs(y[:-1], U, ops, force, active), force.sum())
+            return np.append(ode_rhs(float(t), y[:-1], U, ops, force, active), force.sum())
 
         sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), self.y0.copy(), method="DOP853",
                         t_eval=t_eval, rtol=rtol, atol=self.atol)
@@ -405,7 +421,8 @@ class AdaptiveStepper(SparseStepper):
         Us = np.zeros((k, p.nfree))
         Vs = np.zeros((k, p.nfree))
         lam = np.zeros((k, nc))
-        ode_samples(np.ascontiguousarray(sol.y[:-1]), ops, Us, Vs, lam)
+        ode_samples(np.ascontiguousarray(sol.y[:-1]), np.asarray(sol.t, float), ops, Us, Vs,
+                    lam)
         energy = (0.5 * np.einsum("ij,ij->i", Vs, (p.M @ Vs.T).T)
                   + 0.5 * np.einsum("ij,ij->i", Us, (p.K @ Us.T).T) - Us @ F + p.energy_offset)
         gaps = p.gaps(Us) if nc else np.full((k, 1), np.inf)

@@ -13,7 +13,8 @@ once, `lu_solve`, the Delassus matrix W = C S^-1 C^T, `lcp_solve`).
   i.e. U^{n+1} is the projection, in the metric of S = M + beta dt^2 K, of the free
   step onto {g(U) + e g(U^{n-1}) >= 0}: the LCP on W. A diagonal S (lumped mass, beta =
   0) makes W diagonal: the projection is per dof, no solve. An active dof lands on
-  g = -e g(U^{n-1}) exactly. The sample at t_n is (U^n, (U^{n+1} - U^{n-1}) / 2 dt)
+  g = -e g(U^{n-1}) exactly. A time-dependent F is weighted over the three levels as
+  the stiffness is (F(t_n) for beta = 0). The sample at t_n is (U^n, (U^{n+1} - U^{n-1}) / 2 dt)
   with the force r^n (so the kernel runs one step past the last sample), as in 1D; with
   that centred velocity the vertical momentum obeys the trapezoid rule on the sampled
   force exactly; the impulse the kernel accumulates is that trapezoid plus dt r^0 / 2,
@@ -22,7 +23,9 @@ once, `lu_solve`, the Delassus matrix W = C S^-1 C^T, `lcp_solve`).
   S = M + theta^2 dt^2 K,
 
       S V^{n+1} = M V^n + dt (F - K U^n) - theta (1 - theta) dt^2 K V^n + C^T P^{n+1},
-      U^{n+1} = U^n + dt (theta V^{n+1} + (1 - theta) V^n),
+      U^{n+1} = U^n + dt (theta V^{n+1} + (1 - theta) V^n)
+
+  (a time-dependent F at the theta point t_n + theta dt, where U is weighted),
 
   with Newton's law 0 <= v_j^{n+1} + e v_j^n _|_ P_j >= 0 on the contact dofs whose
   predicted gap g_j(U^n) + dt/2 v_j^n is <= 0 (P_j = 0 on the others): the LCP on the
@@ -64,6 +67,7 @@ from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, initial_acceleration
 from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
 
 
 class ImpactOps(NamedTuple):
@@ -86,11 +90,12 @@ class ImpactOps(NamedTuple):
     dt: float
     offset: float
     tol: float
+    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
 
 
 class ImpactState(NamedTuple):
     """U^{n-1} (Paoli-Schatzman), U^n, V^n (Moreau-Jean), the next state X, the contact
-    forces, the LCP's unknowns and active set, scratch."""
+    forces, the LCP's unknowns and active set, the load, scratch."""
 
     Um: np.ndarray
     U: np.ndarray
@@ -107,12 +112,18 @@ class ImpactState(NamedTuple):
     gf: np.ndarray
     gm: np.ndarray
     idx: np.ndarray
+    Fn: np.ndarray
+    Fa: np.ndarray
+    Fb: np.ndarray
+    vals: np.ndarray
 
 
 @njit(cache=True)
 def ps_step(o, s, step):  # pragma: no cover - compiled
     """Paoli-Schatzman: level `step`'s contact force r^n and U^{n+1} (in X) from
-    (U^{n-1}, U^n) (module docstring); level 0 from the start (`loop.START_LEVEL`)."""
+    (U^{n-1}, U^n) (module docstring); level 0 from the start (`loop.START_LEVEL`). A
+    time load is weighted as the stiffness is: beta F(t_{n+1}) + (1 - 2 beta) F(t_n) +
+    beta F(t_{n-1}) (F(t_n) for the explicit beta = 0)."""
     Um, U, X, rhs, tmp, w, gf, gm = s.Um, s.U, s.X, s.rhs, s.tmp, s.w, s.gf, s.gm
     ct, beta, e, dt = o.ct, o.a, o.e, o.dt
     sel = ct.sel
@@ -131,8 +142,15 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         tmp[i] = (1.0 - 2.0 * beta) * U[i] + beta * Um[i]
     matvec(o.K, tmp, w)
+    F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
+    if o.load.on and beta != 0.0:
+        Fa = force_at(o.load, o.F, (step - 1) * dt, s.vals, s.Fa)
+        Fb = force_at(o.load, o.F, (step + 1) * dt, s.vals, s.Fb)
+        for i in range(n):
+            Fa[i] = beta * (Fa[i] + Fb[i]) + (1.0 - 2.0 * beta) * F[i]
+        F = Fa
     for i in range(n):
-        rhs[i] += dt2 * (o.F[i] - w[i])
+        rhs[i] += dt2 * (F[i] - w[i])
     if diag:
         for i in range(n):
             X[i] = rhs[i] / o.sdiag[i]
@@ -207,6 +225,7 @@ class PaoliSchatzmanStepper(LoopStepper):
     """`paoli_schatzman_sparse` prepared: S factored (unless diagonal), the Delassus
     matrix and the state (U^{-1}, U^0) computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(ps_loop)
@@ -248,20 +267,21 @@ class PaoliSchatzmanStepper(LoopStepper):
         self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
                              sd if diag else np.zeros(0), sw, fac.arrays, ct,
                              np.asarray(p.contact.weights, float), beta, e, dt,
-                             float(p.energy_offset), tol)
+                             float(p.energy_offset), tol, load_ops(p))
 
     def new_state(self) -> ImpactState:
         Um, U = (a.copy() for a in self.initial)
-        return impact_state(Um, U, np.zeros(0), self.ops.ct.gap0.size)
+        return impact_state(Um, U, np.zeros(0), self.ops)
 
 
-def impact_state(Um: np.ndarray, U: np.ndarray, V: np.ndarray, nc: int) -> ImpactState:
+def impact_state(Um: np.ndarray, U: np.ndarray, V: np.ndarray, o: ImpactOps) -> ImpactState:
     """A fresh `ImpactState` from (U^{-1}, U^0) or (U^0, V^0), zeroed scratch."""
-    n = U.size
+    n, nc = U.size, o.ct.gap0.size
+    vals, Fn = load_scratch(o.load, n)
     return ImpactState(Um, U, V, np.empty(n), np.zeros(nc), np.zeros(nc),
                        np.zeros(nc, np.bool_), np.zeros(1, np.bool_), np.empty(n),
                        np.empty(n), np.empty(n), np.empty(n), np.empty(nc), np.empty(nc),
-                       np.empty(nc, np.int64))
+                       np.empty(nc, np.int64), Fn, np.empty(Fn.size), np.empty(Fn.size), vals)
 
 
 def prepare_paoli_schatzman(p: SparseProblem, dt: float, e: float, beta: float
@@ -279,7 +299,8 @@ def paoli_schatzman_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int
 
 @njit(cache=True)
 def mj_step(o, s, step):  # pragma: no cover - compiled
-    """Moreau-Jean on (U, V) in place (module docstring)."""
+    """Moreau-Jean on (U, V) in place (module docstring); F is the load at the theta
+    point t_n + theta dt, where the step's velocities and stiffness are weighted."""
     U, V, X, rhs, ku, kv = s.U, s.V, s.X, s.rhs, s.tmp, s.w
     ct, theta, e, dt = o.ct, o.a, o.e, o.dt
     sel = ct.sel
@@ -288,11 +309,12 @@ def mj_step(o, s, step):  # pragma: no cover - compiled
     c = theta * (1.0 - theta) * dt * dt
     follow(ct, U, s.gf)  # a curved obstacle: its tangent at U^n
     # S X = M V + dt (F - K U) - c K V: the free velocity
+    F = force_at(o.load, o.F, (step - 1.0 + theta) * dt, s.vals, s.Fn)
     matvec(o.M, V, rhs)
     matvec(o.K, U, ku)
     matvec(o.K, V, kv)
     for i in range(n):
-        rhs[i] += dt * (o.F[i] - ku[i]) - c * kv[i]
+        rhs[i] += dt * (F[i] - ku[i]) - c * kv[i]
     lu(o.fac, rhs, X, s.work)
     # the index set: predicted gap <= 0; Newton's law on its points
     idx, mu, active, held = s.idx, s.mu, s.active, s.gm
@@ -368,11 +390,12 @@ def mjf_step(o, s, step):  # pragma: no cover - compiled
     n = U.size
     nc = ct.gap0.size
     c = theta * (1.0 - theta) * dt * dt
+    F = force_at(b.load, b.F, (step - 1.0 + theta) * dt, s.vals, s.Fn)
     matvec(b.M, V, rhs)
     matvec(b.K, U, ku)
     matvec(b.K, V, kv)
     for i in range(n):
-        rhs[i] += dt * (b.F[i] - ku[i]) - c * kv[i]
+        rhs[i] += dt * (F[i] - ku[i]) - c * kv[i]
     lu(b.fac, rhs, X, s.work)
     r, active, held, idx = s.mu, s.active, s.gm, s.idx
     nh = r.size
@@ -423,6 +446,7 @@ def mjf_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 class MoreauJeanStepper(LoopStepper):
     """`moreau_jean_sparse` prepared: S factored and the Delassus matrix computed once."""
 
+    adds_time_load = True
     any_gap_operator = True
     follows_curved = True
     loop = staticmethod(mj_loop)
@@ -444,11 +468,11 @@ class MoreauJeanStepper(LoopStepper):
         self.ops = ImpactOps(csr_arrays(p.M), csr_arrays(p.K), np.asarray(p.F, float),
                              np.zeros(0), np.zeros(0), fac.arrays, ct,
                              np.asarray(p.contact.weights, float), theta, e, dt,
-                             float(p.energy_offset), 1e-13 * vscale)
+                             float(p.energy_offset), 1e-13 * vscale, load_ops(p))
 
     def new_state(self) -> ImpactState:
         U, V = (a.copy() for a in self.initial)
-        return impact_state(np.zeros(0), U, V, self.ops.ct.gap0.size)
+        return impact_state(np.zeros(0), U, V, self.ops)
 
 
 class FrictionalMoreauJeanStepper(MoreauJeanStepper):
@@ -464,7 +488,7 @@ class FrictionalMoreauJeanStepper(MoreauJeanStepper):
 
     def new_state(self) -> ImpactState:
         U, V = (a.copy() for a in self.initial)
-        st = impact_state(np.zeros(0), U, V, self.ops.base.ct.gap0.size)
+        st = impact_state(np.zeros(0), U, V, self.ops.base)
         return st._replace(mu=np.zeros(self.ops.fr.ct.gap0.size))
 
 
