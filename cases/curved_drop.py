@@ -37,8 +37,7 @@ CURVABLE = {"hertz_sphere": 1, "disc_drop": 1, "sphere_drop": 2}
 
 class CurvedDrop(BodyCase):
     name = "curved_drop"
-    summary = ("hertz_sphere, disc_drop or sphere_drop on a rigid sphere / circle of "
-               "radius R_o (a curved obstacle)")
+    summary = "a ball or disc on a rigid sphere / circle of radius R_o (curved obstacle)"
     params = {
         "of": Param("hertz_sphere", "the scene whose plane becomes the sphere"),
         "R_o": Param(1.0, "the obstacle's radius", low=1e-3, high=1e12),

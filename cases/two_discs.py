@@ -32,8 +32,7 @@ from contact_bench.api.sparse import ContactSet, SparseProblem
 
 class TwoDiscs(BodyCase):
     name = "two_discs"
-    summary = ("two elastic discs meeting at +v and -v (two bodies: node-to-node or "
-               "node-to-segment contact)")
+    summary = "two elastic discs meeting at +v and -v (node-to-node or node-to-segment)"
     params = {
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
         "speed": Param(1.0, "each disc's speed towards the other", low=1e-6, high=10.0),

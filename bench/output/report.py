@@ -322,8 +322,11 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     runs_table = df.drop(columns=["energy_trace"], errors="ignore")
     written += write_tables(runs_table, out, "runs", prov)
     refine, dts = analysis.select(df, "refine"), analysis.select(df, "dt")
-    errors = {case: analysis.error_columns(df[df["case"] == case], error)
-              for case in dict.fromkeys(df["case"])}
+    # a scene's error columns, read on the runs its work-precision figures draw (the
+    # refinement runs, when it has them): a column filled only by other runs gets none
+    errors = {case: analysis.error_columns(
+        refine[refine["case"] == case] if (refine["case"] == case).any()
+        else df[df["case"] == case], error) for case in dict.fromkeys(df["case"])}
     wp_all = pd.concat([analysis.work_precision(refine[refine["case"] == case], errs[0])
                         for case, errs in errors.items() if errs] or [pd.DataFrame()])
     conv_all = pd.concat([
