@@ -2,12 +2,17 @@
 
     python benchmarks/memory.py [--repeat N] [--scheme S ...]   # default: N = 3, standard
 
+The peak is not `ru_maxrss` from os.wait4: Linux carries the high-water mark across fork
+and exec, so a child started by a large process (a pytest worker, a notebook) reports at
+least its parent's size. The child reads /proc/self/status instead, which belongs to the
+address space that exec created.
+
 Each configuration runs `python -m contact_bench run --case clamped_bar --scheme S --nx N
 --dt 1e-7 --T 1e-4 --stride K --format csv` (1000 steps) in N fresh processes, and
-prints the peak resident set size of each process (its own `ru_maxrss`, from
-os.wait4) as the median and the largest, in MiB (2^20 bytes), next to what grows with
-the problem: the stored samples of U and V (16 bytes per dof and sample) and the n
-doubles of one array. The issue's bound: a run at n = 1e6 over 1000 steps with
+prints the peak resident set size of each process (the VmHWM of its own address space,
+read by the process as it exits) as the median and the largest, in MiB (2^20 bytes),
+next to what grows with the problem: the stored samples of U and V (16 bytes per dof
+and sample) and the n doubles of one array. The issue's bound: a run at n = 1e6 over 1000 steps with
 `--stride 100` stays under 500 MB peak (the last column gives it in 10^6 bytes too:
 500 MB is 476.8 MiB). The n = 1e5 and stride 50 rows show what grows
 with n and with the number of samples. `--nx N` (repeatable) runs other meshes instead,
@@ -17,7 +22,6 @@ each at stride 100.
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import subprocess
 import sys
@@ -28,19 +32,36 @@ STEPS = 1000
 CONFIGS = ((100_000, 100), (1_000_000, 100), (1_000_000, 50))  # (nx, stride)
 
 
+# `python -m contact_bench ARGS`, then the process's own peak RSS (kB) on stderr's last line.
+_CHILD = """
+import runpy, sys
+sys.argv = ["contact_bench", *sys.argv[1:]]
+try:
+    runpy.run_module("contact_bench", run_name="__main__", alter_sys=True)
+except SystemExit as exc:
+    code = exc.code
+else:
+    code = 0
+with open("/proc/self/status") as f:
+    hwm = next(line.split()[1] for line in f if line.startswith("VmHWM:"))
+sys.stdout.flush()
+print("VmHWM_kB", hwm, file=sys.stderr)
+sys.exit(code)
+"""
+
+
 def peak_mb(scheme: str, nx: int, stride: int) -> float:
     """Peak RSS of one fresh `run` process, in MiB; its failure is an error."""
-    cmd = [sys.executable, "-m", "contact_bench", "run", "--case", "clamped_bar", "--scheme",
+    cmd = [sys.executable, "-c", _CHILD, "run", "--case", "clamped_bar", "--scheme",
            scheme, "--nx", str(nx), "--dt", "1e-7", "--T", f"{STEPS * 1e-7:.12g}",
            "--stride", str(stride), "--format", "csv"]
-    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    err = proc.stderr.read().decode() if proc.stderr else ""
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {err.strip()}")
-    return usage.ru_maxrss / 1024.0  # kB on Linux
+    proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True, check=False)
+    lines = proc.stderr.strip().splitlines()
+    if proc.returncode != 0 or not lines or not lines[-1].startswith("VmHWM_kB "):
+        shown = " ".join(["python -m contact_bench", *cmd[3:]])
+        raise SystemExit(f"{shown} failed ({proc.returncode}): {proc.stderr.strip()}")
+    return int(lines[-1].split()[1]) / 1024.0
 
 
 def main(argv: list[str]) -> int:
@@ -76,7 +97,7 @@ def main(argv: list[str]) -> int:
             print(f"{scheme:<16} {nx:>8} {stride:>6} {samples:>7} "
                   f"{16 * samples * nx / 2**20:>11.1f} {8 * nx / 2**20:>13.1f} "
                   f"{med:>15.1f} {max(peaks):>6.1f} {med * 2**20 / 1e6:>12.1f}")
-    print(f"peak RSS of each fresh process (os.wait4), {args.repeat} per row; "
+    print(f"peak RSS of each fresh process (its VmHWM), {args.repeat} per row; "
           f"clamped_bar, dt = 1e-7, {STEPS} steps")
     return 0
 
