@@ -44,8 +44,9 @@ published case's), group "verification"; the report tabulates their err_publishe
 against the published tolerances (`contact_bench.sweeps.analysis.verification_table`).
 The quick study leaves them out.
 
-The quick study runs the scenes' small variants instead (`StudyGrid.small`, its first
-grid, `small_T`), with fewer factors and the ends of each parameter sweep.
+The quick study runs the scenes' small variants instead (`StudyGrid.small`, `small_T`),
+each scheme on the first of `small_nx` that accepts its mass, with fewer factors and the
+ends of each parameter sweep.
 
 At most `max_samples` samples are kept per run (the stride grows with the number of
 steps): the metrics' cost grows with the samples, and the sampling interval stays
@@ -209,7 +210,7 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
         return []
     g = SPARSE_QUICK if quick else SPARSE
     ms = g["max_samples"]
-    if quick:
+    if quick:  # one mesh a scheme: the first of small_nx that accepts its mass
         variants, nxs, T = [grid.small], list(grid.small_nx[:1]), grid.small_T
     else:
         variants = list(grid.specs) if case_spec == type(base).name else [case_spec]
@@ -223,7 +224,8 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
             if scheme.cannot_run(case) or case.cannot_run(scheme):
                 tasks.append(Task(case.spec, spec, nxs[0], T=T, group="refine", timed=False))
             else:
-                runnable[spec] = scheme, _coarsest_accepted(case, scheme, nxs)
+                runnable[spec] = scheme, _coarsest_accepted(
+                    case, scheme, grid.small_nx if quick else nxs)
         # the scene's dt as a CFL on its coarsest mesh (c_max / hmin: the mesh's, the same
         # for every scheme that mesh accepts)
         scene_cfl0 = next((m[1] for _, m in runnable.values() if m and m[0] == nxs[0]), None)
@@ -234,9 +236,10 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
             cfl_r = None if cfl0 is None else float(f"{cfl0:.4g}")
             if cfl_r is not None and lim is not None:
                 cfl_r = min(cfl_r, float(f"{0.9 * lim:.4g}"))
-            for nx in nxs:
+            mine = [nx_stab] if quick else nxs
+            for nx in mine:
                 group = "refine" + (";stability" if nx == nx_stab else "") + (
-                    ";energy" if nx == nxs[-1] else "")
+                    ";energy" if nx == mine[-1] else "")
                 tasks.append(Task(case.spec, spec, nx, cfl=cfl_r, T=T, max_samples=ms,
                                   group=group))
             if cfl_r is None:  # every mesh refused: its error rows say why
