@@ -97,3 +97,24 @@ def test_the_rows_join_the_two_bodies():
         assert cols[0] % 3 == 2  # the z dofs
     assert make_case("two_balls").footprint(4).unknowns == 2 * make_case(
         "sphere_drop").footprint(4).unknowns
+
+
+def test_p2_balls_are_each_a_ball_on_the_symmetry_plane_and_keep_the_momentum():
+    """P2 (the quadratic triangle's six weights on B's facets): the matching pair equals
+    the half problem, and the turned pair keeps its momentum (penalty, nx 2, speed 3, T
+    2: the pole and the edge nodes next to it in contact, their rows spread over B's
+    facets; the impact at t = 0.505, not on a step)."""
+    spec = "penalty"
+    half = run_one("two_balls[degree=2,lift=1.515,speed=3,half=1]", spec, nx=2,
+                   T=2.0).trajectory
+    two = run_one("two_balls[degree=2,lift=1.515,speed=3]", spec, nx=2, T=2.0).trajectory
+    n = half.U.shape[1]
+    assert half.extra["peak_contact_force"] > 0.0
+    for key in ("peak_contact_force", "contact_impulse"):
+        assert _rel(half.extra[key], two.extra[key]) <= 1e-9, key
+    assert _rel(half.U, two.U[:, :n]) <= 1e-9 and _rel(2.0 * half.energy, two.energy) <= 1e-9
+    turned = run_one("two_balls[degree=2,lift=1.515,speed=3,turn_b=7]", spec, nx=2,
+                     T=2.0)
+    assert turned.row["status"] == "ok" and turned.row["err_pair_momentum"] <= 1e-11
+    # the rows off the pole acted: the turned pair is not the matching one
+    assert _rel(half.extra["contact_impulse"], turned.trajectory.extra["contact_impulse"]) > 1e-4
