@@ -213,3 +213,16 @@ def test_manufactured_orders_gives_each_scheme_a_stable_fixed_cfl(tmp_path, caps
     assert list(df["status"]) == ["ok", "ok"] and df["cfl"].nunique() == 1
     assert np.isnan(df["order_u_l2_l2"].iat[0]) and np.isfinite(df["order_u_l2_l2"].iat[1])
     assert "taylor_flanagan" in out.read_text()
+
+
+def test_node_to_segment_takes_the_two_balls(capsys):
+    """`--scene two_balls` runs the 3D pair against its half problem: at nx 2 only the
+    pole touches within T = 0.8 (a node-to-node row whatever B's mesh), so a turned B
+    gives the half problem's observables to round-off, and the momentum is kept."""
+    _script("node_to_segment").main(["--scene", "two_balls", "--scheme", "penalty[beta=0]",
+                                     "--nx", "2", "--T", "0.8"])
+    out = capsys.readouterr().out
+    assert out.startswith("penalty[beta=0], two_balls[degree=1,lift=0.505,turn_b=7]")
+    row = [c.strip() for c in out.strip().splitlines()[-1].strip("|").split("|")]
+    assert row[0] == "2" and row[1] == "past T"
+    assert all(float(c) <= 1e-12 for c in row[2:]), row

@@ -21,6 +21,8 @@ SPECS = [("disc_drop[degree=1]", (1, 2, 5)), ("disc_drop[degree=2]", (1, 3)),
          ("manufactured[dim=2]", (1, 3)), ("manufactured[dim=2,degree=2]", (1, 3)),
          ("manufactured[dim=3]", (1, 3)), ("manufactured[dim=3,degree=2]", (1, 2)),
          ("two_discs", (2,)), ("two_discs[half=1]", (2,)), ("two_discs[rings_b=1]", (2,)),
+         ("two_balls", (2,)), ("two_balls[half=1]", (2,)), ("two_balls[ball_b=lattice]", (2,)),
+         ("two_balls[ball=lattice,degree=2]", (3,)),
          ("slanted_drop", (2,)),
          ("slanted_drop[of=sphere_drop]", (2,))]
 

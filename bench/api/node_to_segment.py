@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -65,7 +66,9 @@ class Projection:
     """Where each slave point lands on a `Surface`: the facet (index into the surface),
     its local coordinate `xi` in [0, 1], the displacement `weights` N_k(xi) (n_s, k),
     the projected `point` sum_k N_k(xi) X_k of the facet's geometry (n_s, 2), the row's
-    unit `normal` (n_s, 2) and the reference gap `gap0` = (X_s - point) . normal."""
+    unit `normal` (n_s, 2) and the reference gap `gap0` = (X_s - point) . normal. In 3D
+    (`node_to_facet`) `xi` is (n_s, 3), the barycentric coordinates on a triangle, and
+    the points and normals (n_s, 3)."""
 
     facet: np.ndarray
     xi: np.ndarray
@@ -254,25 +257,27 @@ def _past_the_edge(p: np.ndarray, d: np.ndarray, surf: Surface, coeffs: list
     return None if best is None else (abs(float((p - best[3]) @ d)), *best[1:])
 
 
-def gap_rows(proj: Projection, slave_scalar: np.ndarray, surf: Surface, n_slave: int,
+def gap_rows(proj: Projection, slave_scalar: np.ndarray, surf: Any, n_slave: int,
              n_master: int) -> sp.csr_matrix:
     """G (n_s x (n_slave + n_master), CSR) over the slave body's vector dofs followed by
-    the master's (2 s + c, as `fem_nd`): row i +normal on slave scalar dof
-    slave_scalar[i], -weights * normal on its facet's master dofs (offset by n_slave);
-    exact zeros dropped."""
+    the master's (d s + c, as `fem_nd`; d = 2 or 3, the normals' length): row i +normal
+    on slave scalar dof slave_scalar[i], -weights * normal on its facet's master dofs
+    (offset by n_slave); exact zeros dropped. `surf` is a `Surface` or a 3D
+    `node_to_facet.TriangleSurface` (its `dofs` per facet)."""
     s = np.asarray(slave_scalar, np.int64)
     if s.size != proj.facet.size:
         raise ValueError(f"{s.size} slave dofs for {proj.facet.size} projections")
     n_s, k = proj.weights.shape
+    dim = proj.normal.shape[1]
     rows, cols, vals = [], [], []
-    for c in range(2):
+    for c in range(dim):
         nc = proj.normal[:, c]
         rows.append(np.arange(n_s))
-        cols.append(2 * s + c)
+        cols.append(dim * s + c)
         vals.append(nc)
         m = surf.dofs[proj.facet]  # (n_s, k)
         rows.append(np.repeat(np.arange(n_s), k))
-        cols.append((n_slave + 2 * m + c).ravel())
+        cols.append((n_slave + dim * m + c).ravel())
         vals.append((-proj.weights * nc[:, None]).ravel())
     G = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                       shape=(n_s, int(n_slave) + int(n_master)))
