@@ -43,7 +43,7 @@ class OdeAdaptive(Scheme):
     name = "ode_adaptive"
     summary = "the paper's ODE (P_U^mod) by DOP853 with error control (dt = sampling only)"
     params = {
-        "rtol": Param(1e-8, "relative tolerance of DOP853", low=1e-13, high=1e-2),
+        "rtol": Param(1e-8, "relative tolerance of DOP853", low=1e-13, high=1e-2, quick=1e-5),
         "variant": Param("first_element_massless", "where the first element's mass goes",
                          choices=REDISTRIBUTED_KINDS, aliases=MASS_ALIASES),
     }
@@ -54,7 +54,7 @@ class OdeAdaptive(Scheme):
     def traits(self, problem=None) -> Traits:
         return Traits(implicit=False, massless_contact_node=True, contact=Contact.EXACT,
                       energy=Energy.MAY_GROW if on_curved_obstacle(problem)
-                      else Energy.CONSERVED, order=None)
+                      else Energy.CONSERVED, order=None, adaptive=True)
 
     def energy_drift_bound(self, problem, dt: float) -> float | None:
         return 1e3 * self.rtol

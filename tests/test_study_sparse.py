@@ -105,3 +105,24 @@ def test_report_draws_every_error_column_of_a_scene(quick: pd.DataFrame, tmp_pat
     assert page.count('<img src="snapshots_') == sum(
         make_case(c).body(int(table[table["case"] == c]["nx"].min())) is not None
         for c in several)
+
+
+def test_a_scheme_whose_dt_only_samples_gets_no_stability_runs() -> None:
+    """ode_adaptive picks its own steps (`Traits.adaptive`): runs at other sampling
+    intervals would integrate the same ODE again; hht beside it keeps its runs."""
+    tasks = plan_sparse("two_discs", ["ode_adaptive", "hht"])
+    extra = {(make_scheme(t.scheme).name, t.group) for t in tasks
+             if t.group.startswith("stability")}
+    assert {s for s, _ in extra} == {"hht"}
+    assert any(make_scheme(t.scheme).name == "ode_adaptive" for t in tasks)
+
+
+def test_the_quick_study_runs_a_parameter_at_its_quick_value_unless_the_spec_fixes_it() -> None:
+    quick = {t.scheme for t in plan_study(quick=True, scheme_specs=["ode_adaptive"],
+                                          case_specs=["two_discs"])}
+    assert quick == {make_scheme("ode_adaptive[rtol=1e-5]").spec}
+    fixed = {t.scheme for t in plan_study(quick=True, scheme_specs=["ode_adaptive[rtol=1e-9]"],
+                                          case_specs=["two_discs"])}
+    assert fixed == {make_scheme("ode_adaptive[rtol=1e-9]").spec}
+    full = {t.scheme for t in plan_study(scheme_specs=["ode_adaptive"], case_specs=["two_discs"])}
+    assert full == {make_scheme("ode_adaptive").spec}

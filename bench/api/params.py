@@ -22,7 +22,7 @@ class Param:
 
     `sweep`: the values the published study runs the scheme at (its stability part, each
     value as a variant of the scheme; the quick study takes the first and the last), or
-    None when the study keeps the default only.
+    None when the study keeps the default only. `quick`: the quick study's value.
     """
 
     default: Any
@@ -35,6 +35,9 @@ class Param:
     #: older spellings of choices that still parse: (old, canonical) pairs
     aliases: tuple[tuple[Any, Any], ...] = ()
     sweep: tuple[Any, ...] | None = None
+    #: the value the quick study (a smoke test on tiny grids) runs the scheme at when its
+    #: spec does not fix it, e.g. a looser tolerance; None: the default
+    quick: Any = None
 
     @property
     def kind(self) -> type:

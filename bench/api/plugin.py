@@ -543,6 +543,9 @@ class Traits:
     #: the scheme applies a friction law (`ContactSet.friction` / `tresca`); a scheme
     #: without one is refused a scene with friction (`BodyCase.cannot_run`)
     friction: bool = False
+    #: the integrator picks its own steps and dt only sets the sampling (an adaptive
+    #: reference): the study plans no dt-convergence or stability runs for it
+    adaptive: bool = False
 
     def __post_init__(self) -> None:
         for name, kind in (("contact", Contact), ("energy", Energy), ("family", Family)):

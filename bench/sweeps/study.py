@@ -15,7 +15,8 @@ parameters, plus any spec given with --scheme):
   in 1 ... 1e8) at each of its values (the quick study: the first and the last), at
   three CFL; every scene declaring `stiff` (steel_bar), where each parameter value runs
   the scheme's whole CFL grid (and 0.95, 1.05 x its own limit): a map of CFL against the
-  parameter (`contact_bench.sweeps.analysis.parameter_maps`);
+  parameter (`contact_bench.sweeps.analysis.parameter_maps`); none for a scheme whose
+  dt only samples (`Traits.adaptive`);
 - energy: the refine runs at nx = nx_energy (traces of E(t) kept in the table);
 - time order away from impacts: every scheme spec of the table, measured on a smooth
   motion without contact (`contact_bench.sweeps.time_order`, outside the sweep and its
@@ -120,6 +121,8 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
     """The tasks of the study (see the module docstring)."""
     g = QUICK if quick else FULL
     specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
+    if quick:
+        specs = [_quick_spec(s) for s in specs]
     given = [s for spec in case_specs or () for s in expand_spec(spec)]
     sparse = [s for s in given if make_case(s).form != "banded1d"]
     scenes = [s for s in given if s not in sparse and not make_case(s).published]
@@ -242,8 +245,8 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
                     ";energy" if nx == mine[-1] else "")
                 tasks.append(Task(case.spec, spec, nx, cfl=cfl_r, T=T, max_samples=ms,
                                   group=group))
-            if cfl_r is None:  # every mesh refused: its error rows say why
-                continue
+            if cfl_r is None or scheme.traits().adaptive:  # every mesh refused (its
+                continue  # error rows say why), or dt only samples: nothing to destabilise
             cfls = ([f * lim for f in g["limit_factors"]] if lim is not None
                     else [f * cfl0 for f in g["dt_factors"]])
             if lim is None:  # multiples of the scene's dt (cfl0 on this mesh): one that
@@ -264,6 +267,8 @@ def plan_sparse(case_spec: str, specs: Sequence[str], quick: bool = False) -> li
 
 def _stability(case_spec: str, spec: str, g: dict) -> list[Task]:
     case, scheme = make_case(case_spec), make_scheme(spec)
+    if scheme.traits().adaptive:  # dt only samples: nothing to destabilise
+        return []
     T = g["long_t"] * float(case.T)
     ms, nx = g["max_samples"], g["nx_stab"]
 
@@ -303,6 +308,16 @@ def _param_variants(spec: str, scheme: Scheme, which: str) -> list[Scheme]:
             except Exception:  # noqa: BLE001 - a value outside the declared range: skip it
                 continue
     return out
+
+
+def _quick_spec(spec: str) -> str:
+    """The spec with the quick study's value of each parameter it does not fix
+    (`Param.quick`)."""
+    scheme = make_scheme(spec)
+    for name, param in type(scheme).params.items():
+        if param.quick is not None and f"{name}=" not in spec:
+            spec = _with_param(spec, name, param.quick)
+    return make_scheme(spec).spec
 
 
 def _with_param(spec: str, name: str, value: float | str) -> str:
