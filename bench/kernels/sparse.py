@@ -283,10 +283,11 @@ def newmark_friction_step(o, s, step):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def newmark_penalty_friction_step(o, s, step):  # pragma: no cover - compiled
-    """Newmark with penalty springs and Coulomb friction at t_{n+1} (2D): the normal
-    spring r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
-    increment T (X - U^n) from the previous step's tangential force, returned onto
-    [-mu r_n, mu r_n] (`penalty_coulomb_solve`; r = lambda beta dt^2, c = kappa beta dt^2).
+    """Newmark with penalty springs and Coulomb friction at t_{n+1}: the normal spring
+    r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
+    increment T (X - U^n) from the previous step's tangential force, returned onto the
+    disc |r_t| <= mu r_n (an interval in 2D; `penalty_coulomb_solve`; r = lambda beta
+    dt^2, c = kappa beta dt^2).
     A sliding point's tangential force is mu times its normal one, exactly. s.mu holds
     (r_n, r_t): r_t is the next step's rho."""
     b, fr = o.base, o.fr
@@ -512,16 +513,17 @@ class FrictionalNewmarkStepper(NewmarkStepper):
 
 
 class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
-    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a 2D problem with
-    Coulomb friction: `newmark_penalty_friction_step`."""
+    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a problem with
+    Coulomb friction (one tangent per point in 2D, two in 3D):
+    `newmark_penalty_friction_step`."""
 
     loop = staticmethod(newmark_penalty_friction_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
                  law: ContactLaw) -> None:
-        if p.contact.tangents.shape[0] != p.contact.size or p.contact.tresca is not None:
-            raise ValueError("penalty friction is built for 2D Coulomb friction (one tangent "
-                             "per contact point, no Tresca threshold)")
+        if p.contact.tresca is not None:
+            raise ValueError("penalty friction is built for Coulomb friction (no Tresca "
+                             "threshold)")
         super().__init__(p, dt, beta, gamma, law=law)
 
 
