@@ -1,17 +1,23 @@
 """An elastic block resting on a plane tilted by `angle`, with Coulomb friction `mu`.
 
-The block (2D plane strain, 2 x 1, lambda = mu_L = 20, rho = 1, P1 or P2, structured
-triangles, `nx` elements along the height) starts undeformed, moving downhill at `speed`,
-its bottom on the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s (its
-rotation R of `angle`: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point with
-its normal row R e_y and one tangent row, the downhill direction t.
+The block (`dim` 2: plane strain, 2 x 1, structured triangles; `dim` 3: a 2 x 1 x 1 box,
+x along the slope, y across it, z up, its bottom a shallow V resting on its ridge y = 0,
+structured tetrahedra mirrored about y = 0: `keeled_box`; lambda = mu_L = 20, rho = 1,
+P1 or P2, `nx` elements along the height) starts undeformed, moving downhill at `speed`,
+its bottom on the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s,
+tilted about the horizontal axis across the slope (y in 3D; its rotation R of `angle` in
+the x-vertical plane: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point
+with its normal row R e_vertical and dim - 1 tangent rows: the downhill direction t, and
+in 3D the horizontal e_y across the slope (the circular cone on the two).
 
 K' does not act on a rigid translation and each point's rows are unit vectors on its
 node, so while every contact point slides downhill (or is apart) its tangential impulse
-is -mu times its normal one and, step by step,
+is -mu times its normal one (in 3D: on the ridge, whose slip is downhill) and, step by
+step,
     d(p_t + mu p_n) = dt (t.F + mu n.F) = dt m g (sin(angle) - mu cos(angle))
 (p_t = t.M V, p_n = n.M V): `err_sliding_momentum` is its largest departure over the
-sample intervals with every contact point moving downhill at both ends, relative to
+sample intervals with every contact point moving downhill at both ends (in 3D the
+ridge's points do not slip across the slope: `keeled_box`), relative to
 |rate| T + |p_t + mu p_n| at T. With mu > tan(angle) the block sticks: its tangential
 momentum stays within the elastic vibration's bound (tests/test_friction.py).
 Derivation and measurements: docs/scenes.md.
@@ -44,8 +50,10 @@ class SlidingBlock(BodyCase):
                     "runs it)", low=0.0, high=10.0),
         "degree": Param(1, "polynomial degree of the elements", choices=(1, 2)),
         "speed": Param(0.2, "initial speed downhill (0: at rest)", low=0.0, high=100.0),
+        "dim": Param(2, "2: plane strain block; 3: a box (two tangents, the circular cone)",
+                     choices=(2, 3)),
     }
-    width, height = 2.0, 1.0
+    width, height, depth, keel = 2.0, 1.0, 1.0, 0.3
     lam = mu_l = 20.0
     rho, g = 1.0, 1.0
     T, nx, dt, stride = 2.0, 2, 0.01, 1
@@ -55,7 +63,9 @@ class SlidingBlock(BodyCase):
 
     def validate(self) -> None:
         #: `slanted_drop` of the same angle, vertical gravity: its rotation and tangent
-        self.tilt = make_case(f"slanted_drop[angle={float(self.angle)!r},tilt_gravity=0]")
+        of = "sphere_drop" if int(self.dim) == 3 else "disc_drop[degree=1]"
+        self.tilt = make_case(f"slanted_drop[of={of},angle={float(self.angle)!r},"
+                              "tilt_gravity=0]")
 
     @property
     def size(self) -> float:
@@ -71,37 +81,51 @@ class SlidingBlock(BodyCase):
     @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
         n = int(nx)
-        m = fe.MeshTri.init_tensor(np.linspace(-0.5 * self.width, 0.5 * self.width, 2 * n + 1),
-                                   np.linspace(0.0, self.height, n + 1))
+        x = np.linspace(-0.5 * self.width, 0.5 * self.width, 2 * n + 1)
+        z = np.linspace(0.0, self.height, n + 1)
+        m = (fe.MeshTri.init_tensor(x, z) if int(self.dim) == 2
+             else keeled_box(x, z, n, self.depth, self.keel))
         nu = self.lam / (2 * (self.lam + self.mu_l))
         E = self.mu_l * (3 * self.lam + 2 * self.mu_l) / (self.lam + self.mu_l)
         return fem_nd.assemble(m, E, nu, self.rho, degree=int(self.degree))
 
     def normal(self, p: SparseProblem) -> np.ndarray:
-        """n: the rigid translation along the plane's normal (R e_y), one value per dof."""
-        return np.tile(self.tilt.rotation(2)[:, 1], p.nfree // 2)
+        """n: the rigid translation along the plane's normal (R e_vertical), one value per
+        dof."""
+        d = int(self.dim)
+        return np.tile(self.tilt.rotation(d)[:, d - 1], p.nfree // d)
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
             raise ValueError(f"grading = {grading!r}: the block's mesh is uniform (allowed: 1)")
         body = self.body(nx)
-        facets = body.boundary_facets(lambda x: x[1] < 1e-12)
-        zone = fem_nd.contact_zone(body, facets, axis=1)
+        d = int(self.dim)
+        # the bottom (in 3D the V under the ridge: z <= keel 2 |y| / depth)
+        facets = body.boundary_facets(
+            lambda x: x[d - 1] < 1e-12 + (0.0 if d == 2 else
+                                          self.keel * 2.0 * np.abs(x[1]) / self.depth))
+        zone = fem_nd.contact_zone(body, facets, axis=d - 1)
         kind = canonical_mass(mass_kind)
         M = fem_nd.mass_matrix(body, "redistributed" if kind in REDISTRIBUTED_KINDS else kind,
                                zone.scalar)
         n = body.ndofs
-        R = self.tilt.rotation(2)
-        Q = sp.csr_matrix(sp.kron(sp.identity(n // 2), R))
+        R = self.tilt.rotation(d)
+        Q = sp.csr_matrix(sp.kron(sp.identity(n // d), R))
         K = sp.csr_matrix(Q @ body.K @ Q.T)
-        F = M @ np.tile([0.0, -self.g], n // 2)  # vertical gravity on the scheme's mass
+        down = np.zeros(d)
+        down[d - 1] = -self.g
+        F = M @ np.tile(down, n // d)  # vertical gravity on the scheme's mass
         nc = zone.scalar.size
         G = sp.csr_matrix((np.ones(nc), (np.arange(nc), zone.dofs)), shape=(nc, n)) @ Q.T
-        # the tangent rows: the downhill direction t on each contact node
-        down = self.tilt.tangent(SimpleNamespace(nfree=n, dim=2))
-        cols = np.stack([2 * zone.scalar, 2 * zone.scalar + 1], axis=1).ravel()
-        rows = np.repeat(np.arange(nc), 2)
-        T = sp.csr_matrix((down[cols], (rows, cols)), shape=(nc, n))
+        # the tangent rows, point by point (row j n_t + k: point j's k-th tangent on its
+        # node's dofs): the downhill direction t, and in 3D the horizontal across the
+        # slope (R e_y = e_y)
+        slope = self.tilt.tangent(SimpleNamespace(nfree=n, dim=d))[:d]
+        dirs = np.array([slope] + ([R[:, 1]] if d == 3 else []))
+        nt = dirs.shape[0]
+        rows = np.repeat(np.arange(nc * nt), d)
+        cols = np.repeat(d * zone.scalar[:, None] + np.arange(d)[None, :], nt, axis=0).ravel()
+        T = sp.csr_matrix((np.tile(dirs.ravel(), nc), (rows, cols)), shape=(nc * nt, n))
         G, T = sp.csr_matrix(G), sp.csr_matrix(T)
         G.eliminate_zeros()
         T.eliminate_zeros()
@@ -113,9 +137,9 @@ class SlidingBlock(BodyCase):
         # the energy's zero: gravity's potential zero on the horizontal line through the
         # plane's point under the block's centre (E(0) = m g times the centre's height)
         X = Q @ np.asarray(body.dof_coordinates).T.ravel()
-        V0 = float(self.speed) * down  # a rigid motion downhill
+        V0 = float(self.speed) * np.tile(slope, n // d)  # a rigid motion downhill
         return SparseProblem(M=M, K=K, F=F, U0=np.zeros(n), V0=V0, contact=contact,
-                             dim=2, hmin=body.hmin, c_max=body.wave_speed,
+                             dim=d, hmin=body.hmin, c_max=body.wave_speed,
                              energy_offset=float(-F @ X),
                              mass_kind=mass_kind, E_contact=self.lam + 2 * self.mu_l,
                              h_contact=fem_nd.contact_length(body, self.height / int(nx)),
@@ -126,7 +150,8 @@ class SlidingBlock(BodyCase):
         """Per sample: every contact point moves downhill (its velocity along t above
         1e-8 of the sample's largest speed: a stuck point's is round-off)."""
         V = np.asarray(V)
-        v = V @ problem.contact.tangents.T
+        nt = problem.contact.tangents.shape[0] // problem.contact.size
+        v = (V @ problem.contact.tangents.T)[:, ::nt]  # along t
         return np.all(v > 1e-8 * np.max(np.abs(V), axis=1, keepdims=True), axis=1)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
@@ -145,3 +170,28 @@ class SlidingBlock(BodyCase):
         drift = np.diff(P) - np.diff(traj.t) * rate
         scale = abs(rate) * float(traj.t[-1]) + abs(float(P[-1]))
         return {"err_sliding_momentum": float(np.max(np.abs(drift[both])) / scale)}
+
+
+def keeled_box(x: np.ndarray, z: np.ndarray, n: int, depth: float, keel: float
+               ) -> fe.MeshTet:
+    """The 3D block: the box x by [-depth/2, depth/2] by z in tetrahedra, skfem's
+    structured half y >= 0 (ceil(n / 2) layers) and its mirror image joined on y = 0
+    (the same triangles on both sides), its bottom raised into a shallow V, z -> z + keel
+    (2 |y| / depth) (1 - z / z_top): it rests on the ridge y = 0 alone. Why: a flat box
+    spreads sideways under its weight (Poisson), so its bottom points slip across the
+    slope and the circular cone turns their friction off the downhill direction; on the
+    ridge of a mirror-symmetric mesh the slip across the slope is zero (round-off) and
+    each point's friction is exactly mu times its normal force, downhill."""
+    y = np.linspace(0.0, 0.5 * depth, max(1, -(-int(n) // 2)) + 1)
+    half = fe.MeshTet.init_tensor(x, y, z)
+    p, t = half.p, half.t
+    mirror = p * np.array([[1.0], [-1.0], [1.0]])
+    on_plane = np.flatnonzero(p[1] == 0.0)
+    new = np.setdiff1d(np.arange(p.shape[1]), on_plane)
+    index = np.empty(p.shape[1], np.int64)
+    index[on_plane] = on_plane
+    index[new] = p.shape[1] + np.arange(new.size)
+    points = np.hstack([p, mirror[:, new]])
+    top = float(z[-1])
+    points[2] += keel * (2.0 * np.abs(points[1]) / depth) * (1.0 - points[2] / top)
+    return fe.MeshTet(np.ascontiguousarray(points), np.ascontiguousarray(np.hstack([t, index[t]])))

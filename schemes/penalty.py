@@ -11,9 +11,9 @@ the first element, and the stability limit uses that element's eigenvalue with t
 spring (`element_limit`). With a massless contact node the node and its spring are
 static (a softer first element): energy as `redistributed`. The penetration bound
 follows from the energy (at most twice its initial value, which the property test
-checks): kappa/2 d^2 <= W + g m d. Friction (implicit, 2D): a tangential spring kappa on
-the slip with Coulomb's return map (`newmark_penalty_friction_step`). Details:
-docs/schemes.md.
+checks): kappa/2 d^2 <= W + g m d. Friction (implicit; 2D and 3D, the circular cone): a
+tangential spring kappa on the slip with Coulomb's return map
+(`newmark_penalty_friction_step`). Details: docs/schemes.md.
 """
 
 from __future__ import annotations

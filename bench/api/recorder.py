@@ -33,7 +33,15 @@ import numpy as np
 import scipy.sparse as sp
 
 from contact_bench.api.plugin import Semidiscrete, Trajectory
-from contact_bench.core.contact_stats import contact_extra, new_stats, stats_gap
+from contact_bench.core.contact_stats import (
+    contact_extra,
+    friction_extra,
+    friction_start,
+    friction_update,
+    new_friction_book,
+    new_stats,
+    stats_gap,
+)
 from contact_bench.core.loop import START_DATA, Record, book_sample, book_step, smallest_gap
 from contact_bench.core.sampling import Samples, energy_of, is_sample, n_samples
 
@@ -73,11 +81,15 @@ class TrajectoryRecorder:
         self.stats = new_stats(samples=k)  # the compiled loop's contact statistics
         G = sp.csr_matrix(p.contact.gap_operator(n))
         curved = getattr(p.contact, "obstacle", None)  # its exact gaps
+        # the friction work, with the compiled loop's function (with friction only)
+        self.friction = new_friction_book(
+            p.contact.tangents if getattr(p.contact, "frictional", False) else None, k)
         self._rec = Record(self.t, self.U, self.V, self.contact_u, self.stress, self.energy,
                            self.stats, np.zeros(p.contact.size, np.bool_),
                            curved or (G.indptr.astype(np.int64), G.indices.astype(np.int64),
                                       G.data.astype(float)), np.asarray(p.contact.gap0, float),
-                           self.dt, float(gamma), START_DATA)
+                           self.dt, float(gamma), START_DATA, self.friction)
+        friction_start(self.friction, self._state(p.U0))
         self.min_contact_u = self._gap(p.U0, np.inf)
         stats_gap(self.stats, self.min_contact_u, 0.0)  # the free gap at t = 0
         self._forces_given = False
@@ -101,17 +113,24 @@ class TrajectoryRecorder:
         return Samples(self.t, self.U, self.V, self.contact_u, self.stress, self.energy)
 
     def record(self, step: int, U: np.ndarray, V: np.ndarray, stress: float,
-               forces: np.ndarray | None = None, energy: float | None = None) -> bool:
+               forces: np.ndarray | None = None, energy: float | None = None,
+               tangential_forces: np.ndarray | None = None) -> bool:
         """After step `step` (1 ... nsteps): the new state, its contact stress (<= 0 in
         compression), optionally the step's contact forces (one per contact point, >= 0)
         and the scheme's own energy (default: `problem.energy`, computed at samples
-        only). Returns True when the run has blown up: stop stepping then."""
+        only); on a problem with friction, the step's force on each tangent row (the
+        friction work, `contact_bench.core.contact_stats.friction_update`; None: 0).
+        Returns True when the run has blown up: stop stepping then."""
         self.steps_done = step
         gap = self._gap(U, np.inf)
         self.min_contact_u = min(self.min_contact_u, gap)
         if forces is not None:  # the compiled loop's statistics, impulse included
             self._forces_given = True
             book_step(self._rec, self._state(forces), gap, step)
+        if self.friction.ut.size:
+            f = (np.zeros(self.friction.ut.size) if tangential_forces is None
+                 else self._state(tangential_forces))
+            friction_update(self.friction, f, self._state(U), self._rec.gamma)
         if not is_sample(step, self.nsteps, self.stride):
             return False
         e = self.problem.energy(U, V) if energy is None else float(energy)
@@ -127,6 +146,7 @@ class TrajectoryRecorder:
         """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics;
         the contact statistics when `record` was given the forces)."""
         stats = contact_extra(self.stats, self.samples) if self._forces_given else {}
+        stats.update(friction_extra(self.friction, self.samples))
         return self.from_kernel(self.samples, self.steps_done, self.min_contact_u,
                                 self.blowup_step, **stats, **extra)
 

@@ -26,9 +26,10 @@ plain Python.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+import scipy.sparse as sp
 from numba import njit
 
 #: status switches of the contact dofs (chatter)
@@ -226,3 +227,83 @@ def contact_extra(stats: np.ndarray, samples: int | None = None) -> dict[str, An
     if stats.size > FIRST_CONTACT_IMPULSE and not np.isnan(stats[FIRST_CONTACT_IMPULSE]):
         out["first_contact_impulse"] = float(stats[FIRST_CONTACT_IMPULSE])
     return out
+
+
+# ------------------------------------------------------------------ friction work
+# (kept only for a problem with friction: a frictionless run's book has no tangent rows,
+# and its trajectory no "friction_work")
+
+
+class FrictionBook(NamedTuple):
+    """The work of the tangential contact forces on the body (`friction_update`): the
+    tangent rows T as CSR arrays (`ContactSet.tangents`; none without friction), T U and
+    the effective forces of the last step, the work so far (acc, one value) and at each
+    sample."""
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    ut: np.ndarray
+    last: np.ndarray
+    acc: np.ndarray
+    samples: np.ndarray
+
+
+def new_friction_book(tangents: Any = None, samples: int = 0) -> FrictionBook:
+    """The book of a run with tangent rows `tangents` (a sparse matrix; None: frictionless,
+    an empty book that keeps nothing) and `samples` per-sample slots."""
+    if tangents is None:
+        e = np.zeros(0)
+        return FrictionBook(np.zeros(1, np.int64), np.zeros(0, np.int64), e, e, e,
+                            np.zeros(1), e)
+    T = sp.csr_matrix(tangents, dtype=float)
+    m = T.shape[0]
+    return FrictionBook(T.indptr.astype(np.int64), T.indices.astype(np.int64),
+                        T.data.astype(float), np.zeros(m), np.zeros(m), np.zeros(1),
+                        np.zeros(int(samples)))
+
+
+@njit(cache=True)
+def friction_start(fb, U):  # pragma: no cover - compiled
+    """Start the book at the state U: T U kept, no tangential force before t = 0."""
+    for i in range(fb.ut.size):
+        acc = 0.0
+        for k in range(fb.indptr[i], fb.indptr[i + 1]):
+            acc += fb.data[k] * U[fb.indices[k]]
+        fb.ut[i] = acc
+        fb.last[i] = 0.0
+
+
+@njit(cache=True)
+def friction_update(fb, tforce, U, gamma):  # pragma: no cover - compiled
+    """Add the step's friction work: (gamma f^{n+1} + (1 - gamma) f^n) . (T U^{n+1} - T
+    U^n), f the tangential forces on the tangent rows (f^{n+1} = tforce, this step's;
+    f^n the previous step's), gamma the loop's impulse weight (`impulse_update`): the
+    step's tangential impulse over dt times the tangential displacement it moves through.
+    For Newmark with gamma = 1/2 and for Moreau-Jean's theta = 1/2 (the force its
+    impulse over dt, gamma = 1) this is exactly the tangential forces' share of the
+    energy's change over the step, so E - friction work is conserved where E is."""
+    w = 0.0
+    for i in range(fb.ut.size):
+        acc = 0.0
+        for k in range(fb.indptr[i], fb.indptr[i + 1]):
+            acc += fb.data[k] * U[fb.indices[k]]
+        w += (gamma * tforce[i] + (1.0 - gamma) * fb.last[i]) * (acc - fb.ut[i])
+        fb.ut[i] = acc
+        fb.last[i] = tforce[i]
+    fb.acc[0] += w
+
+
+@njit(cache=True)
+def friction_sample(fb, k):  # pragma: no cover - compiled
+    """Record the friction work so far as sample k's (nothing for an empty book)."""
+    if k < fb.samples.size:
+        fb.samples[k] = fb.acc[0]
+
+
+def friction_extra(fb: FrictionBook, samples: int) -> dict[str, Any]:
+    """{"friction_work": the work at each of the first `samples` samples} for a book
+    with tangent rows; {} for a frictionless run's (its trajectory unchanged)."""
+    if fb.indptr.size <= 1:
+        return {}
+    return {"friction_work": np.array(fb.samples[:samples])}

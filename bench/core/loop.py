@@ -5,8 +5,9 @@ of arrays and numbers: its operators `ops`, read only, and its state `st`, advan
 place):
 
 * `step(ops, st, n) -> int`: advance from step n - 1 to step n; leave the step's contact
-  force of each contact point (>= 0, the one its velocity update feels) in `st.force`;
-  return `OK`, or `BLOWN` when the state is no longer finite (the run stops there);
+  force of each contact point (>= 0, the one its velocity update feels) in `st.force`,
+  and a frictional step the force on each tangent row in `st.tforce`; return `OK`, or
+  `BLOWN` when the state is no longer finite (the run stops there);
 * `sample(ops, st) -> (energy, stress, V)`: the sampled energy, stress and velocity of
   the state reached (a scheme whose velocity is not a state, or is staggered, computes
   it here).
@@ -14,9 +15,10 @@ place):
 `drive(step, sample, ops, st, rec, nsteps, stride)` makes the steps and does the
 bookkeeping, here and nowhere else: the contact statistics (chatter, first contact with
 its start and end interpolated within the step from the smallest gap, peak force,
-impulse: `contact_bench.core.contact_stats`) after every step, the smallest gap over
-every step, a sample every `stride` steps and at the last one (time, U, V,
-smallest gap, stress, energy, the impulse so far), and the blow-up rule
+impulse: `contact_bench.core.contact_stats`) and the friction work (with tangential
+forces: `contact_stats.friction_update`) after every step, the smallest gap over every
+step, a sample every `stride` steps and at the last one (time, U, V, smallest gap,
+stress, energy, the impulse and the friction work so far), and the blow-up rule
 (`contact_bench.core.sampling.blown_up`) at each sample. Each distinct step function
 compiles its own specialisation of the loop (numba dispatchers as arguments), so the
 loop costs no indirect call. `drive` is inlined into (numba `inline="always"`) and
@@ -36,7 +38,7 @@ them all.)
 statistics) and what it needs for it: the gap operator G (CSR, one row per contact
 point: gaps = gap0 + G U), the step, the impulse weight of the step's end force, and how
 the scheme starts (`START_*`). The plain-numpy `contact_bench.api.TrajectoryRecorder`
-calls the same `book_step` and `book_sample`.
+calls the same `book_step` and `book_sample` (and `friction_update`).
 """
 
 from __future__ import annotations
@@ -49,6 +51,9 @@ from numba.extending import overload
 
 from contact_bench.core.contact_stats import (
     LAST_FORCE,
+    friction_sample,
+    friction_start,
+    friction_update,
     impulse_sample,
     impulse_update,
     stats_gap,
@@ -88,6 +93,9 @@ class Record(NamedTuple):
     dt: float
     gamma: float  # the weight of the step's end force in its impulse
     start: int  # START_DATA, START_LEVEL or START_PROJECTED
+    #: the friction work's book (`contact_bench.core.contact_stats.FrictionBook`; empty
+    #: without friction)
+    friction: tuple
 
 
 def store_state(out, k, X):  # pragma: no cover - compiled through its overload
@@ -133,6 +141,23 @@ def book_step(rec, force, gap, n):  # pragma: no cover - compiled
     impulse_update(rec.stats, force, rec.dt, rec.gamma)
 
 
+def book_friction(rec, st):  # pragma: no cover - compiled through its overload
+    """The step's friction work (`friction_update`) from the tangential forces a
+    frictional step leaves in `st.tforce`; nothing for a state without them."""
+
+
+@overload(book_friction)
+def _book_friction_compiled(rec, st):  # pragma: no cover - compiled
+    if "tforce" in getattr(st, "fields", ()):
+        def book(rec, st):
+            friction_update(rec.friction, st.tforce, st.U, rec.gamma)
+        return book
+
+    def none(rec, st):
+        pass
+    return none
+
+
 @njit(cache=True)
 def book_sample(rec, k, t, U, V, stress, e):  # pragma: no cover - compiled
     """Write sample k (time t, U, V, the smallest gap, stress, energy e, the impulse so
@@ -144,6 +169,7 @@ def book_sample(rec, k, t, U, V, stress, e):  # pragma: no cover - compiled
     rec.stress[k] = stress
     rec.energy[k] = e
     impulse_sample(rec.stats, k)
+    friction_sample(rec.friction, k)
     return blown_up(e, rec.energy[0])
 
 
@@ -162,6 +188,7 @@ def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - com
         e, stress, V = sample(ops, st)
         rec.energy[0] = e
         book_sample(rec, 0, 0.0, st.U, V, stress, e)
+    friction_start(rec.friction, st.U)
     min_gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
     if rec.start != START_LEVEL:
         stats_gap(rec.stats, min_gap, 0.0)  # the free gap at t = 0
@@ -171,6 +198,7 @@ def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - com
             return k, n, min_gap, n
         gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
         book_step(rec, st.force, gap, n)
+        book_friction(rec, st)
         min_gap = min(min_gap, gap)
         if n % stride == 0 or n == nsteps:
             e, stress, V = sample(ops, st)

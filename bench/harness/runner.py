@@ -83,6 +83,8 @@ BASE_COLUMNS = (
     # many contact dofs (sparse problems; empty for the 1D bar)
     "chatter", "first_contact_start", "first_contact_end", "peak_contact_force",
     "symmetry_defect",
+    # the work of the tangential contact forces (problems with friction; empty without)
+    "friction_work",
     # impact by impact (`contact_bench.harness.impacts`; problems with a vertical translation)
     "impacts", "rebound_ratio", "energy_after_first_impact", "impulse_residual",
 )
@@ -485,11 +487,15 @@ def on_axis(axis: AxisView, traj: Trajectory) -> Trajectory:
 
 def contact_metrics(problem: Any, traj: Trajectory) -> dict[str, Any]:
     """The many-node contact columns of a sparse run: status switches (chatter), first
-    contact start and end, peak total contact force, and the symmetry defect (largest
-    spread of U over the groups of dofs the scene declares equal, over the samples)."""
+    contact start and end, peak total contact force, the friction work at the last
+    sample (`contact_bench.core.contact_stats.friction_update`; None without friction),
+    and the symmetry defect (largest spread of U over the groups of dofs the scene
+    declares equal, over the samples)."""
     extra = traj.extra
     out = {k: extra.get(k) for k in ("chatter", "first_contact_start", "first_contact_end",
                                        "peak_contact_force")}
+    work = extra.get("friction_work")
+    out["friction_work"] = float(work[-1]) if work is not None and len(work) else None
     groups = getattr(problem, "equal_groups", ())
     if groups and traj.U.shape[1]:  # by blocks of samples: no copy of all the samples
         rows = max(1, SYMMETRY_BLOCK // max(1, traj.U.shape[1]))

@@ -19,7 +19,7 @@ from numba import njit
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import contact_extra
+from contact_bench.core.contact_stats import FrictionBook, contact_extra, friction_extra
 from contact_bench.core.sampling import n_samples
 from contact_bench.kernels.csr import matvec
 
@@ -92,12 +92,15 @@ class SampleBuffers:
                 self.energy)
 
     def trajectory(self, k: int, done: int, min_gap: float, blow: int, dt: float,
-                   stats: np.ndarray) -> Trajectory:
+                   stats: np.ndarray, friction: FrictionBook | None = None) -> Trajectory:
         """The first k samples as a `Trajectory`: `done` steps taken, `min_gap` the
         smallest gap over every step, `blow` the blow-up step (< 0: none), the contact
         statistics `stats` (`contact_extra`) in `extra` (with `U_absmax`, `V_absmax` when
-        only some dofs were kept)."""
+        only some dofs were kept, and the friction work at each sample, `friction_extra`,
+        when the run kept it)."""
         extra = contact_extra(stats, k)
+        if friction is not None:
+            extra.update(friction_extra(friction, k))
         if self.keep is not None:
             extra.update(U_absmax=self.U_absmax[:k], V_absmax=self.V_absmax[:k])
         return Trajectory(t=self.t[:k], U=self.U[:k], V=self.V[:k], contact_u=self.gap[:k],

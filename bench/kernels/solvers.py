@@ -412,44 +412,125 @@ def _penalty_case_2d(Wl, ql, mu, c, rho, st, rl):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _penalty_point_2d(Wl, ql, mu, c, rho, rl, tmp):  # pragma: no cover - compiled
+    """2D: one point's penalty problem, its statuses tried in turn (`_penalty_case_2d`),
+    the first consistent one taken (the least inconsistent when round-off leaves none)."""
+    worst = np.inf
+    for st in (APART + SLIDE_PLUS, CONTACT + STICK, CONTACT + SLIDE_PLUS,
+               CONTACT + SLIDE_MINUS):
+        bad = _penalty_case_2d(Wl, ql, mu, c, rho[0], st, tmp)
+        if bad < worst:
+            worst = bad
+            rl[0], rl[1] = tmp[0], tmp[1]
+        if bad <= 0.0:
+            break
+
+
+@njit(cache=True)
+def _penalty_slide_3d(Wl, ql, mu, c, rho, a, rl):  # pragma: no cover - compiled
+    """3D penalty sliding along d = (cos a, sin a): rl = (r_n, mu r_n d) with r_n = -c
+    u_n; returns (z x d, z . d - mu r_n) for the trial z = rho - c u_t (the slide is
+    consistent where the first is zero and the second >= 0)."""
+    cs, sn = np.cos(a), np.sin(a)
+    den = 1.0 + c * (Wl[0, 0] + mu * (Wl[0, 1] * cs + Wl[0, 2] * sn))
+    rn = -c * ql[0] / den if den > 0.0 else -1.0
+    rl[0], rl[1], rl[2] = rn, mu * rn * cs, mu * rn * sn
+    z1 = rho[0] - c * (ql[1] + Wl[1, 0] * rl[0] + Wl[1, 1] * rl[1] + Wl[1, 2] * rl[2])
+    z2 = rho[1] - c * (ql[2] + Wl[2, 0] * rl[0] + Wl[2, 1] * rl[1] + Wl[2, 2] * rl[2])
+    return z1 * sn - z2 * cs, z1 * cs + z2 * sn - mu * rn
+
+
+@njit(cache=True)
+def _penalty_point_3d(Wl, ql, mu, c, rho, rl):  # pragma: no cover - compiled
+    """3D: one point's penalty problem with the circular cone. Apart (q_n >= 0: no
+    spring acts); stuck: (I + c Wl) rl = (-c q_n, rho - c q_t), inside the cone; else
+    sliding: r_t = mu r_n d, d = (cos a, sin a) the trial's direction, found as
+    `_coulomb_point` finds a slip direction (the cross product z x d scanned over
+    `COULOMB_ANGLES` angles, each sign change bisected to round-off)."""
+    if ql[0] >= 0.0:
+        rl[:] = 0.0
+        return
+    A = c * Wl.copy()
+    for i in range(3):
+        A[i, i] += 1.0
+    b = np.empty(3)
+    b[0], b[1], b[2] = -c * ql[0], rho[0] - c * ql[1], rho[1] - c * ql[2]
+    sol = np.linalg.solve(A, b)
+    if sol[0] >= 0.0 and np.sqrt(sol[1] * sol[1] + sol[2] * sol[2]) <= mu * sol[0]:
+        rl[:] = sol
+        return
+    best, best_a = np.inf, 0.0
+    lo = 0.0
+    x_lo = _penalty_slide_3d(Wl, ql, mu, c, rho, 0.0, rl)[0]
+    for m in range(1, COULOMB_ANGLES + 1):
+        hi = 2.0 * np.pi * m / COULOMB_ANGLES
+        x_hi = _penalty_slide_3d(Wl, ql, mu, c, rho, hi, rl)[0]
+        if (x_lo <= 0.0) != (x_hi <= 0.0):
+            a0, a1, f0 = lo, hi, x_lo
+            for _ in range(80):
+                am = 0.5 * (a0 + a1)
+                fm = _penalty_slide_3d(Wl, ql, mu, c, rho, am, rl)[0]
+                if (fm <= 0.0) == (f0 <= 0.0):
+                    a0, f0 = am, fm
+                else:
+                    a1 = am
+                if a1 - a0 <= 1e-16 * (1.0 + abs(a0)):
+                    break
+            am = 0.5 * (a0 + a1)
+            along = _penalty_slide_3d(Wl, ql, mu, c, rho, am, rl)[1]
+            if rl[0] >= 0.0 and along >= 0.0:
+                return
+            if -along < best:  # the least inconsistent, kept for round-off
+                best, best_a = -along, am
+        lo, x_lo = hi, x_hi
+    _penalty_slide_3d(Wl, ql, mu, c, rho, best_a, rl)
+    rl[0] = max(rl[0], 0.0)
+
+
+@njit(cache=True)
 def penalty_coulomb_solve(W, q, mu, c, rho, r):  # pragma: no cover - compiled
-    """2D penalty contact with Coulomb friction on the Delassus matrix of [normals;
-    tangents] (`coulomb_solve`'s layout): per point r_n = c max(0, -u_n) and the
-    tangential spring's return map r_t = proj_[-mu r_n, mu r_n](rho - c u_t) (rho: the
-    previous step's r_t), u = q + W r. Nonsmooth block Gauss-Seidel as `coulomb_solve`,
-    each point's six statuses tried in turn (`_penalty_case_2d`, the least inconsistent
-    kept when round-off leaves none), until a sweep changes no reaction by more than
-    `COULOMB_RTOL` of the largest; a sliding point's r_t is on the bound exactly.
-    Returns the sweeps (-1 after `COULOMB_MAX_SWEEPS`)."""
+    """Penalty contact with Coulomb friction on the Delassus matrix of [normals;
+    tangents] (`coulomb_solve`'s layout, n_t = 1 or 2 tangents per point): per point r_n
+    = c max(0, -u_n) and the tangential spring's return map r_t = proj(rho - c u_t) onto
+    the disc |r_t| <= mu r_n (an interval in 2D; rho: the previous step's r_t), u = q + W
+    r. Nonsmooth block Gauss-Seidel as `coulomb_solve`, each point's problem solved
+    exactly (2D: its statuses in turn, `_penalty_case_2d`; 3D: `_penalty_point_3d`),
+    until a sweep changes no reaction by more than `COULOMB_RTOL` of the largest; a
+    sliding point's r_t is on the bound exactly. Returns the sweeps (-1 after
+    `COULOMB_MAX_SWEEPS`)."""
     nc = mu.size
     n = q.size
+    nt = n // nc - 1
+    k = nt + 1
     u = q + W @ r
-    Wl = np.empty((2, 2))
-    ql = np.empty(2)
-    rl = np.empty(2)
+    idx = np.empty(k, np.int64)
+    Wl = np.empty((k, k))
+    ql = np.empty(k)
+    rl = np.empty(k)
     tmp = np.empty(2)
     for sweep in range(COULOMB_MAX_SWEEPS):
         dmax = 0.0
         rmax = 0.0
         for j in range(nc):
-            i0, i1 = j, nc + j
-            Wl[0, 0], Wl[0, 1], Wl[1, 0], Wl[1, 1] = W[i0, i0], W[i0, i1], W[i1, i0], W[i1, i1]
-            ql[0] = u[i0] - Wl[0, 0] * r[i0] - Wl[0, 1] * r[i1]
-            ql[1] = u[i1] - Wl[1, 0] * r[i0] - Wl[1, 1] * r[i1]
-            worst = np.inf
-            for st in (APART + SLIDE_PLUS, CONTACT + STICK, CONTACT + SLIDE_PLUS,
-                       CONTACT + SLIDE_MINUS):
-                bad = _penalty_case_2d(Wl, ql, mu[j], c[j], rho[j], st, tmp)
-                if bad < worst:
-                    worst = bad
-                    rl[0], rl[1] = tmp[0], tmp[1]
-                if bad <= 0.0:
-                    break
-            for a, i in ((0, i0), (1, i1)):
+            idx[0] = j
+            for a in range(nt):
+                idx[a + 1] = nc + j * nt + a
+            for a in range(k):
+                acc = u[idx[a]]
+                for b in range(k):
+                    Wl[a, b] = W[idx[a], idx[b]]
+                    acc -= Wl[a, b] * r[idx[b]]
+                ql[a] = acc
+            if nt == 1:
+                _penalty_point_2d(Wl, ql, mu[j], c[j], rho[j:j + 1], rl, tmp)
+            else:
+                _penalty_point_3d(Wl, ql, mu[j], c[j], rho[nt * j:nt * j + nt], rl)
+            for a in range(k):
+                i = idx[a]
                 dr = rl[a] - r[i]
                 if dr != 0.0:
-                    for k in range(n):
-                        u[k] += W[k, i] * dr
+                    for m in range(n):
+                        u[m] += W[m, i] * dr
                     r[i] = rl[a]
                     dmax = max(dmax, abs(dr))
                 rmax = max(rmax, abs(rl[a]))

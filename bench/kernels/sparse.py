@@ -230,6 +230,29 @@ def newmark_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 # ------------------------------------------------- Newmark with Coulomb friction
 
 
+class FrictionalNewmarkState(NamedTuple):
+    """`NewmarkState` with the step's force on each tangent row (`tforce`, for the loop's
+    friction work, `contact_bench.core.loop`); `mu` holds (r_n, r_t)."""
+
+    U: np.ndarray
+    V: np.ndarray
+    P: np.ndarray
+    Q: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    Fn: np.ndarray
+    vals: np.ndarray
+    rhs: np.ndarray
+    X: np.ndarray
+    work: np.ndarray
+    w: np.ndarray
+    gf: np.ndarray
+    y: np.ndarray
+    tforce: np.ndarray
+
+
 class FrictionalNewmarkOps(NamedTuple):
     """Newmark's operators (`NewmarkOps`, exact contact) and the frictional contact
     (`contact_bench.kernels.contact.Friction`)."""
@@ -276,6 +299,8 @@ def newmark_friction_step(o, s, step):  # pragma: no cover - compiled
         active[:] = False
     for j in range(nc):
         s.force[j] = r[j] / bdt2
+    for i in range(nc, r.size):
+        s.tforce[i - nc] = r[i] / bdt2
     s.was[0] = pen
     _newmark_update(b, s)
     return OK
@@ -283,10 +308,11 @@ def newmark_friction_step(o, s, step):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def newmark_penalty_friction_step(o, s, step):  # pragma: no cover - compiled
-    """Newmark with penalty springs and Coulomb friction at t_{n+1} (2D): the normal
-    spring r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
-    increment T (X - U^n) from the previous step's tangential force, returned onto
-    [-mu r_n, mu r_n] (`penalty_coulomb_solve`; r = lambda beta dt^2, c = kappa beta dt^2).
+    """Newmark with penalty springs and Coulomb friction at t_{n+1}: the normal spring
+    r_n = c max(0, -g) and a tangential spring of the same stiffness on the slip
+    increment T (X - U^n) from the previous step's tangential force, returned onto the
+    disc |r_t| <= mu r_n (an interval in 2D; `penalty_coulomb_solve`; r = lambda beta
+    dt^2, c = kappa beta dt^2).
     A sliding point's tangential force is mu times its normal one, exactly. s.mu holds
     (r_n, r_t): r_t is the next step's rho."""
     b, fr = o.base, o.fr
@@ -314,6 +340,8 @@ def newmark_penalty_friction_step(o, s, step):  # pragma: no cover - compiled
         r[:] = 0.0
     for j in range(nc):
         s.force[j] = b.fscale * r[j] / bdt2
+    for i in range(nc, r.size):
+        s.tforce[i - nc] = b.fscale * r[i] / bdt2
     s.was[0] = pen
     _newmark_update(b, s)
     return OK
@@ -500,28 +528,29 @@ class FrictionalNewmarkStepper(NewmarkStepper):
         self.ops = FrictionalNewmarkOps(self.ops, friction_ops(self.factor, p.contact,
                                                                p.nfree))
 
-    def new_state(self) -> NewmarkState:
+    def new_state(self) -> FrictionalNewmarkState:
         n, b = self.problem.nfree, self.ops.base
-        nc = b.ct.gap0.size
+        nc, nh = b.ct.gap0.size, self.ops.fr.ct.gap0.size
         U, V, P, Q = (a.copy() for a in self.initial)
         vals, Fn = load_scratch(b.load, n)
-        return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(self.ops.fr.ct.gap0.size),
-                            np.zeros(nc, np.bool_), np.zeros(1, np.bool_), Fn, vals,
-                            np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                            np.empty(nc), np.empty(nc))
+        return FrictionalNewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nh),
+                                      np.zeros(nc, np.bool_), np.zeros(1, np.bool_), Fn, vals,
+                                      np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                                      np.empty(nc), np.empty(nc), np.zeros(nh - nc))
 
 
 class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
-    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a 2D problem with
-    Coulomb friction: `newmark_penalty_friction_step`."""
+    """`NewmarkStepper` with penalty springs (`ContactLaw.friction`) on a problem with
+    Coulomb friction (one tangent per point in 2D, two in 3D):
+    `newmark_penalty_friction_step`."""
 
     loop = staticmethod(newmark_penalty_friction_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
                  law: ContactLaw) -> None:
-        if p.contact.tangents.shape[0] != p.contact.size or p.contact.tresca is not None:
-            raise ValueError("penalty friction is built for 2D Coulomb friction (one tangent "
-                             "per contact point, no Tresca threshold)")
+        if p.contact.tresca is not None:
+            raise ValueError("penalty friction is built for Coulomb friction (no Tresca "
+                             "threshold)")
         super().__init__(p, dt, beta, gamma, law=law)
 
 

@@ -370,6 +370,33 @@ def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 # ------------------------------------------------- Moreau-Jean with Coulomb friction
 
 
+class FrictionalImpactState(NamedTuple):
+    """`ImpactState` with the step's force on each tangent row (`tforce`: its impulse
+    over dt, for the loop's friction work, `contact_bench.core.loop`); `mu` holds (P_n,
+    P_t)."""
+
+    Um: np.ndarray
+    U: np.ndarray
+    V: np.ndarray
+    X: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    active: np.ndarray
+    was: np.ndarray
+    rhs: np.ndarray
+    tmp: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    gf: np.ndarray
+    gm: np.ndarray
+    idx: np.ndarray
+    Fn: np.ndarray
+    Fa: np.ndarray
+    Fb: np.ndarray
+    vals: np.ndarray
+    tforce: np.ndarray
+
+
 class FrictionalImpactOps(NamedTuple):
     """Moreau-Jean's operators (`ImpactOps`) and the frictional contact (`Friction`)."""
 
@@ -425,6 +452,8 @@ def mjf_step(o, s, step):  # pragma: no cover - compiled
         r[:] = 0.0
     for j in range(nc):
         s.force[j] = r[j] / dt
+    for i in range(nc, nh):
+        s.tforce[i - nc] = r[i] / dt
     for i in range(n):
         U[i] += dt * (theta * X[i] + (1.0 - theta) * V[i])
         V[i] = X[i]
@@ -486,10 +515,11 @@ class FrictionalMoreauJeanStepper(MoreauJeanStepper):
         self.ops = FrictionalImpactOps(self.ops, friction_ops(self.factor, p.contact,
                                                               p.nfree))
 
-    def new_state(self) -> ImpactState:
+    def new_state(self) -> FrictionalImpactState:
         U, V = (a.copy() for a in self.initial)
         st = impact_state(np.zeros(0), U, V, self.ops.base)
-        return st._replace(mu=np.zeros(self.ops.fr.ct.gap0.size))
+        nc, nh = st.force.size, self.ops.fr.ct.gap0.size
+        return FrictionalImpactState(*st._replace(mu=np.zeros(nh)), np.zeros(nh - nc))
 
 
 def prepare_moreau_jean(p: SparseProblem, dt: float, e: float, theta: float

@@ -21,7 +21,7 @@ import numpy as np
 from contact_bench.api.plugin import Stepper, Trajectory
 from contact_bench.api.problem import banded
 from contact_bench.api.sparse import SparseProblem
-from contact_bench.core.contact_stats import new_stats
+from contact_bench.core.contact_stats import new_friction_book, new_stats
 from contact_bench.core.loop import START_DATA, Record
 from contact_bench.core.obstacle import Sphere
 from contact_bench.kernels.csr import CSR, csr_arrays
@@ -125,12 +125,14 @@ class LoopStepper(SparseStepper):
             getattr(out, name)[0] = value
         stats = new_stats(self.force0, out.size)
         t, U, V, gap, stress, energy = out.arrays()
+        book = new_friction_book(p.contact.tangents if getattr(p.contact, "frictional", False)
+                                 else None, out.size)
         rec = Record(t, U, V, gap, stress, energy, stats, np.zeros(p.contact.size, np.bool_),
                      self.gap_operator(), np.asarray(p.contact.gap0, float), self.dt,
-                     float(self.gamma), int(self.start))
+                     float(self.gamma), int(self.start), book)
         k, done, min_gap, blow = type(self).loop(self.ops, self.new_state(), rec, int(nsteps),
                                                  int(stride))
-        return out.trajectory(k, done, min_gap, blow, self.dt, stats)
+        return out.trajectory(k, done, min_gap, blow, self.dt, stats, book)
 
 
 def keep_selection(traj: Trajectory, dofs: np.ndarray) -> Trajectory:
