@@ -22,7 +22,8 @@ SPECS = [("disc_drop[degree=1]", (1, 2, 5)), ("disc_drop[degree=2]", (1, 3)),
          ("manufactured[dim=3]", (1, 3)), ("manufactured[dim=3,degree=2]", (1, 2)),
          ("two_discs", (2,)), ("two_discs[half=1]", (2,)), ("two_discs[rings_b=1]", (2,)),
          ("slanted_drop", (2,)),
-         ("slanted_drop[of=sphere_drop]", (2,))]
+         ("slanted_drop[of=sphere_drop]", (2,)), ("curved_drop[of=disc_drop[degree=1]]", (2,)),
+         ("curved_drop[of=sphere_drop]", (2,))]
 
 
 @pytest.mark.parametrize("spec,nxs", SPECS)
