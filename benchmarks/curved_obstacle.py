@@ -15,7 +15,12 @@ dt 0.02, 0.01, 0.005;
 contact force sum_j lambda_j |n_j,x| (redistributed) and each scheme's largest sideways
 momentum over the impact's momentum;
 (e) the energy drift of the schemes conserving it on a fixed G (the scene's small grid),
-and the ball's vertical momentum change over the stress column's impulse (nx 8).
+and the ball's vertical momentum change over the stress column's impulse (nx 8);
+(f) the massless-contact schemes near their stability limit: redistributed[beta=0]'s
+largest energy drift on curved_drop[R_o=1] and on the plane (hertz_sphere) at nx 2 and 3
+for dt / limit = 0.50, 0.51, ..., 1.00 (the largest below 0.9, from 0.9 to 0.95, above,
+and the ratios where it passes 1 E0); at nx 2, dt = 0.01 (the scene's), the steps at which
+the pole comes on the obstacle and the top frequency of the contact state it leaves.
 """
 
 from __future__ import annotations
@@ -27,7 +32,7 @@ from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.core.obstacle import sphere_gaps
 from contact_bench.harness import run_one
 from contact_bench.kernels.kane import kane_step
-from contact_bench.kernels.sparse import newmark_step
+from contact_bench.kernels.sparse import newmark_step, quasistatic_step
 
 
 def large_radius() -> None:
@@ -123,9 +128,59 @@ def claims() -> None:
     print(f"(e) vertical momentum change / impulse {ratio:.4f}")
 
 
+def top_omega(p, rows: tuple[int, ...]) -> float:
+    """omega_max of the massless-contact ODE with the contact points `rows` held on their
+    rows of G (the reference tangent): the Schur complement on the dofs with mass of K
+    with the massless dofs solved under G_A u_m = 0 (dense: the small grid)."""
+    mv, hv = np.flatnonzero(p.massless), np.flatnonzero(~p.massless)
+    K, M = p.K.toarray(), p.M.toarray()
+    GA = sp.csr_matrix(p.contact.gap_operator(p.nfree)).toarray()[list(rows)][:, mv]
+    k = GA.shape[0]
+    kkt = np.block([[K[np.ix_(mv, mv)], GA.T], [GA, np.zeros((k, k))]])
+    X = np.linalg.solve(kkt, np.vstack([K[np.ix_(mv, hv)], np.zeros((k, hv.size))]))
+    S = K[np.ix_(hv, hv)] - K[np.ix_(mv, hv)].T @ X[:mv.size]
+    return float(np.sqrt(np.max(np.linalg.eigvals(np.linalg.solve(M[np.ix_(hv, hv)],
+                                                                   S)).real)))
+
+
+def near_the_limit() -> None:
+    scheme = make_scheme("redistributed[beta=0]")
+    ratios = np.round(np.arange(0.50, 1.0001, 0.01), 2)
+    for spec in ("curved_drop[R_o=1]", "hertz_sphere"):
+        for nx in (2, 3):
+            p = make_case(spec).sparse_problem(nx, 1.0, scheme.mass_kind())
+            limit = scheme.stability_limit(p)
+            drift = []
+            for r in ratios:
+                E = scheme.integrate(p, r * limit, int(round(17.7 / (r * limit))), 1).energy
+                drift.append(float(np.abs(E - E[0]).max() / abs(E[0])))
+            drift = np.array(drift)
+            bands = [float(drift[m].max()) for m in (ratios < 0.9, (ratios >= 0.9)
+                                                     & (ratios < 0.95), ratios >= 0.95)]
+            jumps = ", ".join(f"{r:.2f}" for r in ratios[drift > 1.0])
+            print(f"(f) {spec:<18} nx {nx} limit {limit:.5f}: largest drift "
+                  f"{bands[0]:.1e} (< 0.9), {bands[1]:.1e} (0.9-0.95), {bands[2]:.1e} "
+                  f"(>= 0.95); over 1 E0 at dt / limit = {jumps or 'none'}")
+    p = make_case("curved_drop[R_o=1]").sparse_problem(2, 1.0, scheme.mass_kind())
+    st = scheme.prepare(p, 0.01)
+    state, onsets, was = st.new_state(), [], False
+    for n in range(1, 1111):
+        quasistatic_step(st.ops, state, n)
+        on = bool(state.force[0] > 0.0)
+        if on and not was and n >= 1060:
+            onsets.append(n)
+        was = on
+    w = top_omega(p, (6,))
+    print(f"(f) dt 0.01: the pole comes on at steps {onsets} (spacing "
+          f"{sorted(set(np.diff(onsets).tolist()))}); the state with point 6 alone: "
+          f"omega_max dt = {w * 0.01:.3f}, a discrete period of "
+          f"{2 * np.pi / (2 * np.arcsin(w * 0.01 / 2)):.2f} steps")
+
+
 if __name__ == "__main__":
     large_radius()
     hertz()
     defects()
     symmetry()
     claims()
+    near_the_limit()

@@ -23,25 +23,23 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from contact_bench.api.derived import DerivedScene
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, StudyGrid
-from contact_bench.api.registry import make_case
+from contact_bench.api.plugin import StudyGrid
 from contact_bench.api.sparse import ContactSet, SparseProblem
-from contact_bench.core.errors import BenchError
 from contact_bench.core.obstacle import sphere, sphere_gaps
 from contact_bench.exact.hertz import HertzImpact
 
-#: the scenes whose plane can be replaced, with the index of their vertical axis
-CURVABLE = {"hertz_sphere": 1, "disc_drop": 1, "sphere_drop": 2}
 
-
-class CurvedDrop(BodyCase):
+class CurvedDrop(DerivedScene):
     name = "curved_drop"
     summary = "a ball or disc on a rigid sphere / circle of radius R_o (curved obstacle)"
     params = {
         "of": Param("hertz_sphere", "the scene whose plane becomes the sphere"),
         "R_o": Param(1.0, "the obstacle's radius", low=1e-3, high=1e12),
     }
+    #: the scenes whose plane can be replaced, with the index of their vertical axis
+    bases = {"hertz_sphere": 1, "disc_drop": 1, "sphere_drop": 2}
     quantities = frozenset({"hertz_contact_time", "hertz_peak_force"})
     # the quick study and the tests on the disc: the adaptive reference (DOP853) crawls
     # through the ball's nonlinear gaps
@@ -50,35 +48,18 @@ class CurvedDrop(BodyCase):
                       small_nx=(2, 3), small_T=5.0, in_default_study=False)
 
     def validate(self) -> None:
-        base = make_case(self.of)
-        if base.name not in CURVABLE:
-            raise BenchError(f"{self.spec}: of = {self.of!r}: allowed scenes "
-                             f"{', '.join(CURVABLE)}")
-        #: the scene whose plane is replaced: its mesh, material, data, grid and step
-        self.base = base
-        self.nx, self.dt, self.stride = base.nx, base.dt, base.stride
-        self.T = (round(1.25 * self.hertz().contact_time, 1) if base.name == "hertz_sphere"
-                  else base.T)
-
-    @property
-    def size(self) -> float:
-        return self.base.size
-
-    @property
-    def impact_time(self) -> float:
-        return self.base.impact_time
-
-    @property
-    def exact_energy(self) -> float:
-        return self.base.exact_energy
-
-    def body(self, nx: int):
-        return self.base.body(nx)
+        super().validate()
+        if self.base.name == "hertz_sphere":
+            self.T = round(1.25 * self.hertz().contact_time, 1)
 
     def cannot_run(self, scheme) -> str | None:
         if not scheme.follows_curved_obstacle():
             return ("the scheme's stepper keeps its gap operator fixed for the run "
                     "(Scheme.follows_curved_obstacle)")
+        if self.friction() > 0:
+            return (f"friction (mu = {self.friction():g}) on the curved obstacle (R_o = "
+                    f"{float(self.R_o):g}): the frictional steppers keep their normal and "
+                    "tangent rows fixed for the run")
         return self.base.cannot_run(scheme)
 
     def hertz(self) -> HertzImpact:
@@ -102,7 +83,7 @@ class CurvedDrop(BodyCase):
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         p = self.base.sparse_problem(nx, grading, mass_kind)
-        c, dim, v = p.contact, p.dim, CURVABLE[self.base.name]
+        c, dim, v = p.contact, p.dim, self.vertical
         X, comp = self.points(p, nx)
         sel = c.selected_dofs("curved_drop")
         level = float(np.mean(X[v, sel] - c.gap0))

@@ -23,17 +23,13 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
+from contact_bench.api.derived import DerivedScene
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, StudyGrid
-from contact_bench.api.registry import make_case
+from contact_bench.api.plugin import StudyGrid
 from contact_bench.api.sparse import ContactSet, SparseProblem
-from contact_bench.core.errors import BenchError
-
-#: the scenes that can be tilted, with the index of their vertical axis
-TILTABLE = {"disc_drop": 1, "sphere_drop": 2}
 
 
-class SlantedDrop(BodyCase):
+class SlantedDrop(DerivedScene):
     name = "slanted_drop"
     summary = "disc_drop or sphere_drop on a plane tilted by `angle` (a general gap operator)"
     params = {
@@ -43,46 +39,18 @@ class SlantedDrop(BodyCase):
                               "a rotated frame); 0: vertical gravity (the body slides)",
                               choices=(0, 1)),
     }
+    #: the scenes that can be tilted, with the index of their vertical axis
+    bases = {"disc_drop": 1, "sphere_drop": 2}
     quantities = frozenset({"plane_momentum"})
     study = StudyGrid(specs=("slanted_drop[tilt_gravity=0]",), nx=(3, 5), T=14.0,
                       small="slanted_drop[of=disc_drop[degree=1,lift=0.5],tilt_gravity=0]",
                       small_nx=(2, 3), small_T=5.0, in_default_study=False)
 
-    def validate(self) -> None:
-        base = make_case(self.of)
-        if base.name not in TILTABLE:
-            raise BenchError(f"{self.spec}: of = {self.of!r}: allowed scenes "
-                             f"{', '.join(TILTABLE)}")
-        #: the untilted scene: its mesh, material, data, grid and step are this one's
-        self.base = base
-        self.T, self.nx, self.dt, self.stride = base.T, base.nx, base.dt, base.stride
-
-    @property
-    def size(self) -> float:
-        return self.base.size
-
-    @property
-    def impact_time(self) -> float:
-        return self.base.impact_time
-
-    @property
-    def exact_energy(self) -> float:
-        return self.base.exact_energy
-
-    def body(self, nx: int):
-        return self.base.body(nx)
-
-    def footprint(self, nx: int):
-        return self.base.footprint(nx)
-
-    def cannot_run(self, scheme) -> str | None:
-        return self.base.cannot_run(scheme)
-
     def rotation(self, dim: int) -> np.ndarray:
         """R (dim x dim): the turn by `angle` in the plane of the horizontal x and the
         vertical axis."""
         a = math.radians(float(self.angle))
-        v = TILTABLE[self.base.name]
+        v = self.vertical
         R = np.eye(dim)
         R[0, 0], R[0, v], R[v, 0], R[v, v] = math.cos(a), -math.sin(a), math.sin(a), math.cos(a)
         return R
@@ -106,7 +74,7 @@ class SlantedDrop(BodyCase):
             M = sp.csr_matrix(Q @ M @ Q.T)
             M.eliminate_zeros()
         K = sp.csr_matrix(Q @ p.K @ Q.T)
-        v = TILTABLE[self.base.name]
+        v = self.vertical
         if int(self.tilt_gravity):
             F = Q @ p.F
         else:  # the base's load is its mass times -g along the vertical axis: keep it so

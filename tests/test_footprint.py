@@ -24,7 +24,8 @@ SPECS = [("disc_drop[degree=1]", (1, 2, 5)), ("disc_drop[degree=2]", (1, 3)),
          ("two_balls", (2,)), ("two_balls[half=1]", (2,)), ("two_balls[ball_b=lattice]", (2,)),
          ("two_balls[ball=lattice,degree=2]", (3,)),
          ("slanted_drop", (2,)),
-         ("slanted_drop[of=sphere_drop]", (2,))]
+         ("slanted_drop[of=sphere_drop]", (2,)), ("curved_drop[of=disc_drop[degree=1]]", (2,)),
+         ("curved_drop[of=sphere_drop]", (2,))]
 
 
 @pytest.mark.parametrize("spec,nxs", SPECS)

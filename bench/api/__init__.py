@@ -5,6 +5,7 @@ What a plugin author needs is importable from here (docs/plugin-api.md):
 `from contact_bench.api import Scheme, Traits, Contact, Energy, TrajectoryRecorder, ...`.
 """
 
+from contact_bench.api.derived import DerivedScene
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import (
     BarCase,
@@ -40,7 +41,8 @@ from contact_bench.core.sampling import (
 
 __all__ = [
     "BLOWUP_FACTOR", "BarCase", "BarProblem", "BarScale", "BenchError", "BodyCase",
-    "CallStepper", "Case", "Contact", "Energy", "Exact", "Family", "Param", "Scheme",
+    "CallStepper", "Case", "Contact", "DerivedScene", "Energy", "Exact", "Family", "Param",
+    "Scheme",
     "Semidiscrete", "Stepper", "Traits", "Trajectory", "TrajectoryRecorder", "as_problem",
     "banded", "blown_up",
     "discrete_energy", "energy_of", "energy_rows", "is_sample", "make_case", "make_scheme",

@@ -518,8 +518,10 @@ class NewmarkStepper(LoopStepper):
 class FrictionalNewmarkStepper(NewmarkStepper):
     """`NewmarkStepper` (exact contact) on a problem with friction
     (`ContactSet.frictional`): the same set-up, the stacked normal and tangent rows'
-    Delassus matrix, `newmark_friction_step`."""
+    Delassus matrix, `newmark_friction_step`. Those rows are fixed for the run, so it
+    refuses a curved obstacle (`SparseStepper`)."""
 
+    follows_curved = False
     loop = staticmethod(newmark_friction_loop)
 
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,

@@ -506,8 +506,10 @@ class MoreauJeanStepper(LoopStepper):
 
 class FrictionalMoreauJeanStepper(MoreauJeanStepper):
     """`MoreauJeanStepper` on a problem with friction (`ContactSet.frictional`): the
-    same set-up, the stacked normal and tangent rows' Delassus matrix, `mjf_step`."""
+    same set-up, the stacked normal and tangent rows' Delassus matrix, `mjf_step`. Those
+    rows are fixed for the run, so it refuses a curved obstacle (`SparseStepper`)."""
 
+    follows_curved = False
     loop = staticmethod(mjf_loop)
 
     def __init__(self, p: SparseProblem, dt: float, e: float, theta: float) -> None:

@@ -47,7 +47,17 @@ class SparseStepper(Stepper, ABC):
     def __init__(self, problem: SparseProblem, dt: float) -> None:
         if not self.any_gap_operator:
             problem.contact.selected_dofs(f"the compiled {type(self).__name__}")
-        if getattr(problem.contact, "obstacle", None) is not None and not self.follows_curved:
+        ob = getattr(problem.contact, "obstacle", None)
+        if ob is not None and not self.follows_curved:
+            c = problem.contact
+            if c.frictional:
+                law = (f"mu = {float(np.max(c.friction)):g}" if c.friction is not None
+                       and np.any(np.asarray(c.friction) > 0)
+                       else f"Tresca threshold {float(np.max(c.tresca)):g}")
+                raise ValueError(f"friction ({law}) on a curved obstacle (a sphere "
+                                 f"of radius {ob.radius:g}): the compiled "
+                                 f"{type(self).__name__} keeps its normal and tangent rows "
+                                 "fixed for the run")
             raise ValueError(f"the compiled {type(self).__name__} does not follow a curved "
                              "obstacle (its gap operator is fixed for the run)")
         if getattr(problem, "load", None) is not None and not self.adds_time_load:
