@@ -6,8 +6,10 @@ and contact_stabilized's stick bound).
 - The tangential stress Nitsche's term reads is the shear traction t . sigma(u) n: on a
   uniform shear u_x = a y of the block (its own frame) it is mu_L a along the downhill
   tangent, a value by hand.
-- The identity holds to round-off for nitsche's other thetas and contact_stabilized's
-  dke velocity too (the rigid translation sees only the point forces: docs/contact.md).
+- The identity holds to round-off for nitsche's theta = 0 and contact_stabilized's dke
+  velocity too (the rigid translation sees only the point forces: docs/contact.md); for
+  nitsche's theta = -1 at gamma0 = 5 on the coarse block it misses (a moving point that
+  Nitsche's law holds inside the bound) and holds again with gamma0 = 50 or nx 8.
 - Nitsche holds a stuck point to O(1 / gam) per step, not exactly: with gamma0 = 50 the
   block at mu 0.8 stays under the clamped stick bound (benchmarks/friction_identities.py,
   by scipy); at the default gamma0 = 5 the contact nodes creep past it at nx 2, and the
@@ -58,15 +60,27 @@ def test_the_tangential_stress_is_the_shear_traction_along_the_tangent():
     assert np.max(np.abs(p.tangential_stress @ t)) < 1e-12  # a rigid translation: none
 
 
-@pytest.mark.parametrize("scheme", ["nitsche[theta=0]", "nitsche[theta=-1]",
-                                    "contact_stabilized[velocity=dke]"])
-def test_sliding_block_momentum_identity_other_variants(scheme):
+def _identity(scheme: str, nx: int = NX) -> float:
     case = make_case(SLIDE)
-    run = run_one(SLIDE, scheme, nx=NX, T=T)
-    p = case.sparse_problem(NX, 1.0, make_scheme(scheme).mass_kind())
+    run = run_one(SLIDE, scheme, nx=nx, T=T)
+    p = case.sparse_problem(nx, 1.0, make_scheme(scheme).mass_kind())
     assert run.row["status"] == "ok"
     assert case.sliding(p, run.trajectory.V).mean() > 0.5
-    assert run.row["err_sliding_momentum"] <= 1e-9
+    return run.row["err_sliding_momentum"]
+
+
+@pytest.mark.parametrize("scheme", ["nitsche[theta=0]", "contact_stabilized[velocity=dke]"])
+def test_sliding_block_momentum_identity_other_variants(scheme):
+    assert _identity(scheme) <= 1e-9
+
+
+def test_nitsche_skew_identity_misses_only_where_gam_is_small():
+    # theta = -1, gamma0 = 5, nx 2: at two steps the heavily pressed corner moves downhill
+    # while gam (u_t^{n+1} - u_t^n) - sigma_t stays inside mu p, so Nitsche's law holds it
+    # inside the bound; gam = gamma0 E / h grows with gamma0 and 1 / h, and the miss goes
+    assert _identity("nitsche[theta=-1]") > 1e-6
+    assert _identity("nitsche[theta=-1,gamma0=50]") <= 1e-9
+    assert _identity("nitsche[theta=-1]", nx=8) <= 1e-9
 
 
 def _max_pt(scheme: str) -> tuple[float, float]:

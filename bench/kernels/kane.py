@@ -29,6 +29,10 @@ The sampled force (stress, contact statistics) is the one the velocity update fe
 applied whole at the step's end (impulse weight 1): 2 mu / h^2, plus mu_p / h^2 of the
 predictor with Klapproth's velocity.
 
+With Coulomb friction (`ContactSet.frictional`; Krause and Walloth's frictional variant)
+step 2's contact is Signorini and Coulomb together on V^{n+1} (`kane_friction_step`); the
+predictor's projection stays normal only.
+
 The bar's tridiagonal form (`prepare_kane_banded`) takes the same step in node order:
 S and M factored once (LAPACK dpttrf), their responses to a unit force at the contact
 node, S^-1 e0 and M^-1 e0, make both projections one scaled vector each.

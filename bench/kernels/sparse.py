@@ -625,7 +625,9 @@ def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
     HHT-alpha, M A1 + (1 + alpha) K U1 - alpha K U0 = F + C^T lambda, S = M + (1 + alpha)
     beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's). Exact contact on a
     problem with friction (`ContactSet.frictional`): Coulomb's law on V^{n+1}
-    (`FrictionalNewmarkStepper`); with a law, friction is refused in one line."""
+    (`FrictionalNewmarkStepper`); a law with tangential rows (Nitsche's:
+    `FrictionalNitscheStepper`) or penalty springs that take friction
+    (`FrictionalPenaltyStepper`) take theirs; any other law is refused in one line."""
     if p.contact.frictional:
         if law is not None and law.Pt is not None and kappa is None and alpha == 0.0:
             return FrictionalNitscheStepper(p, dt, beta, gamma, law)
