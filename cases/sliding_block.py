@@ -133,6 +133,10 @@ class SlidingBlock(BodyCase):
                              weights=np.asarray(zone.weights, float), face_mass=zone.face_mass,
                              operator=G, tangents=T,
                              friction=np.full(nc, float(self.mu)))
+        shear = None
+        if contact.frictional:  # Nitsche's friction term: the traction along t
+            side = float((R.T @ down[:2])[0])  # t = side R e_x on every node
+            shear = sp.csr_matrix(side * fem_nd.contact_shear(body, facets, 1, 0) @ Q.T)
         vertical = self.normal(SimpleNamespace(nfree=n))
         # the energy's zero: gravity's potential zero on the horizontal line through the
         # plane's point under the block's centre (E(0) = m g times the centre's height)
@@ -144,6 +148,7 @@ class SlidingBlock(BodyCase):
                              mass_kind=mass_kind, E_contact=self.lam + 2 * self.mu_l,
                              h_contact=fem_nd.contact_length(body, self.height / int(nx)),
                              normal_stress=sp.csr_matrix(zone.normal_stress @ Q.T),
+                             tangential_stress=shear,
                              vertical=vertical, body_mass=float(vertical @ (M @ vertical)))
 
     def sliding(self, problem: SparseProblem, V: np.ndarray) -> np.ndarray:

@@ -13,7 +13,10 @@ ContactStabilizedNewmark): no sign for its energy balance, declared "may grow" (
 growth measured). Both problems are LCPs on the Delassus matrices C M^-1 C^T and C S^-1
 C^T (`contact_bench.kernels.kane`). Readings (docs/schemes.md): no acceleration term in
 the predictor, as in the paper and Utopia; the reported contact force is the one the
-velocity update feels over the step. Order 2 away from contact; class: exact.
+velocity update feels over the step. Order 2 away from contact; class: exact. Friction
+(Krause-Walloth): the projection stays normal, step 2 takes Coulomb's law on V^{n+1}
+through the shared solver, bounded by mu times the whole normal impulse V^{n+1} feels
+(Klapproth's: the predictor's too; `contact_bench.kernels.kane.kane_friction_step`).
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ class ContactStabilized(Scheme):
     def traits(self, problem=None) -> Traits:
         energy = Energy.DISSIPATED if self.velocity == "klapproth" else Energy.MAY_GROW
         return Traits(implicit=True, massless_contact_node=False, contact=Contact.EXACT,
-                      energy=energy, order=2, family=Family.EXACT)
+                      energy=energy, order=2, family=Family.EXACT, friction=True)
 
     def stability_limit(self, problem) -> float | None:
         return None  # the trapezoidal rule: unconditionally stable

@@ -12,8 +12,10 @@ shared boundary-contact kernel (`contact_bench.kernels.boundary`): piecewise lin
 u0, solved exactly. With a massless contact node, row 0 gives u0 = max(0, u1): exact
 contact, the energy of `redistributed`, whatever theta.
 
-The energy identities, coercivity and GetFEM's NaN for theta = 1 with a redistributed
-mass (its implementation, not the scheme): docs/schemes.md and docs/comparisons.md.
+Friction (a body, implicit, 2D; Chouly-Hild-Renard's Coulomb term): the traction along t
+is tau = proj_[-mu p, mu p](sigma_t(U) - gam (u_t^{n+1} - u_t^n)), p the normal pressure,
+theta and gam the normal term's (`contact_law`). Readings, energy identities, GetFEM's NaN
+with a redistributed mass: docs/schemes.md and docs/comparisons.md.
 """
 
 from __future__ import annotations
@@ -65,7 +67,8 @@ class Nitsche(Scheme):
                       else Energy.MAY_GROW)
             contact = Contact.NITSCHE
         return Traits(implicit=self.beta > 0, massless_contact_node=massless, contact=contact,
-                      energy=energy, order=2 if self.gamma == 0.5 else 1)
+                      energy=energy, order=2 if self.gamma == 0.5 else 1,
+                      friction=self.beta > 0)
 
     def _blocks(self) -> tuple[np.ndarray, np.ndarray]:
         """First element's stiffness changes (units E/h): inactive, active."""
@@ -117,7 +120,10 @@ class Nitsche(Scheme):
         Q = gam G + theta B; K' = K - (theta / gam) B^T M_f B with the zone's consistent
         mass M_f (coercive above a mesh-dependent gamma0, which the problem's h_contact =
         element size / degree^2 keeps near 1D's 1 for P1 and P2: docs/impact-scenes.md);
-        gam = gamma0 E / h at the zone.
+        gam = gamma0 E / h at the zone. With friction (`ContactSet.frictional`) the
+        tangential rows: y_t = gam T (X - U^n) - Bt X (Bt the problem's tangential
+        stress), the force (gam T - theta Bt)^T (w / gam) tau, K' also less (theta / gam)
+        Bt^T M_f Bt (`contact_bench.kernels.sparse.newmark_nitsche_friction_step`).
         """
         semi = banded(problem)
         if semi is not None:
@@ -138,9 +144,20 @@ class Nitsche(Scheme):
         B = sp.csr_matrix(B)
         w = np.asarray(c.weights, float)
         Mf = sp.diags(w) if c.face_mass is None else sp.csr_matrix(c.face_mass)
+        K_extra = -(th / gam) * (B.T @ Mf @ B)
+        tangential = {}
+        if c.frictional:  # Chouly-Hild-Renard's tangential term (module docstring)
+            Bt, T = problem.tangential_stress, sp.csr_matrix(c.tangents)
+            if Bt is None:
+                raise ValueError("nitsche with friction needs the problem's tangential_stress")
+            Bt = sp.csr_matrix(Bt)
+            Mt = sp.kron(Mf, sp.identity(T.shape[0] // c.size))  # the tangents' layout
+            K_extra = K_extra - (th / gam) * (Bt.T @ Mt @ Bt)
+            tangential = {"Pt": sp.csr_matrix(gam * T - Bt),
+                          "Qt": sp.csr_matrix(gam * T - th * Bt), "St": gam * T}
         return ContactLaw(P=sp.csr_matrix(gam * C + B), Q=sp.csr_matrix(gam * C + th * B),
                           y0=gam * np.asarray(c.gap0, float), c=w / gam, ew=th, sc=w,
-                          K_extra=sp.csr_matrix(-(th / gam) * (B.T @ Mf @ B)), fscale=gam)
+                          K_extra=sp.csr_matrix(K_extra), fscale=gam, **tangential)
 
     def adds_time_load(self) -> bool:
         return True  # implicit: Newmark's at t_{n+1}; explicit: A_{n+1} at U_{n+1}, t_{n+1}

@@ -23,6 +23,7 @@ from scipy.sparse.linalg import spsolve
 
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness import run_one
+from contact_bench.kernels.kane import FrictionalKaneStepper
 from contact_bench.kernels.solvers import coulomb_solve
 from contact_bench.kernels.sparse import FrictionalNewmarkStepper
 from contact_bench.kernels.sparse_impact import FrictionalMoreauJeanStepper
@@ -33,14 +34,17 @@ def _newmark(sch, p, dt):
 
 
 #: the frictional schemes (Traits.friction) with their frictional stepper forced on a
-#: problem: mu = 0 runs it too, beside the frictionless path (None: penalty, whose
-#: frictional step iterates where its frictionless one solves the active set exactly)
+#: problem: mu = 0 runs it too, beside the frictionless path (None: penalty and nitsche,
+#: whose frictional step iterates where the frictionless one solves the active set exactly)
 FRICTIONAL = {"moreau_jean": lambda sch, p, dt: FrictionalMoreauJeanStepper(p, dt, sch.e,
                                                                             sch.theta),
-              "standard": _newmark, "redistributed": _newmark, "penalty": None}
+              "standard": _newmark, "redistributed": _newmark, "penalty": None, "nitsche": None,
+              "contact_stabilized": lambda sch, p, dt: FrictionalKaneStepper(
+                  p, dt, "projected_klapproth")}
 #: the schemes that hold a stuck contact exactly (the stick bound's clamped nodes);
-#: penalty's springs let the nodes move (docs/contact.md: its stick measurement)
-EXACT_STICK = ("moreau_jean", "standard", "redistributed")
+#: penalty's springs and nitsche's term let the nodes move (docs/contact.md: their
+#: stick measurements; tests/test_friction_schemes.py: nitsche's)
+EXACT_STICK = ("moreau_jean", "standard", "redistributed", "contact_stabilized")
 NX, T = 2, 1.0
 
 
@@ -149,7 +153,7 @@ def test_mu_zero_is_the_frictionless_run_bit_for_bit(scheme):
 
 
 def test_a_scheme_without_friction_is_refused_in_one_line():
-    run = run_one("sliding_block[mu=0.3]", "nitsche", nx=2, T=0.05)
+    run = run_one("sliding_block[mu=0.3]", "kane", nx=2, T=0.05)
     assert run.row["status"] == "not applicable"
     assert "Traits.friction" in run.row["notes"] and "\n" not in run.row["notes"]
-    assert run_one("sliding_block[mu=0]", "nitsche", nx=2, T=0.05).row["status"] == "ok"
+    assert run_one("sliding_block[mu=0]", "kane", nx=2, T=0.05).row["status"] == "ok"

@@ -546,7 +546,39 @@ def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
                        face_mass=Mf, normal_stress=B)
 
 
+def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) -> sp.csr_matrix:
+    """The shear traction e_direction . sigma(u) n at the scalar dofs of the contact zone
+    of `contact_zone(body, where, axis)` (same rows), n = -e_axis the body's outward
+    normal there: the L2 projection onto the zone's trace space, as the zone's
+    `normal_stress` (n_c x every vector dof; exact for uniform strains). Nitsche's
+    friction term reads it (`SparseProblem.tangential_stress`)."""
+    from scipy.sparse.linalg import splu
+
+    if not (0 <= axis < body.dim and 0 <= direction < body.dim and direction != axis):
+        raise ValueError(f"axis {axis!r} and direction {direction!r}: two different "
+                         f"components in 0..{body.dim - 1}")
+    facets = facets_of(body, where)
+    mu, a, d = body.mu, int(axis), int(direction)
+
+    @fe.BilinearForm
+    def shear(u, v, w):
+        return -2.0 * mu * sym_grad(u)[d, a] * v
+
+    fb = fe.FacetBasis(body.mesh, body.scalar.elem, facets=facets)
+    fv = fe.FacetBasis(body.mesh, fe.ElementVector(body.scalar.elem), facets=facets,
+                       quadrature=(fb.X, fb.W))
+    scalar = np.unique(body.scalar.get_dofs(facets).flatten()).astype(np.int64)
+    Mf = sp.csr_matrix(fe.BilinearForm(lambda u, v, w: u * v).assemble(fb).tocsr()[scalar][
+        :, scalar])
+    G = shear.assemble(fv, fb).tocsr()[scalar]
+    cols = np.unique(G.indices)
+    X = splu(sp.csc_matrix(Mf)).solve(G[:, cols].toarray())
+    X[np.abs(X) < 1e-14 * max(np.abs(X).max(), 1e-300)] = 0.0
+    r, k = np.nonzero(X)
+    return sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
+
+
 __all__ = ["ContactZone", "Dirichlet", "Elasticity", "Reduced", "assemble", "body_force",
-           "constrain", "contact_length", "contact_zone", "degree_of", "element_for",
-           "facets_of", "lame", "lumped", "mass_matrix", "redistributed", "sliding_dofs",
-           "tensor_mass", "vector_mass"]
+           "constrain", "contact_length", "contact_shear", "contact_zone", "degree_of",
+           "element_for", "facets_of", "lame", "lumped", "mass_matrix", "redistributed",
+           "sliding_dofs", "tensor_mass", "vector_mass"]

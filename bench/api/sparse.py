@@ -168,6 +168,10 @@ class SparseProblem:
     #: the normal stress at each contact dof as a linear map of U (n_c x n, CSR;
     #: compression negative), for Nitsche; None: not given
     normal_stress: sp.csr_matrix | None = None
+    #: the tangential traction t . sigma(U) n at each contact point along each of its
+    #: tangent rows (n_t n_c x n, CSR, `ContactSet.tangents`' layout; n the body's
+    #: outward normal), for Nitsche's friction term; None: not given
+    tangential_stress: sp.csr_matrix | None = None
     #: the rigid translation along the obstacle's normal, one value per free dof (1 on
     #: the normal components): the body's momentum V.M.vertical and free fall read it
     #: (impact by impact metrics, the momentum balance); None: the body has none (a
@@ -236,6 +240,11 @@ class SparseProblem:
                                        or c.tangents.shape[1] != n):
             raise ValueError(f"the tangent operator has shape {c.tangents.shape}, expected "
                              f"(n_t {c.size}, {n})")
+        ts = self.tangential_stress
+        if ts is not None and (c.tangents is None or ts.shape != c.tangents.shape):
+            raise ValueError(f"the tangential stress has shape {ts.shape}, expected the "
+                             "tangent operator's "
+                             f"{None if c.tangents is None else c.tangents.shape}")
         for name in ("friction", "tresca"):
             v = getattr(c, name)
             if v is not None and (np.shape(v) != (c.size,) or not np.all(np.asarray(v) >= 0)):

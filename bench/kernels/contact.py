@@ -367,6 +367,27 @@ def friction_ops(fac: Factor, contact, n: int, keep: bool | None = None) -> Fric
     return Friction(contact_ops(fac, H, gap0, keep), mu.copy(), thr.copy(), T.shape[0] // nc)
 
 
+def law_ops(fac: Factor, P: sp.spmatrix, Q: sp.spmatrix, y0: np.ndarray,
+            keep: bool | None = None) -> ContactOps:
+    """`ContactOps` of a contact law on y = P X + y0 whose force on the dofs is Q^T r
+    (Nitsche's rows: P != Q unless theta = 1) with S's factor `fac`: W = P S^-1 Q^T (not
+    symmetrised) from solves in blocks, Z = S^-1 Q^T kept under `contact_ops`' rule
+    (else the correction is one more solve with Q^T r); every row general (G = P, G^T =
+    Q^T)."""
+    P, Q = sp.csr_matrix(P, dtype=float), sp.csr_matrix(Q, dtype=float)
+    n, k = fac.n, P.shape[0]
+    keep = n * k <= KEEP_Z_ENTRIES if keep is None else bool(keep)
+    Z = np.empty((n, k)) if keep else np.zeros((1, 1))
+    W = np.empty((k, k))
+    for j0, j1, X in fac.solve_blocks(sp.csc_matrix(Q.T)):
+        if keep:
+            Z[:, j0:j1] = X
+        W[:, j0:j1] = P @ X
+    return ContactOps(csr_arrays(P), csr_arrays(sp.csr_matrix(Q.T)), np.asarray(y0, float),
+                      np.full(k, -1, np.int64), np.ascontiguousarray(W),
+                      np.ascontiguousarray(Z), keep)
+
+
 @njit(cache=True)
 def row_value(ct, i, X):  # pragma: no cover - compiled
     """H_i X for row i of a `ContactOps` (a selection row: X at its dof)."""
@@ -381,6 +402,14 @@ def coulomb(fr, pts, q, r, tol):  # pragma: no cover - compiled
     u = q + W r obeying Signorini and Coulomb / Tresca on those points
     (`coulomb_solve`); q: all rows of H (normals: gaps or velocities; tangents: slips
     in the normals' units). Returns `coulomb_solve`'s sweeps."""
+    return coulomb_bound(fr, pts, q, r, fr.thr, tol)
+
+
+@njit(cache=True)
+def coulomb_bound(fr, pts, q, r, thr, tol):  # pragma: no cover - compiled
+    """`coulomb` with the step's threshold `thr` (one value per contact point) in place
+    of Tresca's `fr.thr`: |r_t| <= thr + mu r_n (a scheme whose step applies a normal
+    impulse outside r_n adds its friction bound there: `contact_bench.kernels.kane`)."""
     nc = fr.mu.size
     nt = fr.nt
     m = pts.size
@@ -399,7 +428,7 @@ def coulomb(fr, pts, q, r, tol):  # pragma: no cover - compiled
         for b in range(k):
             Ws[a, b] = fr.ct.W[rows[a], rows[b]]
     status = np.empty(m, np.int64)
-    sweeps = coulomb_solve(Ws, qs, fr.mu[pts], fr.thr[pts], rs, status, tol)
+    sweeps = coulomb_solve(Ws, qs, fr.mu[pts], thr[pts], rs, status, tol)
     r[:] = 0.0
     for a in range(k):
         r[rows[a]] = rs[a]

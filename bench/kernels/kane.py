@@ -29,6 +29,10 @@ The sampled force (stress, contact statistics) is the one the velocity update fe
 applied whole at the step's end (impulse weight 1): 2 mu / h^2, plus mu_p / h^2 of the
 predictor with Klapproth's velocity.
 
+With Coulomb friction (`ContactSet.frictional`; Krause and Walloth's frictional variant)
+step 2's contact is Signorini and Coulomb together on V^{n+1} (`kane_friction_step`); the
+predictor's projection stays normal only.
+
 The bar's tridiagonal form (`prepare_kane_banded`) takes the same step in node order:
 S and M factored once (LAPACK dpttrf), their responses to a unit force at the contact
 node, S^-1 e0 and M^-1 e0, make both projections one scaled vector each.
@@ -48,7 +52,18 @@ from contact_bench.core.loop import OK, drive
 from contact_bench.core.sampling import blown_up, energy_rows, record_sample, row_sums
 from contact_bench.core.tridiag import Implicit, factor_pt, pt_solve, tri_matvec
 from contact_bench.kernels.common import allocate, bar_ops, run_spec, trajectory
-from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, hold, push, signorini
+from contact_bench.kernels.contact import (
+    ContactOps,
+    Friction,
+    contact_ops,
+    coulomb_bound,
+    friction_ops,
+    gaps,
+    hold,
+    push,
+    row_value,
+    signorini,
+)
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import plain_sample
@@ -106,16 +121,16 @@ class KaneState(NamedTuple):
     vals: np.ndarray
 
 
-@njit(cache=True)
-def kane_step(o, s, step):  # pragma: no cover - compiled
-    """Kane's step, with the predictor `o.predictor` (module docstring); 2 F is the sum
-    of the loads at t_n and t_{n+1} (the trapezoidal rule)."""
+@njit(inline="always")
+def _kane_free(o, s, step):  # pragma: no cover - compiled
+    """Steps 1 and 2 without the step's contact force: U~ (s.Ut; projected with the
+    projecting predictors, s.mup its multipliers) and X = S^-1 (M U~ - h^2/4 K U^n +
+    h^2/4 (F(t_n) + F(t_{n+1}))); 2 F is the sum of the loads at t_n and t_{n+1} (the
+    trapezoidal rule)."""
     U, V, Ut, X, rhs, w, work, gf = s.U, s.V, s.Ut, s.X, s.rhs, s.w, s.work, s.gf
-    mu, mup, lam, dt, predictor = s.mu, s.mup, s.force, o.dt, o.predictor
+    mup, dt, predictor = s.mup, o.dt, o.predictor
     n = U.size
-    nc = o.at_contact.size
     c = 0.25 * dt * dt
-    idt2 = 1.0 / (dt * dt)
     for i in range(n):  # 1. the predictor U^n + h V^n ...
         Ut[i] = U[i] + dt * V[i]
     mup[:] = 0.0
@@ -134,7 +149,17 @@ def kane_step(o, s, step):  # pragma: no cover - compiled
     for i in range(n):
         rhs[i] += c * (Fa[i] + Fb[i] - w[i])
     lu(o.fac, rhs, X, work)
-    s.was[0] = signorini(o.ct, o.fac, X, mu, s.active, s.was[0], o.tol, (gf, rhs, w, work))
+
+
+@njit(inline="always")
+def _kane_update(o, s, mu):  # pragma: no cover - compiled
+    """The step's force from the normal multipliers mu (and the predictor's) and step 3:
+    V^{n+1} = B + 2 / h (U^{n+1} - U~), U^{n+1} = X."""
+    U, V, Ut, X = s.U, s.V, s.Ut, s.X
+    mup, lam, dt, predictor = s.mup, s.force, o.dt, o.predictor
+    n = U.size
+    nc = o.at_contact.size
+    idt2 = 1.0 / (dt * dt)
     for j in range(nc):
         lam[j] = 2.0 * mu[j] * idt2
         if predictor == 2:
@@ -144,6 +169,15 @@ def kane_step(o, s, step):  # pragma: no cover - compiled
         base = (Ut[i] - U[i]) / dt if predictor == 2 else V[i]
         V[i] = base + 2.0 * (X[i] - Ut[i]) / dt
         U[i] = X[i]
+
+
+@njit(cache=True)
+def kane_step(o, s, step):  # pragma: no cover - compiled
+    """Kane's step, with the predictor `o.predictor` (module docstring)."""
+    _kane_free(o, s, step)
+    s.was[0] = signorini(o.ct, o.fac, s.X, s.mu, s.active, s.was[0], o.tol,
+                         (s.gf, s.rhs, s.w, s.work))
+    _kane_update(o, s, s.mu)
     return OK
 
 
@@ -174,6 +208,7 @@ class KaneStepper(LoopStepper):
         gap0 = np.asarray(p.contact.gap0, float)
         M, K = sp.csr_matrix(p.M), sp.csr_matrix(p.K)
         fac = Factor.of(M + (0.25 * h * h) * K)
+        self.factor = fac
         ct = contact_ops(fac, G, gap0, obstacle=p.contact.obstacle)
         if PREDICTORS[predictor]:
             mfac = Factor.of(M)
@@ -200,9 +235,103 @@ class KaneStepper(LoopStepper):
 def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneStepper:
     """Kane's step on `p` with step `dt` (module docstring); `predictor` one of
     `PREDICTORS`: "none" (Kane et al.), "projected" (Deuflhard-Krause-Ertel),
-    "projected_klapproth" (their predictor with Klapproth's velocity update).
+    "projected_klapproth" (their predictor with Klapproth's velocity update). With
+    friction (`ContactSet.frictional`) Coulomb's law in step 2 (`kane_friction_step`).
     ValueError when a dof has no mass."""
+    if p.contact.frictional:
+        return FrictionalKaneStepper(p, dt, predictor)
     return KaneStepper(p, dt, predictor)
+
+
+# ------------------------------------------------- Coulomb friction (Krause-Walloth)
+
+
+class FrictionalKaneOps(NamedTuple):
+    """Kane's operators (`KaneOps`) and the frictional contact (`Friction`: the stacked
+    normal and tangent rows' Delassus matrix with S's factor)."""
+
+    base: KaneOps
+    fr: Friction
+
+
+@njit(cache=True)
+def kane_friction_step(o, s, step):  # pragma: no cover - compiled
+    """Kane's step with Coulomb friction in step 2 (Krause and Walloth's frictional
+    contact-stabilized Newmark; the predictor's projection stays normal only): Signorini
+    on the gaps of U^{n+1} and Coulomb on V^{n+1} = (2 / h) (U^{n+1} - Y), Y = U~ - h B / 2
+    (affine in U^{n+1} with one positive factor: the tangent rows of X - Y are the slips
+    in the law's units), with the bound |r_t| <= thr + mu (r_n + mu_p / 2) under
+    Klapproth's velocity: the predictor's normal impulse mu_p / h enters V^{n+1} beside
+    the step's 2 r_n / h, so a sliding point's tangential impulse is mu times its whole
+    normal impulse (`coulomb_bound`); without it (dke) mu_p moves no momentum and the
+    bound is thr + mu r_n. s.mu holds (r_n, r_t), the next step's warm start."""
+    b, fr = o.base, o.fr
+    _kane_free(b, s, step)
+    U, V, Ut, X, gf, r, mup = s.U, s.V, s.Ut, s.X, s.gf, s.mu, s.mup
+    n = U.size
+    nc = b.at_contact.size
+    klap = b.predictor == 2
+    pen = gaps(b.ct, X, gf)
+    thr = fr.thr.copy()
+    if klap:
+        for j in range(nc):
+            if mup[j] > 0.0 and fr.mu[j] > 0.0:
+                thr[j] += 0.5 * fr.mu[j] * mup[j]
+                pen = True
+    if pen:
+        q = np.empty(r.size)
+        Y = np.empty(n)
+        for i in range(n):
+            Y[i] = X[i] - (0.5 * (Ut[i] + U[i]) if klap else Ut[i] - 0.5 * b.dt * V[i])
+        for j in range(nc):
+            q[j] = gf[j]
+        for i in range(nc, r.size):
+            q[i] = row_value(fr.ct, i, Y)
+        coulomb_bound(fr, np.arange(nc), q, r, thr, max(b.tol, 1e-13 * np.max(np.abs(q))))
+        push(fr.ct, b.fac, r, X, (s.rhs, s.w, s.work))
+        for j in range(nc):
+            s.active[j] = r[j] > 0.0
+        hold(b.ct, s.active, X, b.at_contact)  # in contact: the gap is 0 exactly
+    else:
+        r[:] = 0.0
+        s.active[:] = False
+    _kane_update(b, s, r)
+    return OK
+
+
+@njit(cache=True)
+def kane_friction_sample(o, s):  # pragma: no cover - compiled
+    """`plain_sample` of the base operators."""
+    return plain_sample(o.base, s)
+
+
+@njit(cache=True)
+def kane_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
+    """The one loop (`contact_bench.core.loop.drive`) with `kane_friction_step`."""
+    return drive(kane_friction_step, kane_friction_sample, ops, st, rec, nsteps, stride)
+
+
+class FrictionalKaneStepper(KaneStepper):
+    """`KaneStepper` on a problem with friction (`ContactSet.frictional`): the same
+    set-up, the stacked normal and tangent rows' Delassus matrix with S's factor,
+    `kane_friction_step`. A curved obstacle is refused (its tangent rows would stay
+    fixed while the normals follow it)."""
+
+    follows_curved = False
+    loop = staticmethod(kane_friction_loop)
+
+    def __init__(self, p: SparseProblem, dt: float, predictor: str = "none") -> None:
+        super().__init__(p, dt, predictor)
+        self.ops = FrictionalKaneOps(self.ops, friction_ops(self.factor, p.contact, p.nfree))
+
+    def new_state(self) -> KaneState:
+        n, nc = self.problem.nfree, self.ops.base.at_contact.size
+        U, V = (a.copy() for a in self.initial)
+        vals, Fa = load_scratch(self.ops.base.load, n)
+        return KaneState(U, V, np.zeros(nc), np.zeros(self.ops.fr.ct.gap0.size),
+                         np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(nc, np.bool_),
+                         np.zeros(2, np.bool_), np.empty(n), np.empty(n), np.empty(n),
+                         np.empty(n), np.empty(n), np.empty(nc), Fa, np.empty(n), vals)
 
 
 # ------------------------------------------------------------------ the bar, banded

@@ -56,6 +56,7 @@ from contact_bench.kernels.contact import (
     friction_ops,
     gaps,
     hold,
+    law_ops,
     push,
     restrict,
     row_dot,
@@ -367,6 +368,61 @@ def newmark_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - c
     return drive(newmark_friction_step, newmark_friction_sample, ops, st, rec, nsteps, stride)
 
 
+# ------------------------------------------------- Nitsche with Coulomb friction
+
+
+class NitscheFrictionOps(NamedTuple):
+    """Newmark's operators with a law (`NewmarkOps`), the law's stacked normal and
+    tangential rows (`Friction`: W = [P; Pt] S^-1 [Q; Qt]^T, Coulomb's mu) and St (the
+    slip increment's rows, CSR)."""
+
+    base: NewmarkOps
+    fr: Friction
+    St: CSR
+
+
+@njit(cache=True)
+def newmark_nitsche_friction_step(o, s, step):  # pragma: no cover - compiled
+    """Newmark with a piecewise-linear normal law and its tangential law at t_{n+1}
+    (2D; `ContactLaw.Pt`, Nitsche's friction): on y = (P X + y0, Pt X - St U^n) the
+    reactions r = c max(0, -y_n) and r_t = -proj_[-mu r_n, mu r_n](c y_t), solved
+    together by `penalty_coulomb_solve` (its return map from rho = 0: the law has no
+    memory but U^n); X += S^-1 [Q; Qt]^T r. A point whose y_t is beyond the bound has its
+    tangential force mu times its normal one, exactly. s.mu holds (r_n, r_t)."""
+    b, fr = o.base, o.fr
+    cf = fr.ct
+    nc = b.ct.gap0.size
+    bdt2 = b.beta * b.dt * b.dt
+    X, U, r = s.X, s.U, s.mu
+    _newmark_free(b, s, step)
+    q = np.empty(r.size)
+    pen = False
+    for i in range(r.size):
+        q[i] = cf.gap0[i] + row_dot(cf.G, i, X)
+        if i < nc:
+            pen = pen or q[i] < 0.0
+        else:
+            q[i] -= row_dot(o.St, i - nc, U)
+    if pen:
+        penalty_coulomb_solve(cf.W, q, fr.mu, b.cpen, np.zeros(nc), r)
+        push(cf, b.fac, r, X, (s.rhs, s.w, s.work))
+    else:
+        r[:] = 0.0
+    for j in range(nc):
+        s.force[j] = b.fscale * r[j] / bdt2
+    s.was[0] = pen
+    _newmark_update(b, s)
+    return OK
+
+
+@njit(cache=True)
+def newmark_nitsche_friction_loop(ops, st, rec, nsteps, stride):  # pragma: no cover
+    """The one loop (`contact_bench.core.loop.drive`) with
+    `newmark_nitsche_friction_step`."""
+    return drive(newmark_nitsche_friction_step, newmark_friction_sample, ops, st, rec,
+                 nsteps, stride)
+
+
 @dataclass
 class ContactLaw:
     """A piecewise-linear contact force at t_{n+1}: on y = P U + y0 (n_c values) the
@@ -393,6 +449,13 @@ class ContactLaw:
     #: the springs take Coulomb friction on a frictional problem: a tangential spring of
     #: the same stiffness with Coulomb's return map (`newmark_penalty_friction_step`)
     friction: bool = False
+    #: a tangential law (Nitsche's friction, `newmark_nitsche_friction_step`): on
+    #: y_t = Pt X - St U^n (one row per tangent row) the force Qt^T (c tau) with
+    #: tau = -proj_[-mu p, mu p](y_t), p = max(0, -y) the point's normal value; None:
+    #: no tangential law
+    Pt: sp.csr_matrix | None = None
+    Qt: sp.csr_matrix | None = None
+    St: sp.csr_matrix | None = None
 
 
 def initial_acceleration(p: SparseProblem, r: np.ndarray | None = None) -> np.ndarray:
@@ -556,6 +619,33 @@ class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
         super().__init__(p, dt, beta, gamma, law=law)
 
 
+class FrictionalNitscheStepper(NewmarkStepper):
+    """`NewmarkStepper` with a law that has tangential rows (`ContactLaw.Pt`: Nitsche's
+    friction) on a 2D problem with Coulomb friction: S with the law's added stiffness
+    (both its normal and tangential terms), the stacked rows' W and Z (`law_ops`),
+    `newmark_nitsche_friction_step`. The initial acceleration has the law's normal force
+    at t = 0 and no tangential one (no slip increment yet). A curved obstacle is refused
+    (the tangent rows would stay fixed)."""
+
+    follows_curved = False
+    loop = staticmethod(newmark_nitsche_friction_loop)
+    new_state = FrictionalNewmarkStepper.new_state
+
+    def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
+                 law: ContactLaw) -> None:
+        c = p.contact
+        if c.tangents.shape[0] != c.size or c.tresca is not None:
+            raise ValueError("Nitsche's friction is built for 2D Coulomb friction (one "
+                             "tangent per contact point, no Tresca threshold)")
+        super().__init__(p, dt, beta, gamma, law=law)
+        P = sp.vstack([law.P, law.Pt], format="csr")
+        Q = sp.vstack([law.Q, law.Qt], format="csr")
+        y0 = np.concatenate([np.asarray(law.y0, float), np.zeros(law.Pt.shape[0])])
+        mu = np.zeros(c.size) if c.friction is None else np.asarray(c.friction, float)
+        fr = Friction(law_ops(self.factor, P, Q, y0), mu.copy(), np.zeros(c.size), 1)
+        self.ops = NitscheFrictionOps(self.ops, fr, csr_arrays(sp.csr_matrix(law.St)))
+
+
 def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
                     kappa: np.ndarray | None = None, law: ContactLaw | None = None,
                     alpha: float = 0.0) -> NewmarkStepper:
@@ -566,8 +656,12 @@ def prepare_newmark(p: SparseProblem, dt: float, beta: float, gamma: float,
     HHT-alpha, M A1 + (1 + alpha) K U1 - alpha K U0 = F + C^T lambda, S = M + (1 + alpha)
     beta dt^2 K (`schemes/hht.py`; beta and gamma are the caller's). Exact contact on a
     problem with friction (`ContactSet.frictional`): Coulomb's law on V^{n+1}
-    (`FrictionalNewmarkStepper`); with a law, friction is refused in one line."""
+    (`FrictionalNewmarkStepper`); a law with tangential rows (Nitsche's:
+    `FrictionalNitscheStepper`) or penalty springs that take friction
+    (`FrictionalPenaltyStepper`) take theirs; any other law is refused in one line."""
     if p.contact.frictional:
+        if law is not None and law.Pt is not None and kappa is None and alpha == 0.0:
+            return FrictionalNitscheStepper(p, dt, beta, gamma, law)
         if law is not None and law.friction and kappa is None and alpha == 0.0:
             return FrictionalPenaltyStepper(p, dt, beta, gamma, law)
         if kappa is not None or law is not None:
