@@ -134,8 +134,8 @@ class SlidingBlock(BodyCase):
                              operator=G, tangents=T,
                              friction=np.full(nc, float(self.mu)))
         shear = None
-        if contact.frictional:  # Nitsche's friction term: the traction along t
-            side = float((R.T @ down[:2])[0])  # t = side R e_x on every node
+        if contact.frictional and d == 2:  # Nitsche's friction term (2D): the traction along t
+            side = float((R.T @ slope)[0])  # t = side R e_x on every node
             shear = sp.csr_matrix(side * fem_nd.contact_shear(body, facets, 1, 0) @ Q.T)
         vertical = self.normal(SimpleNamespace(nfree=n))
         # the energy's zero: gravity's potential zero on the horizontal line through the

@@ -53,6 +53,12 @@ class Nitsche(Scheme):
     def mass_kind(self) -> str:
         return self.mass
 
+    def cannot_run(self, case) -> str | None:
+        if getattr(case, "friction", lambda: 0.0)() > 0 and getattr(case, "dim", 2) == 3:
+            return ("Chouly-Hild-Renard's friction term is built in 2D only (the 3D "
+                    "projection onto the friction disc is not)")
+        return None
+
     def traits(self, problem=None) -> Traits:
         # with a massless contact node the bar's row 0 gives u0 = max(0, u1): exact
         # contact, redistributed's energy (module docstring); massless contact dofs of a

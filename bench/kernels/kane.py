@@ -246,6 +246,30 @@ def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneSt
 # ------------------------------------------------- Coulomb friction (Krause-Walloth)
 
 
+class FrictionalKaneState(NamedTuple):
+    """`KaneState` with the step's force on each tangent row (`tforce`, for the loop's
+    friction work, `contact_bench.core.loop`)."""
+
+    U: np.ndarray
+    V: np.ndarray
+    force: np.ndarray
+    mu: np.ndarray
+    mup: np.ndarray
+    active: np.ndarray
+    activep: np.ndarray
+    was: np.ndarray
+    Ut: np.ndarray
+    X: np.ndarray
+    rhs: np.ndarray
+    w: np.ndarray
+    work: np.ndarray
+    gf: np.ndarray
+    Fa: np.ndarray
+    Fb: np.ndarray
+    vals: np.ndarray
+    tforce: np.ndarray
+
+
 class FrictionalKaneOps(NamedTuple):
     """Kane's operators (`KaneOps`) and the frictional contact (`Friction`: the stacked
     normal and tangent rows' Delassus matrix with S's factor)."""
@@ -296,6 +320,9 @@ def kane_friction_step(o, s, step):  # pragma: no cover - compiled
         r[:] = 0.0
         s.active[:] = False
     _kane_update(b, s, r)
+    idt2 = 1.0 / (b.dt * b.dt)
+    for i in range(nc, r.size):  # the tangential force, as the normal one's 2 r_n / h^2
+        s.tforce[i - nc] = 2.0 * r[i] * idt2
     return OK
 
 
@@ -324,14 +351,17 @@ class FrictionalKaneStepper(KaneStepper):
         super().__init__(p, dt, predictor)
         self.ops = FrictionalKaneOps(self.ops, friction_ops(self.factor, p.contact, p.nfree))
 
-    def new_state(self) -> KaneState:
+    def new_state(self) -> FrictionalKaneState:
         n, nc = self.problem.nfree, self.ops.base.at_contact.size
         U, V = (a.copy() for a in self.initial)
         vals, Fa = load_scratch(self.ops.base.load, n)
-        return KaneState(U, V, np.zeros(nc), np.zeros(self.ops.fr.ct.gap0.size),
-                         np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(nc, np.bool_),
-                         np.zeros(2, np.bool_), np.empty(n), np.empty(n), np.empty(n),
-                         np.empty(n), np.empty(n), np.empty(nc), Fa, np.empty(n), vals)
+        nr = self.ops.fr.ct.gap0.size
+        return FrictionalKaneState(U, V, np.zeros(nc), np.zeros(nr),
+                                   np.zeros(nc), np.zeros(nc, np.bool_),
+                                   np.zeros(nc, np.bool_), np.zeros(2, np.bool_),
+                                   np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                                   np.empty(n), np.empty(nc), Fa, np.empty(n), vals,
+                                   np.zeros(nr - nc))
 
 
 # ------------------------------------------------------------------ the bar, banded

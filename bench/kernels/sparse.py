@@ -410,6 +410,8 @@ def newmark_nitsche_friction_step(o, s, step):  # pragma: no cover - compiled
         r[:] = 0.0
     for j in range(nc):
         s.force[j] = b.fscale * r[j] / bdt2
+    for i in range(nc, r.size):  # the tangential reaction (theta's term not counted)
+        s.tforce[i - nc] = b.fscale * r[i] / bdt2
     s.was[0] = pen
     _newmark_update(b, s)
     return OK
