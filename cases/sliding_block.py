@@ -1,26 +1,19 @@
 """An elastic block resting on a plane tilted by `angle`, with Coulomb friction `mu`.
 
 The block (`dim` 2: plane strain, 2 x 1, structured triangles; `dim` 3: a 2 x 1 x 1 box,
-x along the slope, y across it, z up, its bottom a shallow V resting on its ridge y = 0,
-structured tetrahedra mirrored about y = 0: `keeled_box`; lambda = mu_L = 20, rho = 1,
-P1 or P2, `nx` elements along the height) starts undeformed, moving downhill at `speed`,
-its bottom on the plane, under vertical gravity g = 1. The plane is `slanted_drop`'s,
-tilted about the horizontal axis across the slope (y in 3D; its rotation R of `angle` in
-the x-vertical plane: K' = Q K Q^T, G' = G Q^T); each bottom node is a contact point
-with its normal row R e_vertical and dim - 1 tangent rows: the downhill direction t, and
-in 3D the horizontal e_y across the slope (the circular cone on the two).
+its bottom a shallow V resting on its ridge y = 0, mirrored tetrahedra: `keeled_box`;
+lambda = mu_L = 20, rho = 1, P1 or P2, `nx` elements along the height) starts undeformed,
+moving downhill at `speed`, under vertical gravity g = 1, on `slanted_drop`'s plane
+tilted about the axis across the slope (K' = Q K Q^T, G' = G Q^T). Each bottom node is a
+contact point: its normal row and dim - 1 tangent rows (downhill t; in 3D also e_y).
 
-K' does not act on a rigid translation and each point's rows are unit vectors on its
-node, so while every contact point slides downhill (or is apart) its tangential impulse
-is -mu times its normal one (in 3D: on the ridge, whose slip is downhill) and, step by
-step,
+K' does not act on a rigid translation, so while every contact point slides downhill (or
+is apart) its tangential impulse is -mu times its normal one and, step by step,
     d(p_t + mu p_n) = dt (t.F + mu n.F) = dt m g (sin(angle) - mu cos(angle))
 (p_t = t.M V, p_n = n.M V): `err_sliding_momentum` is its largest departure over the
-sample intervals with every contact point moving downhill at both ends (in 3D the
-ridge's points do not slip across the slope: `keeled_box`), relative to
+sample intervals with every contact point moving downhill at both ends, relative to
 |rate| T + |p_t + mu p_n| at T. With mu > tan(angle) the block sticks: its tangential
 momentum stays within the elastic vibration's bound (tests/test_friction.py).
-Derivation and measurements: docs/scenes.md.
 """
 
 from __future__ import annotations

@@ -50,7 +50,8 @@ def _metrics(df: pd.DataFrame) -> pd.DataFrame:
 def test_the_distributed_study_gives_the_serial_table_timed_on_the_workers(monkeypatch):
     tasks = plan_study(quick=True, scheme_specs=SCHEMES, case_specs=SCENES)
     serial = run_sweep(tasks, jobs=1, repeats=1, quiet=True)
-    assert {"ok", "error"} <= set(serial.table["status"])
+    # every scheme runs on the first small mesh that accepts its mass: no error row
+    assert set(serial.table["status"]) == {"ok"}
     assert serial.table["case"].str.startswith("sphere_drop").any()
 
     def not_here(*_args: object, **_kw: object) -> None:
