@@ -171,7 +171,8 @@ def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
     check_report_options(df, args.error, args.fig_format, args.style, args.energy_runs)
     written = write_report(df, args.out, argv, args.error, args.fig_format, args.style,
                            args.energy_runs, _saved_time_orders(args.table))
-    print(f"wrote {len(written)} files to {args.out} (open {Path(args.out) / 'index.html'})")
+    page = next((p for p in written if p.name == "index.html"), written[-1])
+    print(f"wrote {len(written)} files to {args.out} (open {page})")
     return 0
 
 
