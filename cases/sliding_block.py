@@ -51,8 +51,9 @@ class SlidingBlock(BodyCase):
     rho, g = 1.0, 1.0
     T, nx, dt, stride = 2.0, 2, 0.01, 1
     quantities = frozenset({"sliding_momentum"})
-    study = StudyGrid(specs=("sliding_block[mu=0.3]",), nx=(2, 4), T=2.0, small="sliding_block",
-                      small_nx=(2, 3), small_T=0.5, in_default_study=False)
+    study = StudyGrid(specs=("sliding_block[mu=0.3]",), nx=(2, 4, 8), T=2.0, small="sliding_block",
+                      small_nx=(2, 3), small_T=0.5, in_default_study=False,
+                      friction=("sliding_block[mu=0.3]", "sliding_block[mu=0.3,dim=3]"))
 
     def validate(self) -> None:
         #: `slanted_drop` of the same angle, vertical gravity: its rotation and tangent

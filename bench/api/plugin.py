@@ -170,6 +170,10 @@ class StudyGrid:
     tests. `in_default_study`: the study without named scenes (`contact-bench study`,
     results/study) runs the scene; False for a scene on a user's file (mesh_body), which
     the tests still run on its bundled default and a study runs when named.
+    `friction`: the scene's frictional variants (each with a Coulomb coefficient as its
+    parameter `mu` > 0) in the study's friction part (`contact_bench.sweeps.study.
+    plan_friction`): work-precision on `nx` at T, stability in CFL against mu on the
+    coarsest mesh; empty (the default): the scene is not in it.
     """
 
     specs: tuple[str, ...]
@@ -179,6 +183,7 @@ class StudyGrid:
     small_nx: tuple[int, ...]
     small_T: float
     in_default_study: bool = True
+    friction: tuple[str, ...] = ()
 
 
 class Case(Plugin):

@@ -83,6 +83,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                     help="scheme specs (default: every registered scheme)")
     st.add_argument("--case", action="append", help="scenes (default: the seed scenes)")
     st.add_argument("--error", default="err_u_linf_l2", help="error column for the analysis")
+    st.add_argument("--part", choices=("all", "main", "friction"), default="all",
+                    help="all (default); main: the study without its friction part; "
+                         "friction: only the friction part (friction_* files, "
+                         "friction_sweep.csv, friction.html; docs/study.md)")
     _figure_options(st)
     _runner_options(st)
     # the study times its ~240 work-precision runs 3 times (within its 5 minutes)
@@ -167,7 +171,8 @@ def cmd_report(args: argparse.Namespace, argv: Sequence[str]) -> int:
     check_report_options(df, args.error, args.fig_format, args.style, args.energy_runs)
     written = write_report(df, args.out, argv, args.error, args.fig_format, args.style,
                            args.energy_runs, _saved_time_orders(args.table))
-    print(f"wrote {len(written)} files to {args.out} (open {Path(args.out) / 'index.html'})")
+    page = next((p for p in written if p.name == "index.html"), written[-1])
+    print(f"wrote {len(written)} files to {args.out} (open {page})")
     return 0
 
 
@@ -183,8 +188,9 @@ def _saved_time_orders(table: str):  # noqa: ANN202 - pandas is imported lazily
 
 def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     from contact_bench.output.figures import check_formats, check_style
+    from contact_bench.output.friction_report import friction_rows, only_friction_rows
     from contact_bench.output.report import write_report
-    from contact_bench.sweeps.study import plan_study
+    from contact_bench.sweeps.study import plan_friction, plan_study
     from contact_bench.sweeps.sweep import check_error_column, run_sweep, save_table
     from contact_bench.sweeps.time_order import time_order_table
 
@@ -193,19 +199,33 @@ def cmd_study(args: argparse.Namespace, argv: Sequence[str]) -> int:
     check_style(args.style)
     check_error_column(None, args.error)  # checked before the sweep, not after it
     start = time.perf_counter()
-    tasks = plan_study(args.quick, args.scheme, args.case)
+    tasks = plan_study(args.quick, args.scheme, args.case) if args.part != "friction" else []
+    if args.part != "main":
+        friction = plan_friction(args.quick, args.scheme, args.case)
+        if not friction and args.part == "friction":
+            raise BenchError("--part friction: no scene of the study declares frictional "
+                             "variants (StudyGrid.friction) or has friction")
+        tasks += friction
     cache = _cache(args)
     res = run_sweep(tasks, args.jobs, args.dask, cache, args.repeats, args.quiet,
                     args.retime)
     out = Path(args.out)
-    written = save_table(res.table, out / "sweep.csv", provenance(argv))
+    # the friction part's rows in a table of their own (results/study's sweep.csv stays
+    # the rest of the study's)
+    mine, main = friction_rows(res.table), ~only_friction_rows(res.table)
+    written = [*(save_table(res.table[main], out / "sweep.csv", provenance(argv))
+                 if main.any() else []),
+               *(save_table(res.table[mine], out / "friction_sweep.csv", provenance(argv))
+                 if mine.any() else [])]
     _summary(res, written[0], args.quiet)
     _tracebacks(res, args.traceback)
     # declared against measured time order for every scheme spec of the study's tables
-    time_orders = time_order_table(list(res.table["scheme"].dropna()))
+    time_orders = (time_order_table(list(res.table[main]["scheme"].dropna()))
+                   if main.any() else None)
     files = write_report(res.table, out, argv, args.error, args.fig_format, args.style,
                          args.energy_runs, time_orders)
-    print(f"study: {len(files) + len(written)} files in {out} (open {out / 'index.html'}); "
+    page = out / ("index.html" if main.any() else "friction.html")
+    print(f"study: {len(files) + len(written)} files in {out} (open {page}); "
           f"{time.perf_counter() - start:.0f} s")
     return 0
 

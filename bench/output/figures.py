@@ -327,3 +327,26 @@ def energy_figure(rows: pd.DataFrame, case: str, which: str = "finest") -> Figur
     ax.grid(alpha=0.3)
     _legend(ax)
     return fig
+
+
+def friction_stability_figure(table: pd.DataFrame, case: str, param: str = "mu") -> Figure:
+    """The friction part's stability (`contact_bench.sweeps.analysis.
+    friction_stability_table`, one scene variant): the largest stable CFL (log axis)
+    against the friction coefficient, one curve per scheme; a hollow marker where every
+    CFL tried was stable (the value is then only a lower bound)."""
+    fig, ax = plt.subplots(figsize=(7, 4.8))
+    for i, (scheme, g) in enumerate(table.groupby("scheme", sort=False)):
+        g = g.sort_values(param)
+        style = line_style(i)
+        ax.semilogy(g[param], g["largest_stable_cfl"], ms=6, lw=1.2, label=scheme, **style)
+        bound = g[g["all_stable"].astype(bool)]
+        ax.scatter(bound[param], bound["largest_stable_cfl"], s=110, facecolors="none",
+                   edgecolors=style["color"], zorder=3)
+    ax.scatter([], [], s=110, facecolors="none", edgecolors="k",
+               label="every CFL tried stable (lower bound)")
+    ax.set_xlabel(f"friction coefficient {param}")
+    ax.set_ylabel("largest stable CFL = c dt / h\n(every smaller CFL tried stable too)")
+    ax.set_title(f"stability against friction: {case}")
+    ax.grid(alpha=0.3, which="both")
+    _legend(ax)
+    return fig

@@ -251,7 +251,7 @@ def check_table(df: pd.DataFrame) -> None:
 # ------------------------------------------------------------------------- page
 
 
-def _html_table(df: pd.DataFrame) -> str:
+def html_table(df: pd.DataFrame) -> str:
     if df.empty:
         return "<p><em>no rows</em></p>"
     table = display(df).to_html(index=False, escape=True, border=0, classes="t")
@@ -295,6 +295,13 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     """
     formats = check_report_options(df, error, fig_format, style, energy_runs)
     check_table(df)
+    from contact_bench.output.friction_report import only_friction_rows, write_friction_report
+
+    # the friction part's rows: its own files (friction_*, friction.html), apart
+    friction_files = write_friction_report(df, out, argv, formats, style)
+    df = df[~only_friction_rows(df)]
+    if df.empty:
+        return friction_files
     out = Path(out)
     prov = provenance(argv)
     written: list[Path] = []
@@ -346,7 +353,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
             "against log dt on a smooth motion without contact, the error of a dt being the "
             "difference with the same scheme at dt / 2 (docs/order.md). 'dt only samples': "
             "the output does not change with dt.</p>"
-            f"<p>tables: {links(tabs)}</p>" + _html_table(time_orders))
+            f"<p>tables: {links(tabs)}</p>" + html_table(time_orders))
     energy_rows = analysis.select(df, "energy")
     energy_all = analysis.energy_table(energy_rows)
     stab_rows = analysis.select(df, "stability")
@@ -369,7 +376,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 section(case, "work-precision" + ("" if k == 0 else f"-{slug(err)}"),
                         f"Work-precision ({header(err)} against stepping time)",
                         body + f"<p>tables: {links(tabs)}</p>"
-                        + _html_table(wp.drop(columns=["case"])))
+                        + html_table(wp.drop(columns=["case"])))
             conv = conv_all[conv_all["case"] == case] if not conv_all.empty else conv_all
             if not conv.empty:
                 err = errors[case][0]
@@ -384,7 +391,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         "floor points left out; declared order and smooth order: away from "
                         "impacts)",
                         body + f"<p>tables: {links(tabs)}</p>"
-                        + _html_table(conv.drop(columns=["case"])))
+                        + html_table(conv.drop(columns=["case"])))
             smap = analysis.stability_map(stab_rows, case)
             if not smap.empty:
                 body = figure(stability_figure(stab_rows[stab_rows["case"] == case], case),
@@ -397,7 +404,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                                      prov)
                 written.extend(tabs)
                 section(case, "stability", "Stability (worst class per scheme and CFL)",
-                        body + f"<p>tables: {links(tabs)}</p>" + _html_table(tab_map))
+                        body + f"<p>tables: {links(tabs)}</p>" + html_table(tab_map))
             for (name, pname), pmap in analysis.parameter_maps(stab_rows, case).items():
                 tab = pmap.reset_index()
                 tab.columns = [pname, *(f"CFL {c:g}" for c in pmap.columns)]
@@ -405,7 +412,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, f"stability-{slug(name)}-{slug(pname)}",
                         f"Stability of {name}: CFL against {pname} (worst class per cell)",
-                        f"<p>tables: {links(tabs)}</p>" + _html_table(tab))
+                        f"<p>tables: {links(tabs)}</p>" + html_table(tab))
             tolerances = _published_tolerances(case)
             ver = analysis.verification_table(df[df["case"] == case], tolerances)
             if not ver.empty:
@@ -416,7 +423,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         "Against the published values (every scheme at the published "
                         "grid; relative errors; within: how many within the tolerance)",
                         f"<p>tolerances: {html.escape(tol)}</p><p>tables: {links(tabs)}</p>"
-                        + _html_table(ver))
+                        + html_table(ver))
             if snapshots:  # a 2D/3D scene: the deformed body at its first contact
                 try:
                     got = scene_pictures(df[df["case"] == case])
@@ -439,17 +446,19 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 tabs = write_tables(en.drop(columns=["case"]), out, f"energy_{s}", prov)
                 written.extend(tabs)
                 section(case, "energy", "Energy", body + f"<p>tables: {links(tabs)}</p>"
-                        + _html_table(en.drop(columns=["case"])))
+                        + html_table(en.drop(columns=["case"])))
             toc.append("</ul></li>")
             sections.append(f'<h2 id="{s}">{html.escape(case)} '
                             f'<a class="anchor" href="#{s}">#</a></h2>' + "\n".join(parts))
+    if friction_files:
+        toc.append('<li><a href="friction.html">Friction part (its own page)</a></li>')
     status = df.groupby(["case", "status"]).size().rename("runs").reset_index()
     title = command_title(argv)
     page = _PAGE.format(title=html.escape(title), prov=html.escape(prov),
                         sections="\n".join(sections), toc="\n".join(toc),
-                        status=_html_table(status), runs=links(written[:1]))
+                        status=html_table(status), runs=links(written[:1]))
     written.append(write_text(out / "index.html", f"<!-- {html.escape(prov)} -->\n{page}"))
-    return written
+    return written + friction_files
 
 
 def _published_tolerances(case: str) -> dict[str, float]:

@@ -327,3 +327,94 @@ def verification_table(df: pd.DataFrame, tolerances: dict[str, float]) -> pd.Dat
         return f"{ok}/{len(tolerances)}" if r["status"] == "ok" else ""
     out["within"] = rows.apply(within, axis=1)
     return out.sort_values("scheme").reset_index(drop=True)
+
+
+# --------------------------------------------------------------------- friction
+
+#: the column `finest_run_error` adds: the friction work against the finest run
+FRICTION_WORK_ERROR = "err_friction_work_finest"
+
+
+def without_param(spec: str, name: str) -> str:
+    """The canonical scene spec with its parameter `name` back at its default (the friction
+    part's stability rows of one variant, whatever their mu); the spec itself when it does
+    not parse."""
+    from contact_bench.api.params import parse_spec
+    from contact_bench.api.registry import make_case
+
+    try:
+        base, params = parse_spec(spec)
+        params.pop(name, None)
+        inner = ",".join(f"{k}={v}" for k, v in params.items())
+        return make_case(f"{base}[{inner}]" if inner else base).spec
+    except Exception:  # noqa: BLE001 - a scene no longer registered: its spec as it is
+        return spec
+
+
+def finest_run_error(df: pd.DataFrame) -> pd.DataFrame:
+    """df with `FRICTION_WORK_ERROR`: |W - W_f| / |W_f|, W the run's `friction_work` and
+    W_f that of the finest ok run (largest nx) of the same scene, scheme and CFL; NaN for
+    the finest run itself, a run without W and a W_f of 0. The error a scene without an
+    exact friction quantity still has (a self-convergence error)."""
+    out = df.copy()
+    out[FRICTION_WORK_ERROR] = np.nan
+    if "friction_work" not in out or out.empty:
+        return out
+    W = pd.to_numeric(out["friction_work"], errors="coerce").astype(float)
+    ok = (out["status"] == "ok") & np.isfinite(W)
+    key = out["cfl"].astype(float).map(lambda v: _sig(v, 3))
+    for _, g in out[ok].groupby([out["case"], out["scheme"], key], sort=False):
+        finest = g["nx"].astype(int).idxmax()
+        wf = float(W[finest])
+        if wf == 0.0:
+            continue
+        rest = g.index[g.index != finest]
+        out.loc[rest, FRICTION_WORK_ERROR] = (W[rest] - wf).abs() / abs(wf)
+    return out
+
+
+def friction_stability_table(df: pd.DataFrame, param: str = "mu") -> pd.DataFrame:
+    """The friction part's stability in CFL against mu: one row per (scene variant, its
+    `param` aside; scheme; value of `param`) of the rows tagged "friction-stability".
+    Columns: the runs and the CFL tried; `largest_stable_cfl`, the largest CFL whose run
+    and every run at a smaller CFL are 'stable' (NaN: none is); `first_unstable_cfl` and
+    `first_unstable_class`, the smallest CFL whose run is not stable and its class
+    ('energy-growing', 'blown up', or 'error' for a run that failed: its notes say why);
+    `all_stable`; the declared CFL limit."""
+    from contact_bench.api.registry import make_case
+
+    cols = ["case", "scheme", param, "nx", "T", "runs", "cfl_tried", "largest_stable_cfl",
+            "first_unstable_cfl", "first_unstable_class", "all_stable", "cfl_limit"]
+    rows = df[tagged(df, "friction-stability") & (df["status"] != "not applicable")]
+    if rows.empty:
+        return pd.DataFrame(columns=cols)
+    values = {}
+    for spec in dict.fromkeys(rows["case"]):
+        try:
+            values[spec] = float(getattr(make_case(spec), param))
+        except Exception:  # noqa: BLE001 - a scene no longer registered: no value
+            values[spec] = math.nan
+    rows = rows.assign(_family=rows["case"].map(lambda s: without_param(s, param)),
+                       _value=rows["case"].map(values),
+                       _class=[("error" if st == "error" else c) for st, c in
+                               zip(rows["status"], rows["stability"], strict=True)])
+    out = []
+    for (family, scheme, value), g in rows.groupby(["_family", "scheme", "_value"],
+                                                   sort=False, dropna=False):
+        g = g.sort_values("cfl")
+        cfl = g["cfl"].astype(float).to_numpy()
+        bad = (g["_class"] != "stable").to_numpy()
+        first = int(np.argmax(bad)) if bad.any() else None
+        largest = (cfl[first - 1] if first else math.nan) if first is not None else cfl[-1]
+        lim = pd.to_numeric(g["cfl_limit"], errors="coerce").dropna()
+        out.append({
+            "case": family, "scheme": scheme, param: value, "nx": int(g["nx"].iloc[0]),
+            "T": float(g["T"].iloc[0]), "runs": len(g),
+            "cfl_tried": " ".join(f"{_sig(c, 3):g}" for c in cfl),
+            "largest_stable_cfl": float(largest),
+            "first_unstable_cfl": math.nan if first is None else float(cfl[first]),
+            "first_unstable_class": "" if first is None else str(g["_class"].iloc[first]),
+            "all_stable": first is None,
+            "cfl_limit": float(lim.iloc[0]) if len(lim) else math.nan})
+    return pd.DataFrame(out, columns=cols).sort_values(
+        ["case", "scheme", param]).reset_index(drop=True)

@@ -45,6 +45,19 @@ published case's), group "verification"; the report tabulates their err_publishe
 against the published tolerances (`contact_bench.sweeps.analysis.verification_table`).
 The quick study leaves them out.
 
+The friction part (`plan_friction`; `contact-bench study --part friction`): every scene
+declaring frictional variants (`StudyGrid.friction`: a Coulomb coefficient `mu` > 0),
+with every scheme that runs them (one that cannot, e.g. one declaring no friction law,
+`Traits.friction`, is a 'not applicable' row saying why, run nowhere):
+
+- work-precision: each variant at each declared nx, at the CFL of the scene's dt on the
+  coarsest mesh (as the sparse part), timed, group "friction-refine";
+- stability in CFL against mu: on the coarsest mesh, each variant with its `mu` set to
+  each of FRICTION["mus"], over the CFL grid of the 1D part's stability search
+  (`stability_cfls`) keeping at least `MIN_STABILITY_STEPS` steps in T = long_t x the
+  study's T, group "friction-stability"
+  (`contact_bench.sweeps.analysis.friction_stability_table`: the largest stable CFL).
+
 The quick study runs the scenes' small variants instead (`StudyGrid.small`, `small_T`),
 each scheme on the first of `small_nx` that accepts its mass, with fewer factors and the
 ends of each parameter sweep.
@@ -63,9 +76,10 @@ from typing import Any
 
 import numpy as np
 
-from contact_bench.api.params import expand_spec
+from contact_bench.api.params import expand_spec, format_value, parse_spec
 from contact_bench.api.plugin import Case, Scheme
 from contact_bench.api.registry import cases, make_case, make_scheme, schemes
+from contact_bench.core.errors import BenchError
 from contact_bench.harness.runner import declared_limit, problem_for
 from contact_bench.sweeps.sweep import Task
 
@@ -83,6 +97,16 @@ SPARSE = {"dt_factors": (4.0, 16.0, 64.0), "limit_factors": (0.5, 0.95, 1.05, 2.
 MIN_STABILITY_STEPS = 10
 SPARSE_QUICK = {"dt_factors": (16.0,), "limit_factors": (0.95, 1.05), "max_samples": 200,
                 "param_sweep": "ends"}
+
+#: the friction part (module docstring): the Coulomb coefficients of its stability runs,
+#: the points of their CFL grid, their T as a multiple of the scene's study T
+FRICTION = {"mus": (0.0, 0.1, 0.3, 0.8), "cfl_points": 8, "long_t": 10.0, "max_samples": 500}
+FRICTION_QUICK = {"mus": (0.0, 0.3, 0.8), "cfl_points": 4, "long_t": 2.0,
+                  "max_samples": 200}
+#: the group tags of the friction part's rows (none shared with the other parts)
+FRICTION_GROUPS = ("friction-refine", "friction-stability")
+#: the scene parameter the friction part varies (every frictional variant has it)
+FRICTION_PARAM = "mu"
 
 
 def cfl_limit(case: Case, scheme: Scheme, nx: int) -> float | None:
@@ -325,3 +349,79 @@ def _with_param(spec: str, name: str, value: float | str) -> str:
     if spec.endswith("]"):
         return f"{spec[:-1]},{name}={text}]"
     return f"{spec}[{name}={text}]"
+
+
+def at_param(spec: str, name: str, value: float) -> str:
+    """The canonical spec of the scene `spec` with its parameter `name` set to `value`
+    (replacing a value the spec gives)."""
+    base, params = parse_spec(spec)
+    params = dict(params, **{name: format_value(float(value))})
+    return make_case(f"{base}[{','.join(f'{k}={v}' for k, v in params.items())}]").spec
+
+
+def friction_variants(case_specs: Sequence[str] | None = None) -> list[tuple[str, Any]]:
+    """(variant spec, its scene's StudyGrid) of the friction part: every registered scene's
+    `StudyGrid.friction` variants; with named scenes, a bare name's declared variants and
+    any other spec with friction (`Case.friction` > 0) as itself."""
+    out: list[tuple[str, Any]] = []
+    if not case_specs:
+        for c in cases().plugins.values():
+            if c.study is not None:
+                out += [(make_case(v).spec, c.study) for v in c.study.friction]
+        return out
+    for spec in (s for given in case_specs for s in expand_spec(given)):
+        case = make_case(spec)
+        grid = case.study
+        if grid is None:
+            continue
+        if spec == type(case).name:
+            out += [(make_case(v).spec, grid) for v in grid.friction]
+        elif case.friction() > 0:
+            out.append((case.spec, grid))
+    return out
+
+
+def plan_friction(quick: bool = False, scheme_specs: Sequence[str] | None = None,
+                  case_specs: Sequence[str] | None = None) -> list[Task]:
+    """The tasks of the friction part (module docstring)."""
+    g = FRICTION_QUICK if quick else FRICTION
+    specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
+    if quick:
+        specs = [_quick_spec(s) for s in specs]
+    ms = g["max_samples"]
+    tasks: list[Task] = []
+    for variant, grid in friction_variants(case_specs):
+        case = make_case(variant)
+        if FRICTION_PARAM not in type(case).params:
+            raise BenchError(f"{variant}: the friction part varies the scene's parameter "
+                             f"{FRICTION_PARAM!r}, which it does not have")
+        nxs = list(grid.small_nx[:2]) if quick else list(grid.nx)
+        T = grid.small_T if quick else grid.T
+        runnable: dict[str, tuple[Scheme, tuple[int, float, float | None] | None]] = {}
+        for spec in dict.fromkeys(v for s in specs if (v := _variants(case, s)) is not None):
+            scheme = make_scheme(spec)
+            if scheme.cannot_run(case) or case.cannot_run(scheme):  # refused: one row
+                tasks.append(Task(case.spec, spec, nxs[0], T=T, group=FRICTION_GROUPS[0],
+                                  timed=False))
+            else:
+                runnable[spec] = scheme, _coarsest_accepted(case, scheme, nxs)
+        scene_cfl0 = next((m[1] for _, m in runnable.values() if m and m[0] == nxs[0]), None)
+        t_stab = g["long_t"] * float(case.T if T is None else T)
+        for spec, (scheme, measured) in runnable.items():
+            nx_stab, cfl0, lim = measured or (nxs[0], None, None)
+            if measured is not None and scene_cfl0 is not None:
+                cfl0 = scene_cfl0
+            cfl_r = None if cfl0 is None else float(f"{cfl0:.4g}")
+            if cfl_r is not None and lim is not None:
+                cfl_r = min(cfl_r, float(f"{0.9 * lim:.4g}"))
+            tasks += [Task(case.spec, spec, nx, cfl=cfl_r, T=T, max_samples=ms,
+                           group=FRICTION_GROUPS[0]) for nx in nxs]
+            if cfl0 is None or scheme.traits().adaptive:  # every mesh refused (its error
+                continue  # rows say why), or dt only samples: nothing to destabilise
+            # the CFL grid, less the CFL leaving fewer than MIN_STABILITY_STEPS steps
+            cfls = [c for c in stability_cfls(lim, g["cfl_points"])
+                    if float(case.dt) * c / cfl0 * MIN_STABILITY_STEPS <= t_stab]
+            tasks += [Task(at_param(case.spec, FRICTION_PARAM, mu), spec, nx_stab,
+                           cfl=c, T=t_stab, max_samples=ms, group=FRICTION_GROUPS[1],
+                           timed=False) for mu in g["mus"] for c in cfls]
+    return sorted(tasks, key=lambda t: (t.case, t.nx or 0, t.cfl or 0.0))
