@@ -100,7 +100,7 @@ SPARSE_QUICK = {"dt_factors": (16.0,), "limit_factors": (0.95, 1.05), "max_sampl
 
 #: the friction part (module docstring): the Coulomb coefficients of its stability runs,
 #: the points of their CFL grid, their T as a multiple of the scene's study T
-FRICTION = {"mus": (0.0, 0.1, 0.3, 0.8), "cfl_points": 8, "long_t": 10.0, "max_samples": 500}
+FRICTION = {"mus": (0.0, 0.1, 0.3, 0.8), "cfl_points": 8, "long_t": 10.0, "max_samples": 1000}
 FRICTION_QUICK = {"mus": (0.0, 0.3, 0.8), "cfl_points": 4, "long_t": 2.0,
                   "max_samples": 200}
 #: the group tags of the friction part's rows (none shared with the other parts)
