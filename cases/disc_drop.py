@@ -45,6 +45,7 @@ class DiscDrop(BodyCase):
                       low=1e-6, high=1e3),
     }
     R, centre_y = 20.0, 20.0
+    dim = 2
     lam = mu = 20.0
     rho, g = 1.0, 0.1
     T, nx, dt, stride = 40.0, 5, 0.01, 1

@@ -48,6 +48,7 @@ class SphereDrop(BodyCase):
                       choices=("octahedron", "lattice")),
     }
     R, centre_z = 20.0, 20.0
+    dim = 3
     lam = mu = 20.0
     rho, g = 1.0, 0.1
     T, nx, dt, stride = 40.0, 8, 0.01, 20
