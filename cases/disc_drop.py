@@ -3,7 +3,8 @@ onto a rigid plane.
 
 Disc of radius 20 centred at (0, 20) (touching y = 0), plane strain, lambda = mu = 20, rho
 = 1, downward body force 0.1, lifted by `lift` (default 5; larger: a harder impact), v0 =
-0; obstacle y >= 0 on the lower half of the boundary, frictionless; T = 40, dt = 0.01.
+0; obstacle y >= 0 on the lower half of the boundary, with Coulomb friction `mu` (default
+0: frictionless; GetFEM's dynamic friction setting, its tangent e_x); T = 40, dt = 0.01.
 `degree` 1 or 2 on a P2-geometry ring mesh (`--nx` rings along the radius, mirror
 symmetric about x = 0, boundary nodes on the circle).
 
@@ -43,9 +44,12 @@ class DiscDrop(BodyCase):
         "degree": Param(2, "polynomial degree of the elements", choices=(1, 2)),
         "lift": Param(5.0, "initial height above the plane (impact speed sqrt(2 g lift))",
                       low=1e-6, high=1e3),
+        "mu": Param(0.0, "Coulomb's friction coefficient on the plane (0: frictionless, "
+                    "every scheme runs it)", low=0.0, high=10.0),
     }
     R, centre_y = 20.0, 20.0
-    lam = mu = 20.0
+    dim = 2
+    lam = mu_l = 20.0
     rho, g = 1.0, 0.1
     T, nx, dt, stride = 40.0, 5, 0.01, 1
 
@@ -57,7 +61,10 @@ class DiscDrop(BodyCase):
     @property
     def p_modulus(self) -> float:
         """The P-wave modulus lambda + 2 mu: the contact stiffness scale (`E_contact`)."""
-        return self.lam + 2 * self.mu
+        return self.lam + 2 * self.mu_l
+
+    def friction(self) -> float:
+        return float(self.mu)
 
     @property
     def impact_time(self) -> float:
@@ -164,15 +171,15 @@ class DiscDrop(BodyCase):
 
     @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
-        nu = self.lam / (2 * (self.lam + self.mu))
-        E = self.mu * (3 * self.lam + 2 * self.mu) / (self.lam + self.mu)
+        nu = self.lam / (2 * (self.lam + self.mu_l))
+        E = self.mu_l * (3 * self.lam + 2 * self.mu_l) / (self.lam + self.mu_l)
         return fem_nd.assemble(self.mesh(nx), E, nu, self.rho, degree=int(self.degree))
 
     def cannot_run(self, scheme) -> str | None:
         if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) in LUMPED_KINDS:
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use disc_drop[degree=1] or the scheme's mass=consistent")
-        return None
+        return super().cannot_run(scheme)
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
@@ -193,14 +200,16 @@ class DiscDrop(BodyCase):
         U0 = np.zeros(n)
         U0[1::2] = float(self.lift)
         zone = fem_nd.contact_zone(body, facets, axis=1)
-        contact = zone.contact_set()
+        contact = zone.contact_set(mu=float(self.mu))
+        shear = (fem_nd.tangential_stress(body, facets, 1, zone.tangent_directions)
+                 if contact.frictional else None)  # Nitsche's friction term
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=2, hmin=body.hmin, c_max=body.wave_speed,
                              mass_kind=mass_kind,
                              equal_groups=tuple(g for g in (mirror_pairs(P) * 2 + 1,) if g.size),
                              E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
-                             normal_stress=zone.normal_stress,
+                             normal_stress=zone.normal_stress, tangential_stress=shear,
                              vertical=np.tile([0.0, 1.0], n // 2),
                              body_mass=float(np.sum(M @ np.tile([0.0, 1.0], n // 2))))
 

@@ -48,6 +48,7 @@ class HertzSphere(BodyCase):
                       "(1 + s), on the boundary too (0: none)", low=0.0, high=0.9),
     }
     R, Young, nu, rho = 1.0, 1.0, 0.3, 1.0
+    dim = 2  # the meridian section (axisymmetric)
     nx, dt, stride = 8, 0.01, 1
 
     @property

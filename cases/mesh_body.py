@@ -110,6 +110,11 @@ class MeshBody(BodyCase):
         return mesh_file.cached_mesh(self.file or DEFAULT_MESH)
 
     @property
+    def dim(self) -> int:
+        """The mesh file's dimension."""
+        return int(self.mesh_file.dim)
+
+    @property
     def size(self) -> float:
         """The largest extent of the mesh's bounding box."""
         p = self.mesh_file.mesh.p

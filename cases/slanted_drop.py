@@ -13,7 +13,9 @@ rigid translation, so the momentum along the plane, p_t = t^T M' V, grows by exa
 dt t^T F' per step (each step's update of the velocity is a weighted sum of loads that
 the tangent t sees only through F'), impacts included: `err_plane_momentum` is its
 largest departure over the samples from p_t(0) + t_k t^T F', relative to the momentum
-the body gains along the plane over the run.
+the body gains along the plane over the run. A base with friction (`mu` > 0) keeps it:
+its tangent rows turn with the plane (downhill and, for the ball, across), so the disc
+or ball bounces and slides on the slope with Coulomb friction.
 """
 
 from __future__ import annotations
@@ -84,22 +86,32 @@ class SlantedDrop(DerivedScene):
         c = p.contact
         G = sp.csr_matrix(c.gap_operator(p.nfree) @ Q.T)
         G.eliminate_zeros()
+        # the base's friction (`mu`): its tangent rows turned as G, T' = T Q^T (downhill
+        # R e_x and, for the ball, e_y), its coefficients as they are
+        T = None if c.tangents is None else sp.csr_matrix(c.tangents @ Q.T)
+        if T is not None:
+            T.eliminate_zeros()
         contact = ContactSet(dofs=None, gap0=np.asarray(c.gap0, float),
                              weights=np.asarray(c.weights, float), face_mass=c.face_mass,
-                             operator=G)
-        normal_stress = None if p.normal_stress is None else sp.csr_matrix(p.normal_stress
-                                                                            @ Q.T)
+                             operator=G, tangents=T, friction=c.friction, tresca=c.tresca)
+        normal_stress, shear = (None if S is None else sp.csr_matrix(S @ Q.T)
+                                for S in (p.normal_stress, p.tangential_stress))
         vertical = Q @ p.vertical
         return SparseProblem(M=M, K=K, F=F, U0=Q @ p.U0, V0=Q @ p.V0, contact=contact,
                              dim=dim, hmin=p.hmin, c_max=p.c_max, mass_kind=mass_kind,
                              E_contact=p.E_contact, h_contact=p.h_contact,
-                             normal_stress=normal_stress, vertical=vertical,
+                             normal_stress=normal_stress, tangential_stress=shear,
+                             vertical=vertical,
                              body_mass=p.body_mass)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
         """err_plane_momentum: max_k |p_t(t_k) - p_t(0) - t_k t^T F| over the samples,
         relative to max(|t_k t^T F|, |p_t(0)|) at the last sample (or the body's momentum
-        scale m sqrt(2 g lift) when gravity has no tangential part)."""
+        scale m sqrt(2 g lift) when gravity has no tangential part). NaN with friction
+        (the base's `mu` > 0): the plane then pushes along t too (its balance with the
+        contact impulses: tests/test_slanted_friction.py)."""
+        if problem.contact.frictional:
+            return {"err_plane_momentum": math.nan}
         t = self.tangent(problem)
         Mt = problem.M @ t
         p_t = traj.V @ Mt

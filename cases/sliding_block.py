@@ -116,21 +116,20 @@ class SlidingBlock(BodyCase):
         # slope (R e_y = e_y)
         slope = self.tilt.tangent(SimpleNamespace(nfree=n, dim=d))[:d]
         dirs = np.array([slope] + ([R[:, 1]] if d == 3 else []))
-        nt = dirs.shape[0]
-        rows = np.repeat(np.arange(nc * nt), d)
-        cols = np.repeat(d * zone.scalar[:, None] + np.arange(d)[None, :], nt, axis=0).ravel()
-        T = sp.csr_matrix((np.tile(dirs.ravel(), nc), (rows, cols)), shape=(nc * nt, n))
-        G, T = sp.csr_matrix(G), sp.csr_matrix(T)
+        T = fem_nd.tangent_rows(zone.scalar, dirs, n)
+        G = sp.csr_matrix(G)
         G.eliminate_zeros()
-        T.eliminate_zeros()
         contact = ContactSet(dofs=None, gap0=np.asarray(zone.gap0, float),
                              weights=np.asarray(zone.weights, float), face_mass=zone.face_mass,
                              operator=G, tangents=T,
                              friction=np.full(nc, float(self.mu)))
         shear = None
-        if contact.frictional and d == 2:  # Nitsche's friction term (2D): the traction along t
-            side = float((R.T @ slope)[0])  # t = side R e_x on every node
-            shear = sp.csr_matrix(side * fem_nd.contact_shear(body, facets, 1, 0) @ Q.T)
+        if contact.frictional:  # Nitsche's friction term: the traction along each tangent
+            side = float((R.T @ slope)[0])  # t = side R e_x on every node; R e_y = e_y
+            body_dirs = np.eye(d)[[0] + ([1] if d == 3 else [])]
+            body_dirs[0, 0] = side
+            shear = sp.csr_matrix(fem_nd.tangential_stress(body, facets, d - 1, body_dirs)
+                                  @ Q.T)
         vertical = self.normal(SimpleNamespace(nfree=n))
         # the energy's zero: gravity's potential zero on the horizontal line through the
         # plane's point under the block's centre (E(0) = m g times the centre's height)

@@ -3,7 +3,8 @@ elastic ball falls onto a rigid plane.
 
 Ball of radius 20 centred at (0, 0, 20) (it touches z = 0 undeformed), lambda = mu = 20,
 rho = 1, downward body force 0.1, lifted by `lift` (default 5), v0 = 0; obstacle z >= 0
-on the lower half of the boundary, frictionless; T = 40, dt = 0.01. Tetrahedra:
+on the lower half of the boundary, with Coulomb friction `mu` (default 0: frictionless;
+tangents e_x, e_y, the circular cone); T = 40, dt = 0.01. Tetrahedra:
 scikit-fem's ball (an octahedron refined), straight-sided, `--nx` elements along the
 radius (a power of two; default 8, 2499 dofs), P1 or P2 (`degree`, default 1: a default
 run takes under a minute; the redistributed mass needs nx >= 8 to stay SPD). `ball=lattice`
@@ -46,9 +47,12 @@ class SphereDrop(BodyCase):
         "ball": Param("octahedron", "the ball's tetrahedra: scikit-fem's refined octahedron "
                       "(nx a power of two) or the octahedral lattice (any nx)",
                       choices=("octahedron", "lattice")),
+        "mu": Param(0.0, "Coulomb's friction coefficient on the plane (0: frictionless, "
+                    "every scheme runs it)", low=0.0, high=10.0),
     }
     R, centre_z = 20.0, 20.0
-    lam = mu = 20.0
+    dim = 3
+    lam = mu_l = 20.0
     rho, g = 1.0, 0.1
     T, nx, dt, stride = 40.0, 8, 0.01, 20
 
@@ -60,7 +64,10 @@ class SphereDrop(BodyCase):
     @property
     def p_modulus(self) -> float:
         """The P-wave modulus lambda + 2 mu: the contact stiffness scale (`E_contact`)."""
-        return self.lam + 2 * self.mu
+        return self.lam + 2 * self.mu_l
+
+    def friction(self) -> float:
+        return float(self.mu)
 
     @property
     def impact_time(self) -> float:
@@ -111,15 +118,16 @@ class SphereDrop(BodyCase):
 
     @built_once
     def body(self, nx: int) -> fem_nd.Elasticity:
-        return fem_nd.assemble(self.mesh(nx), self.mu * (3 * self.lam + 2 * self.mu)
-                               / (self.lam + self.mu), self.lam / (2 * (self.lam + self.mu)),
+        return fem_nd.assemble(self.mesh(nx), self.mu_l * (3 * self.lam + 2 * self.mu_l)
+                               / (self.lam + self.mu_l),
+                               self.lam / (2 * (self.lam + self.mu_l)),
                                self.rho, degree=int(self.degree))
 
     def cannot_run(self, scheme) -> str | None:
         if int(self.degree) == 2 and canonical_mass(scheme.mass_kind()) in LUMPED_KINDS:
             return ("a lumped mass on P2 elements has negative row sums at the vertices: "
                     "use sphere_drop[degree=1] or the scheme's mass=consistent")
-        return None
+        return super().cannot_run(scheme)
 
     def sparse_problem(self, nx: int, grading: float, mass_kind: str) -> SparseProblem:
         if grading != 1.0:
@@ -135,13 +143,15 @@ class SphereDrop(BodyCase):
         U0 = np.zeros(n)
         U0[2::3] = float(self.lift)
         zone = fem_nd.contact_zone(body, facets, axis=2)
-        contact = zone.contact_set()
+        contact = zone.contact_set(mu=float(self.mu))
+        shear = (fem_nd.tangential_stress(body, facets, 2, zone.tangent_directions)
+                 if contact.frictional else None)  # Nitsche's friction term
         vertical = np.tile([0.0, 0.0, 1.0], n // 3)
         return SparseProblem(M=M, K=body.K, F=F, U0=U0, V0=np.zeros(n), contact=contact,
                              dim=3, hmin=body.hmin, c_max=body.wave_speed, mass_kind=mass_kind,
                              E_contact=self.p_modulus,
                              h_contact=fem_nd.contact_length(body, self.R / int(nx)),
-                             normal_stress=zone.normal_stress,
+                             normal_stress=zone.normal_stress, tangential_stress=shear,
                              vertical=vertical, body_mass=float(np.sum(M @ vertical)))
 
 

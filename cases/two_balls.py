@@ -53,6 +53,7 @@ class TwoBalls(BodyCase):
                         "(non-matching)", low=-180.0, high=180.0),
     }
     T, nx, dt, stride = 4.0, 4, 0.01, 1
+    dim = 3
     #: the small grid's nx 8: the first the redistributed mass runs on (as sphere_drop)
     study = StudyGrid(specs=("two_balls",), nx=(4, 8), T=4.0, small="two_balls",
                       small_nx=(2, 8), small_T=2.0, in_default_study=False)

@@ -32,6 +32,7 @@ class TwoBars(BodyCase):
     params = {"mach": Param(0.01, "each bar's speed / wave speed c", low=1e-3, high=0.5)}
     study = StudyGrid(specs=("two_bars",), nx=(20, 40, 80), T=None, small="two_bars",
                       small_nx=(20,), small_T=2.5, in_default_study=False)
+    dim = 1  # two bars joined end to end
 
     def validate(self) -> None:
         #: bar A's scene: its bar, data and exact solution are this scene's

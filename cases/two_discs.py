@@ -44,6 +44,7 @@ class TwoDiscs(BodyCase):
                         low=-180.0, high=180.0),
     }
     T, nx, dt, stride = 4.0, 5, 0.01, 1
+    dim = 2
     study = StudyGrid(specs=("two_discs",), nx=(3, 5), T=4.0, small="two_discs",
                       small_nx=(2, 3), small_T=2.0, in_default_study=False)
     quantities = frozenset({"pair_momentum"})

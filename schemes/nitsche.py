@@ -12,10 +12,11 @@ shared boundary-contact kernel (`contact_bench.kernels.boundary`): piecewise lin
 u0, solved exactly. With a massless contact node, row 0 gives u0 = max(0, u1): exact
 contact, the energy of `redistributed`, whatever theta.
 
-Friction (a body, implicit, 2D; Chouly-Hild-Renard's Coulomb term): the traction along t
-is tau = proj_[-mu p, mu p](sigma_t(U) - gam (u_t^{n+1} - u_t^n)), p the normal pressure,
-theta and gam the normal term's (`contact_law`). Readings, energy identities, GetFEM's NaN
-with a redistributed mass: docs/schemes.md and docs/comparisons.md.
+Friction (a body, implicit; Chouly-Hild-Renard's Coulomb term): the traction along the
+tangents is tau = proj onto the disc of radius mu p (an interval in 2D, a disc of two
+tangents in 3D) of sigma_t(U) - gam (u_t^{n+1} - u_t^n), p the normal pressure, theta and
+gam the normal term's (`contact_law`). Readings, energy identities, GetFEM's NaN with a
+redistributed mass: docs/schemes.md and docs/comparisons.md.
 """
 
 from __future__ import annotations
@@ -52,12 +53,6 @@ class Nitsche(Scheme):
 
     def mass_kind(self) -> str:
         return self.mass
-
-    def cannot_run(self, case) -> str | None:
-        if getattr(case, "friction", lambda: 0.0)() > 0 and getattr(case, "dim", 2) == 3:
-            return ("Chouly-Hild-Renard's friction term is built in 2D only (the 3D "
-                    "projection onto the friction disc is not)")
-        return None
 
     def traits(self, problem=None) -> Traits:
         # with a massless contact node the bar's row 0 gives u0 = max(0, u1): exact

@@ -113,7 +113,7 @@ def test_contact_operators_and_the_penalty_and_nitsche_paths():
     P = np.asarray(case.body(NX).dof_coordinates)
     U = np.zeros(p.nfree)
     U[1::2] = -0.01 * P[1]  # eps_yy = -0.01: sigma_yy = -(lambda + 2 mu) 0.01
-    assert np.allclose(p.normal_stress @ U, -(case.lam + 2 * case.mu) * 0.01, rtol=1e-10)
+    assert np.allclose(p.normal_stress @ U, -(case.lam + 2 * case.mu_l) * 0.01, rtol=1e-10)
     U[:] = 0.0
     U[0::2] = 0.01 * P[0]  # eps_xx = 0.01: sigma_yy = lambda 0.01
     assert np.allclose(p.normal_stress @ U, case.lam * 0.01, rtol=1e-10)

@@ -36,6 +36,19 @@ def test_every_scene_is_a_bar_or_a_body_and_declares_a_size(name):
         assert case.size == case.L
 
 
+@pytest.mark.parametrize("name", [n for n in cases().names()
+                                  if isinstance(make_case(n), BodyCase)])
+def test_every_body_scene_declares_its_dimension(name):
+    # the contract a scheme's cannot_run reads (BodyCase.dim), against the dimension of
+    # the problem the scene builds (a small grid)
+    case = make_case(name)
+    assert case.dim in (1, 2, 3), f"{name} declares no dim (BodyCase.dim)"
+    assert case.sparse_problem(2, 1.0, "consistent").dim == case.dim
+    for spec in ("slanted_drop[of=sphere_drop]", "sliding_block[dim=3]",
+                 "manufactured[dim=3]"):  # a derived scene's base, a param
+        assert make_case(spec).dim == 3
+
+
 def test_the_kinds_label_their_contact_observable_and_force():
     assert (BarCase.contact_label, BarCase.force_label) == (
         "u(0, t)", "contact stress E u_x(0, t)")

@@ -6,7 +6,7 @@ produces. `DerivedScene` holds what such scenes share, so that each scene file h
 what differs: the base is built and checked in `validate` against `bases` (the scenes it
 accepts, each with the index of its vertical axis), and everything that is the body's,
 not the problem's, is the base's: its size, impact time, exact energy, assembled body,
-footprint, friction and the schemes it cannot run. A derived scene declares `bases`, its
+footprint, dimension, friction and the schemes it cannot run. A derived scene declares `bases`, its
 params (`of` among them) and its `sparse_problem`, and extends `validate` or `cannot_run`
 where it differs.
 """
@@ -55,6 +55,11 @@ class DerivedScene(BodyCase):
     @property
     def exact_energy(self) -> float | None:
         return self.base.exact_energy
+
+    @property
+    def dim(self) -> int:
+        """The base's (`BodyCase.dim`)."""
+        return int(self.base.dim)
 
     def body(self, nx: int) -> Any:
         return self.base.body(nx)

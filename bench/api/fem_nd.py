@@ -483,11 +483,32 @@ class ContactZone:
     face_mass: sp.csr_matrix
     normal_stress: sp.csr_matrix
 
-    def contact_set(self, free: np.ndarray | None = None) -> ContactSet:
-        """The `ContactSet` over the free dofs `free` (free index -> dof; None: all)."""
+    #: the body's dimension and the zone's normal axis (obstacle normal +e_axis)
+    dim: int = 0
+    axis: int = 0
+
+    @property
+    def tangent_directions(self) -> np.ndarray:
+        """The zone's tangents (dim - 1 x dim): the unit axes other than `axis`, in
+        order (e_x in 2D; e_x, e_y in 3D for axis z)."""
+        return np.delete(np.eye(self.dim), self.axis, axis=0)
+
+    def contact_set(self, free: np.ndarray | None = None, mu: float = 0.0) -> ContactSet:
+        """The `ContactSet` over the free dofs `free` (free index -> dof; None: all);
+        mu > 0: Coulomb friction of coefficient mu at every point, its tangent rows along
+        `tangent_directions` (`tangent_rows`; every dof free). mu = 0 is the frictionless
+        set itself (no tangent rows)."""
         dofs = self.dofs if free is None else _free_index(free, self.dofs)
+        if not float(mu) > 0.0:
+            return ContactSet(dofs=dofs, gap0=self.gap0, weights=self.weights,
+                              face_mass=self.face_mass)
+        if free is not None:
+            raise ValueError("a frictional contact set is built on every dof (free: None)")
+        n = self.normal_stress.shape[1]
         return ContactSet(dofs=dofs, gap0=self.gap0, weights=self.weights,
-                          face_mass=self.face_mass)
+                          face_mass=self.face_mass,
+                          tangents=tangent_rows(self.scalar, self.tangent_directions, n),
+                          friction=np.full(self.scalar.size, float(mu)))
 
     def stress(self, free: np.ndarray | None = None) -> sp.csr_matrix:
         """The normal stress as a map of the free dofs' U (the others held at zero)."""
@@ -543,7 +564,7 @@ def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
     r, k = np.nonzero(X)
     B = sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
     return ContactZone(scalar=scalar, dofs=body.dim * scalar + c, gap0=gap0, weights=weights,
-                       face_mass=Mf, normal_stress=B)
+                       face_mass=Mf, normal_stress=B, dim=body.dim, axis=c)
 
 
 def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) -> sp.csr_matrix:
@@ -578,7 +599,50 @@ def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) ->
     return sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
 
 
+def tangent_rows(scalar: np.ndarray, directions: np.ndarray, n: int) -> sp.csr_matrix:
+    """The tangent rows T of a frictional `ContactSet` (n_c n_t x n): row j n_t + k is
+    the direction `directions[k]` (n_t x dim, in the problem's frame) on the dofs of the
+    zone's scalar dof `scalar[j]` (vector dof dim s + c), point by point, the layout
+    `contact_bench.kernels.contact.friction_ops` reads. One owner for every scene with
+    Coulomb friction on a zone of nodes."""
+    dirs = np.atleast_2d(np.asarray(directions, float))
+    nt, d = dirs.shape
+    scalar = np.asarray(scalar, np.int64)
+    nc = scalar.size
+    rows = np.repeat(np.arange(nc * nt), d)
+    cols = np.repeat(d * scalar[:, None] + np.arange(d)[None, :], nt, axis=0).ravel()
+    T = sp.csr_matrix((np.tile(dirs.ravel(), nc), (rows, cols)), shape=(nc * nt, int(n)))
+    T.eliminate_zeros()
+    return T
+
+
+def tangential_stress(body: Elasticity, where: Facets, axis: int,
+                      directions: np.ndarray) -> sp.csr_matrix:
+    """The shear traction e_k . sigma(u) n along each direction e_k of `directions` (n_t
+    x dim, in the body's frame, orthogonal to e_axis) at the scalar dofs of the contact
+    zone of `contact_zone(body, where, axis)`, rows point by point as `tangent_rows`:
+    sum over the components c != axis of e_k[c] `contact_shear(body, where, axis, c)`
+    (the components that are zero are not added). Nitsche's friction term reads it
+    (`SparseProblem.tangential_stress`)."""
+    dirs = np.atleast_2d(np.asarray(directions, float))
+    nt = dirs.shape[0]
+    if np.any(dirs[:, int(axis)] != 0.0):
+        raise ValueError(f"directions {dirs.tolist()!r}: a tangent has a component along "
+                         f"the zone's normal axis {axis!r}")
+    blocks = []
+    for e in dirs:
+        S = None
+        for c in np.flatnonzero(e):
+            term = float(e[c]) * contact_shear(body, where, axis, int(c))
+            S = term if S is None else S + term
+        blocks.append(sp.csr_matrix(S))
+    nc = blocks[0].shape[0]
+    order = np.arange(nc * nt).reshape(nt, nc).T.ravel()  # point by point
+    return sp.csr_matrix(sp.vstack(blocks, format="csr")[order])
+
+
 __all__ = ["ContactZone", "Dirichlet", "Elasticity", "Reduced", "assemble", "body_force",
            "constrain", "contact_length", "contact_shear", "contact_zone", "degree_of",
            "element_for", "facets_of", "lame", "lumped", "mass_matrix", "redistributed",
-           "sliding_dofs", "tensor_mass", "vector_mass"]
+           "sliding_dofs", "tangent_rows", "tangential_stress", "tensor_mass",
+           "vector_mass"]

@@ -384,6 +384,13 @@ class BodyCase(Case):
 
     #: its problem carries a time-dependent load (`contact_bench.api.sparse.TimeLoad`)
     time_load: ClassVar[bool] = False
+    #: the dimension of the body's space, its problem's `SparseProblem.dim` (2 for a
+    #: plane or axisymmetric section, 3 for a solid; 1 for bars joined end to end): a
+    #: class attribute, a property or the scene's `dim` param; a derived scene gives its
+    #: base's. A scheme's `cannot_run` reads it (how many tangents a contact point has);
+    #: 0, the default, is undeclared (tests/test_scene_kinds.py requires every body
+    #: scene to declare it)
+    dim: int = 0
 
     def declarations(self) -> dict[str, Any]:
         return {"size": self.size}

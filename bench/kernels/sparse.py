@@ -384,11 +384,12 @@ class NitscheFrictionOps(NamedTuple):
 @njit(cache=True)
 def newmark_nitsche_friction_step(o, s, step):  # pragma: no cover - compiled
     """Newmark with a piecewise-linear normal law and its tangential law at t_{n+1}
-    (2D; `ContactLaw.Pt`, Nitsche's friction): on y = (P X + y0, Pt X - St U^n) the
-    reactions r = c max(0, -y_n) and r_t = -proj_[-mu r_n, mu r_n](c y_t), solved
-    together by `penalty_coulomb_solve` (its return map from rho = 0: the law has no
-    memory but U^n); X += S^-1 [Q; Qt]^T r. A point whose y_t is beyond the bound has its
-    tangential force mu times its normal one, exactly. s.mu holds (r_n, r_t)."""
+    (`ContactLaw.Pt`, Nitsche's friction; n_t = 1 or 2 tangent rows per point): on y =
+    (P X + y0, Pt X - St U^n) the reactions r = c max(0, -y_n) and r_t = -proj(c y_t)
+    onto the disc |r_t| <= mu r_n (an interval in 2D), solved together by
+    `penalty_coulomb_solve` (its return map from rho = 0: the law has no memory but U^n);
+    X += S^-1 [Q; Qt]^T r. A point whose y_t is beyond the bound has its tangential force
+    mu times its normal one, exactly. s.mu holds (r_n, r_t)."""
     b, fr = o.base, o.fr
     cf = fr.ct
     nc = b.ct.gap0.size
@@ -404,7 +405,7 @@ def newmark_nitsche_friction_step(o, s, step):  # pragma: no cover - compiled
         else:
             q[i] -= row_dot(o.St, i - nc, U)
     if pen:
-        penalty_coulomb_solve(cf.W, q, fr.mu, b.cpen, np.zeros(nc), r)
+        penalty_coulomb_solve(cf.W, q, fr.mu, b.cpen, np.zeros(r.size - nc), r)
         push(cf, b.fac, r, X, (s.rhs, s.w, s.work))
     else:
         r[:] = 0.0
@@ -623,7 +624,8 @@ class FrictionalPenaltyStepper(FrictionalNewmarkStepper):
 
 class FrictionalNitscheStepper(NewmarkStepper):
     """`NewmarkStepper` with a law that has tangential rows (`ContactLaw.Pt`: Nitsche's
-    friction) on a 2D problem with Coulomb friction: S with the law's added stiffness
+    friction) on a problem with Coulomb friction (one tangent per point in 2D, two in 3D:
+    the disc's projection): S with the law's added stiffness
     (both its normal and tangential terms), the stacked rows' W and Z (`law_ops`),
     `newmark_nitsche_friction_step`. The initial acceleration has the law's normal force
     at t = 0 and no tangential one (no slip increment yet). A curved obstacle is refused
@@ -636,15 +638,18 @@ class FrictionalNitscheStepper(NewmarkStepper):
     def __init__(self, p: SparseProblem, dt: float, beta: float, gamma: float,
                  law: ContactLaw) -> None:
         c = p.contact
-        if c.tangents.shape[0] != c.size or c.tresca is not None:
-            raise ValueError("Nitsche's friction is built for 2D Coulomb friction (one "
-                             "tangent per contact point, no Tresca threshold)")
+        nt = c.tangents.shape[0] // c.size
+        if c.tangents.shape[0] != nt * c.size or nt not in (1, 2) or c.tresca is not None:
+            raise ValueError("Nitsche's friction is built for Coulomb friction with one or "
+                             "two tangents per contact point (no Tresca threshold); this "
+                             f"problem has {c.tangents.shape[0]} tangent rows for "
+                             f"{c.size} points")
         super().__init__(p, dt, beta, gamma, law=law)
         P = sp.vstack([law.P, law.Pt], format="csr")
         Q = sp.vstack([law.Q, law.Qt], format="csr")
         y0 = np.concatenate([np.asarray(law.y0, float), np.zeros(law.Pt.shape[0])])
         mu = np.zeros(c.size) if c.friction is None else np.asarray(c.friction, float)
-        fr = Friction(law_ops(self.factor, P, Q, y0), mu.copy(), np.zeros(c.size), 1)
+        fr = Friction(law_ops(self.factor, P, Q, y0), mu.copy(), np.zeros(c.size), nt)
         self.ops = NitscheFrictionOps(self.ops, fr, csr_arrays(sp.csr_matrix(law.St)))
 
 
