@@ -31,7 +31,7 @@ from contact_bench.api.kept import built_once
 from contact_bench.api.params import Param
 from contact_bench.api.plugin import BodyCase, StudyGrid
 from contact_bench.api.registry import make_case
-from contact_bench.api.sparse import ContactSet, SparseProblem
+from contact_bench.api.sparse import ContactSet, SparseProblem, tangent_rows
 
 
 class SlidingBlock(BodyCase):
@@ -115,13 +115,9 @@ class SlidingBlock(BodyCase):
         # slope (R e_y = e_y)
         slope = self.tilt.tangent(SimpleNamespace(nfree=n, dim=d))[:d]
         dirs = np.array([slope] + ([R[:, 1]] if d == 3 else []))
-        nt = dirs.shape[0]
-        rows = np.repeat(np.arange(nc * nt), d)
-        cols = np.repeat(d * zone.scalar[:, None] + np.arange(d)[None, :], nt, axis=0).ravel()
-        T = sp.csr_matrix((np.tile(dirs.ravel(), nc), (rows, cols)), shape=(nc * nt, n))
-        G, T = sp.csr_matrix(G), sp.csr_matrix(T)
+        T = tangent_rows(zone.scalar, dirs, n)
+        G = sp.csr_matrix(G)
         G.eliminate_zeros()
-        T.eliminate_zeros()
         contact = ContactSet(dofs=None, gap0=np.asarray(zone.gap0, float),
                              weights=np.asarray(zone.weights, float), face_mass=zone.face_mass,
                              operator=G, tangents=T,

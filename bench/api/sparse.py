@@ -265,3 +265,19 @@ def sample_blocks(samples: int, width: int) -> list[slice]:
     size (a run's memory is its samples, not a few copies of them)."""
     rows = max(1, SAMPLE_BLOCK_VALUES // max(1, int(width)))
     return [slice(a, min(samples, a + rows)) for a in range(0, int(samples), rows)]
+
+
+def tangent_rows(nodes: np.ndarray, dirs: np.ndarray, n: int) -> sp.csr_matrix:
+    """The tangent rows T of a frictional `ContactSet` (n_t n_c x n, CSR): row j n_t + k
+    is the unit vector dirs[k] (dim values) on the dim dofs of contact point j's node,
+    dim nodes[j] + 0..dim-1 (dofs interleaved node by node). The same tangents at every
+    point: a plane's (`sliding_block`, `oblique_impact`)."""
+    dirs = np.atleast_2d(np.asarray(dirs, float))
+    nt, d = dirs.shape
+    nodes = np.asarray(nodes, np.int64)
+    nc = nodes.size
+    rows = np.repeat(np.arange(nc * nt), d)
+    cols = np.repeat(d * nodes[:, None] + np.arange(d)[None, :], nt, axis=0).ravel()
+    T = sp.csr_matrix((np.tile(dirs.ravel(), nc), (rows, cols)), shape=(nc * nt, int(n)))
+    T.eliminate_zeros()
+    return T
