@@ -33,19 +33,19 @@ class ObliqueImpact(DerivedScene):
     name = "oblique_impact"
     summary = "disc_drop or sphere_drop hitting the plane obliquely, Coulomb friction mu"
     params = {
-        "of": Param("sphere_drop[lift=0.05]", "the body: a disc_drop or sphere_drop spec "
+        "of": Param("sphere_drop[lift=0.0505]", "the body: a disc_drop or sphere_drop spec "
                     "(its lift: the initial gap)"),
-        "mu": Param(0.3, "Coulomb's friction coefficient (0: frictionless)", low=0.0,
-                    high=10.0),
+        "mu": Param(0.0, "Coulomb's friction coefficient (0: frictionless, every scheme "
+                    "runs it)", low=0.0, high=10.0),
         "incidence": Param(60.0, "the impact velocity's angle from the normal, degrees",
                            low=0.0, high=89.99),
         "speed": Param(0.1, "the normal impact speed", low=1e-6, high=100.0),
     }
     bases = {"disc_drop": 1, "sphere_drop": 2}
     quantities = frozenset({"impulse_ratio", "tangential_momentum"})
-    study = StudyGrid(specs=("oblique_impact",), nx=(2, 4), T=None,
-                      small="oblique_impact[of=disc_drop[degree=1,lift=0.05]]",
-                      small_nx=(2, 3), small_T=None, in_default_study=False)
+    study = StudyGrid(specs=("oblique_impact[mu=0.3]",), nx=(2, 4), T=None,
+                      small="oblique_impact[of=disc_drop[degree=1,lift=0.0505]]",
+                      small_nx=(2, 3), small_T=25.0, in_default_study=False)
 
     def validate(self) -> None:
         super().validate()

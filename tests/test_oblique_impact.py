@@ -17,7 +17,7 @@ friction, no gravity (so the change of the body's momentum is the contact impuls
 - The rebound against Maw-Barber-Fawcett's theory (`contact_bench.exact.oblique`): its
   closed-form gross-sliding branch against the time integration of the compliant
   contact; the FE ball in gross sliding against the closed form with the ball's own
-  k^2 and normal restitution (the lever arm of its friction is not exactly R).
+  k^2 and normal restitution (its spin below it: the contact forces' lever arm).
 """
 
 from __future__ import annotations
@@ -144,14 +144,16 @@ def test_the_sticking_limit_is_the_tangential_oscillation_of_the_hertz_contact()
 
 
 def test_the_fe_ball_in_gross_sliding_against_the_closed_form():
+    """The centre's tangential velocity drops by exactly mu (1 + e) V_n (the impulses);
+    the spin is the closed form's (1 + e) / k^2 only up to the lever arm of the contact
+    forces: friction shifts the FE ball's pressure forward (an elastic ball on a rigid
+    plane: the normal and tangential tractions couple), 11 % lower at nx 8 (the
+    benchmark), within 15 % at any nx here."""
     case, run, p, nx = _run("oblique_impact[of=sphere_drop[degree=1,lift=0.05,"
                             "ball=lattice],mu=0.3,incidence=80]", "moreau_jean")
     r = case.rebound(p, run.trajectory, nx)
-    e = r["vn_after"] / r["vn_before"]  # the FE ball keeps some energy in vibrations
-    kap = oblique.kappa(r["nu"])
-    # the contact point's tangential velocity drops by mu (1 + e) V_n (1 + 1/k^2)
-    dc = 0.3 * (1 + e) * r["vn_before"] * (1 + 1 / r["k2"])
-    assert r["contact_vt_after"] == pytest.approx(r["contact_vt_before"] - dc, rel=0.01)
-    assert r["psi2"] == pytest.approx(kap * (r["contact_vt_before"] - dc)
-                                      / (0.3 * r["vn_after"]), rel=0.01)
-    assert r["Omega"] == pytest.approx((1 + e) / r["k2"], rel=0.01)
+    e = r["vn_after"] / r["vn_before"]  # not 1: the FE ball keeps vibrations
+    assert r["vt_after"] == pytest.approx(r["vt_before"] - 0.3 * (1 + e) * r["vn_before"],
+                                          rel=1e-9)
+    assert r["Omega"] == pytest.approx((1 + e) / r["k2"], rel=0.15)
+    assert r["Omega"] <= (1 + e) / r["k2"]
