@@ -7,7 +7,7 @@ velocity from the normal, degrees). The base's contact points each get the tange
 rows of the plane (e_x; in 3D e_x, e_y: the circular cone) and the coefficient mu.
 Observables from the FE field (`rigid_motion`): the centre-of-mass velocity E^T M V / m
 and the spin, (W^T M W)^-1 W^T M V, W the infinitesimal rotations about the centre of
-mass of the discrete mass (K W = 0: the spin is constant in free flight).
+mass of the discrete mass (K W = 0 on the ball and the P2 disc: a constant spin in flight).
 
 Exact identities (no gravity, K E = 0): the change of momentum dP is the contact
 impulse. In gross sliding every touching point (gap <= 0) slides along +x at every sample,
@@ -49,8 +49,8 @@ class ObliqueImpact(DerivedScene):
 
     def validate(self) -> None:
         super().validate()
-        # the free flight to the plane, the contact (about 30 at the default speed and
-        # its 0.7 power law), and as long again after it
+        # the free flight to the plane, the contact (about 30 on the ball at the default
+        # speed; Hertz's duration goes as speed^-1/5), and as long again after it
         self.T = float(self.impact_time + 70.0 * (0.1 / float(self.speed)) ** 0.2)
 
     @property
