@@ -1,0 +1,159 @@
+"""`oblique_impact`: the disc and the ball hitting the plane obliquely with Coulomb
+friction, no gravity (so the change of the body's momentum is the contact impulse).
+
+- Gross sliding, every frictional scheme, disc and ball, P1 and P2: the tangential
+  impulse over the normal one from the momentum balance (E^T M dV), and the normal
+  impulse the one the scheme applies (`impulse_residual`: the kernel's accumulated
+  contact impulse against the vertical momentum's change, 1e-9). In 2D the ratio is mu
+  within 1e-9 (`err_impulse_ratio`). In 3D it is not exact: each point's friction lies
+  along its own slip in the circular cone, and the slips lean off x (the patch spreads
+  while pressed, and the schemes' tangential vibrations), so the length of the summed
+  tangential impulse falls short of mu times the normal one by about the mean squared
+  lean: at 89.99 degrees (a slip 5730 times the normal speed) the test holds it in
+  [0, 2e-6] (docs/oblique-impact.md gives the measured values).
+- mu = 0: the tangential velocity of the centre of mass is unchanged by the impact and
+  the spin is zero, to round-off (the ball is `ball=lattice`, mirror symmetric: on the
+  refined octahedron's P2 ball the normal forces leave a spin of 8e-4 V_n / R).
+- The rebound against Maw-Barber-Fawcett's theory (`contact_bench.exact.oblique`): its
+  closed-form gross-sliding branch against the time integration of the compliant
+  contact; the FE ball in gross sliding against the closed form with the ball's own
+  k^2 and normal restitution (its spin below it: the contact forces' lever arm).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from contact_bench.api.registry import make_case, make_scheme, schemes
+from contact_bench.exact import oblique
+from contact_bench.harness import run_one
+
+FRICTIONAL = sorted(n for n in schemes().names() if make_scheme(n).traits().friction)
+#: (base, nx, T): every contact over by T (the penalty's on the P2 ball, whose
+#: vertices carry no contact weight, lasts to about 50)
+BASES = {
+    "disc_drop[degree=1,lift=0.05]": (2, 30.0),
+    "disc_drop[degree=2,lift=0.05]": (2, 30.0),
+    "sphere_drop[degree=1,lift=0.05,ball=lattice]": (2, 45.0),
+    "sphere_drop[degree=2,lift=0.05,ball=lattice]": (2, 70.0),
+}
+DT = 0.05
+#: schemes whose contact points do not all slide on the disc: exact contact on nodes
+#: with mass chatters, and a node's frictional impact can stop its slip within a step
+NOT_SLIDING = {"standard"}
+
+
+
+@functools.cache
+def _run(spec: str, scheme: str):
+    case = make_case(spec)
+    reason = make_scheme(scheme).cannot_run(case)
+    if reason:
+        pytest.skip(f"{scheme} on {spec}: {reason}")
+    nx, T = BASES[case.of]
+    if scheme == "redistributed":  # its mass is SPD from nx 3 on the disc, 8 on the ball
+        if case.dim == 3:
+            pytest.skip("the ball's redistributed mass needs nx >= 8: too large here")
+        nx = 3
+    run = run_one(spec, scheme, nx=nx, T=T, dt=DT)
+    p = case.sparse_problem(nx, 1.0, make_scheme(scheme).mass_kind())
+    return case, run, p, nx
+
+
+def _apart(run) -> bool:
+    """No contact force at the last sample (the impact is over)."""
+    stress = run.trajectory.stress
+    return abs(stress[-1]) <= 1e-9 * np.max(np.abs(stress))
+
+
+def _ratio(case, run, p, nx) -> float:
+    """|dP_t| / dP_n from the change of the body's momentum over the run."""
+    P = case.rigid_motion(p, run.trajectory, nx)["P"]
+    dP = P[-1] - P[0]
+    v = case.vertical
+    return float(np.linalg.norm(np.delete(dP, v)) / dP[v])
+
+
+@pytest.mark.parametrize("base", list(BASES))
+@pytest.mark.parametrize("scheme", FRICTIONAL)
+def test_gross_sliding_tangential_impulse_is_mu_times_the_normal_one(scheme, base):
+    incidence = 89.99 if base.startswith("sphere") else 80.0
+    case, run, p, nx = _run(f"oblique_impact[of={base},mu=0.3,incidence={incidence}]",
+                            scheme)
+    assert run.row["status"] == "ok" and _apart(run)
+    assert run.row["impulse_residual"] <= 1e-9
+    if scheme in NOT_SLIDING and case.dim == 2:
+        assert _ratio(case, run, p, nx) <= 0.3 * (1 + 1e-12)  # within the cone only
+        return
+    if case.dim == 2:
+        assert run.row["err_impulse_ratio"] <= 1e-9  # NaN (not sliding) fails too
+        return
+    # 3D: short of mu by the slips' lean off x (above it by a cone solved to a tolerance)
+    short = (0.3 - _ratio(case, run, p, nx)) / 0.3
+    assert abs(short) <= 2e-6
+    assert run.row["err_impulse_ratio"] == pytest.approx(abs(short), rel=0, abs=1e-10)
+
+
+@pytest.mark.parametrize("base", list(BASES))
+@pytest.mark.parametrize("scheme", FRICTIONAL)
+def test_frictionless_impact_keeps_the_tangential_velocity_and_gives_no_spin(scheme, base):
+    case, run, p, nx = _run(f"oblique_impact[of={base},mu=0,incidence=60]", scheme)
+    assert run.row["status"] == "ok" and _apart(run)
+    assert run.row["err_tangential_momentum"] <= 1e-10
+    r = case.rebound(p, run.trajectory, nx)
+    assert abs(r["vt_after"] - r["vt_before"]) <= 1e-10 * abs(r["vt_before"])
+    assert abs(r["spin_after"]) * case.base.R <= 1e-10 * r["vn_before"]
+    assert r["vn_after"] > 0.5 * r["vn_before"]  # it did bounce
+
+
+def test_the_gross_sliding_branch_is_the_compliant_contact_at_large_incidence():
+    nu, k2 = 0.3, 0.4
+    psi1 = np.array([6.0, 8.0, 12.0])
+    psi2, omega = oblique.compliant_impact(psi1, nu, k2)
+    closed, spin = oblique.gross_sliding(psi1, nu, k2)
+    assert np.allclose(psi2, closed, rtol=0, atol=1e-3)
+    assert np.allclose(omega, spin, rtol=1e-3)
+    assert oblique.chi(0.28, 0.5) == pytest.approx(1.2558, abs=1e-4)  # MBF's thin disc
+
+
+def test_the_sticking_limit_is_the_tangential_oscillation_of_the_hertz_contact():
+    """As psi1 -> 0 no point slips until the unloading's end: psi2 / psi1 is the
+    no-slip tangential oscillation c'' = -2 chi (3/2) delta^(1/2) c over the Hertz
+    contact delta'' = -delta^(3/2), solved here by scipy; the Coulomb cap near the
+    contact's end (the force falls faster than the stuck tangential one) moves it by
+    under 2 %."""
+    nu, k2 = 0.3, 0.4
+    two_chi = 2 * oblique.chi(nu, k2)
+
+    def f(t, y):
+        d = max(y[0], 0.0)
+        return [y[1], -d ** 1.5, y[3], -two_chi * 1.5 * math.sqrt(d) * y[2]]
+
+    def apart(t, y):
+        return y[0]
+
+    apart.terminal, apart.direction = True, -1
+    s = solve_ivp(f, (0, 10), [1e-12, 1.0, 1.0, 0.0], events=apart, rtol=1e-10, atol=1e-12)
+    psi2, _ = oblique.compliant_impact(np.array([1e-3]), nu, k2)
+    assert psi2[0] / 1e-3 == pytest.approx(s.y[2, -1], rel=0.02)
+
+
+def test_the_fe_ball_in_gross_sliding_against_the_closed_form():
+    """The centre's tangential velocity drops by exactly mu (1 + e) V_n (the impulses);
+    the spin is the closed form's (1 + e) / k^2 only up to the lever arm of the contact
+    forces: friction shifts the FE ball's pressure forward (an elastic ball on a rigid
+    plane: the normal and tangential tractions couple), 11 % lower at nx 8 (the
+    benchmark), within 15 % at any nx here."""
+    case, run, p, nx = _run("oblique_impact[of=sphere_drop[degree=1,lift=0.05,"
+                            "ball=lattice],mu=0.3,incidence=80]", "moreau_jean")
+    r = case.rebound(p, run.trajectory, nx)
+    e = r["vn_after"] / r["vn_before"]  # not 1: the FE ball keeps vibrations
+    assert r["vt_after"] == pytest.approx(r["vt_before"] - 0.3 * (1 + e) * r["vn_before"],
+                                          rel=1e-9)
+    assert r["Omega"] == pytest.approx((1 + e) / r["k2"], rel=0.15)
+    assert r["Omega"] <= (1 + e) / r["k2"]
