@@ -64,7 +64,7 @@ INDEX = np.int32
 def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b from SuperLU's Pr S Pc = L U (`fac`, an `LU`: L unit lower, U upper,
     both CSR with sorted columns, L's diagonal last in its row, U's first)."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
     n = b.size
     for i in range(n):
         work[perm_r[i]] = b[i]
@@ -84,7 +84,9 @@ def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
 
 class LU(NamedTuple):
     """A factor's arrays for the compiled loops: L and U as CSR (L unit lower with its
-    diagonal last in each row, U upper with its diagonal first), the permutations."""
+    diagonal last in each row, U upper with its diagonal first), the permutations, and
+    `solves`: (1,) int64, the number of solves the compiled loops made with it (`lu`
+    counts them: how a test sees what a step costs)."""
 
     Lp: np.ndarray
     Li: np.ndarray
@@ -94,11 +96,14 @@ class LU(NamedTuple):
     Ux: np.ndarray
     perm_r: np.ndarray
     perm_c: np.ndarray
+    solves: np.ndarray
 
 
 @njit(cache=True)
 def lu(fac, b, out, work):  # pragma: no cover - compiled
-    """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n)."""
+    """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n).
+    Counts the solve in `fac.solves`."""
+    fac.solves[0] += 1
     lu_solve(fac, b, out, work)
 
 
@@ -107,7 +112,7 @@ def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
     """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
     `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
     numbers to the bit), the factor read once for all k columns."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
     n, k = B.shape
     for i in range(n):
         work[perm_r[i], :] = B[i, :]
@@ -196,7 +201,7 @@ class Factor:
         ix = INDEX if max(Lm.nnz, Um.nnz) < np.iinfo(INDEX).max else np.int64
         arrays = LU(Lm.indptr.astype(ix), Lm.indices.astype(ix), Lm.data,
                     Um.indptr.astype(ix), Um.indices.astype(ix), Um.data,
-                    np.asarray(perm_r, ix), np.asarray(perm_c, ix))
+                    np.asarray(perm_r, ix), np.asarray(perm_c, ix), np.zeros(1, np.int64))
         # symmetric, no pivoting (Pr = Pc) and U's diagonal positive: S is SPD
         spd = (USE_CHOLMOD and cholespy is not None and is_symmetric(C)
                and np.array_equal(arrays[6], arrays[7]) and bool(np.all(Um.diagonal() > 0)))
