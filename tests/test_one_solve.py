@@ -80,3 +80,30 @@ def test_patch_rows_bound(monkeypatch):
     assert contact.patch_rows(100, 50, 0) == 10  # KEEP_Z_ENTRIES // n
     assert contact.patch_rows(100, 50, 2000) == 30  # 1.5 x 2000 values / n
     assert contact.patch_rows(100, 50, 10**6) == 50  # at most n_c
+
+
+def _solver_floor():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "solver_floor.py"
+    spec = importlib.util.spec_from_file_location("_bench_solver_floor", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_solver_floor_script_rows(capsys):
+    """benchmarks/solver_floor.py: a row per kind (one solve a step, the factor's size:
+    L and D about half of L and U), and the active rows of a short run."""
+    sf = _solver_floor()
+    cfg = f"{CASE}:{NX}"
+    lu, ldl = sf.measure(cfg, "lu", 3), sf.measure(cfg, "ldlt", 3)
+    assert (lu["kind"], ldl["kind"]) == ("lu", "ldlt")
+    assert lu["solves / step"] == ldl["solves / step"] == 1.0 and lu["patch"] == "whole"
+    assert 0.4 < ldl["factor entries"] / lu["factor entries"] < 0.6
+    sf.main([cfg, "--active", "100"])
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("| config | steps | n_c | most at once | ever | largest rank")
+    cells = [c.strip() for c in out[2].split("|")[1:-1]]
+    assert cells[:3] == [cfg, "100", "25"] and 1 <= int(cells[3]) <= int(cells[4]) <= 25
