@@ -76,9 +76,9 @@ def test_outside_the_patch_a_second_solve(problem, whole, monkeypatch, rows):
 
 def test_patch_rows_bound(monkeypatch):
     monkeypatch.setattr(contact, "KEEP_Z_ENTRIES", 1000)
-    monkeypatch.setattr(contact, "PATCH_SHARE", 1.5)
+    monkeypatch.setattr(contact, "PATCH_SHARE", 3.0)
     assert contact.patch_rows(100, 50, 0) == 10  # KEEP_Z_ENTRIES // n
-    assert contact.patch_rows(100, 50, 2000) == 30  # 1.5 x 2000 values / n
+    assert contact.patch_rows(100, 50, 1000) == 30  # 3 x 1000 values / n
     assert contact.patch_rows(100, 50, 10**6) == 50  # at most n_c
 
 

@@ -58,11 +58,10 @@ from contact_bench.kernels.solvers import coulomb_solve, lcp_solve
 
 #: largest n x n_c response matrix Z = S^-1 G^T kept whole (values); beyond, the patch's
 KEEP_Z_ENTRIES = 10_000_000
-#: the patch's response may hold this multiple of the factor's entries (L and U) in
-#: values (at least `KEEP_Z_ENTRIES`): its memory stays of the factor's order (8 bytes a
-#: value against the factor's 12 an entry); docs/sparse.md, "One solve a step", says
-#: why this multiple
-PATCH_SHARE = 1.5
+#: the patch's response may hold this multiple of L's entries in values (at least
+#: `KEEP_Z_ENTRIES`; 3 x L is 1.5 x SuperLU's L and U, whichever the loops keep): its
+#: memory stays of the factor's order; docs/sparse.md, "One solve a step", says why
+PATCH_SHARE = 3.0
 #: no patch: the response is kept whole or not at all
 NO_PATCH = np.zeros(0, np.int64)
 
@@ -120,17 +119,11 @@ def is_selection(G: sp.csr_matrix) -> bool:
     return bool(np.all(selection_rows(G) >= 0))
 
 
-def patch_rows(n: int, nc: int, factor_entries: int) -> int:
+def patch_rows(n: int, nc: int, l_entries: int) -> int:
     """How many columns of Z = S^-1 G^T the contact patch keeps when Z is not kept whole:
-    n x k values within max(`KEEP_Z_ENTRIES`, `PATCH_SHARE` x the factor's entries), at
-    most n_c."""
-    budget = max(KEEP_Z_ENTRIES, int(PATCH_SHARE * factor_entries))
+    n x k values within max(`KEEP_Z_ENTRIES`, `PATCH_SHARE` x L's entries), at most n_c."""
+    budget = max(KEEP_Z_ENTRIES, int(PATCH_SHARE * l_entries))
     return int(min(nc, budget // max(n, 1)))
-
-
-def factor_entries(fac: Factor) -> int:
-    """The number of values in S's factor (L and U)."""
-    return int(fac.arrays.Lx.size + fac.arrays.Ux.size)
 
 
 @phase("contact")
@@ -152,7 +145,7 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
     keep = n * nc <= KEEP_Z_ENTRIES if auto else bool(keep)
     sel = selection_rows(G)
     GT = sp.csc_matrix(G.T)
-    k = patch_rows(n, nc, factor_entries(fac)) if auto and not keep else 0
+    k = patch_rows(n, nc, fac.arrays.Lx.size) if auto and not keep else 0
     zcol = NO_PATCH
     if k:
         order = np.argsort(np.asarray(gap0 if rank is None else rank, float), kind="stable")

@@ -270,6 +270,11 @@ class Factor:
         return cls(arrays, S.shape[0], C if chol else None, "cholmod" if chol else "superlu",
                    kind="lu" if keep_u else "ldlt", fallback=fallback)
 
+    @property
+    def entries(self) -> int:
+        """The values the loops' factor holds: L and U, or L and D."""
+        return int(self.arrays.Lx.size + self.arrays.Ux.size)
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         """S^-1 b for one right-hand side (`lu_solve`)."""
         out = np.empty(self.n)
