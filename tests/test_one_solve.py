@@ -46,7 +46,7 @@ def test_patch_one_solve_a_step_same_numbers(problem, whole, monkeypatch):
     monkeypatch.setattr(contact, "KEEP_Z_ENTRIES", 0)
     monkeypatch.setattr(contact, "patch_rows", lambda n, nc, entries: 6)
     tr, solves, in_contact, ct = _run(problem)
-    assert not ct.keep_z and ct.Z.shape == (problem.nfree, 6)
+    assert not ct.keep_z and ct.Z.shape == (6, problem.nfree)  # columns as rows
     assert np.count_nonzero(ct.zcol >= 0) == 6
     # the patch is the rows of smallest initial gap
     g0 = np.asarray(problem.contact.gap0)
@@ -63,7 +63,7 @@ def test_outside_the_patch_a_second_solve(problem, whole, monkeypatch, rows):
     monkeypatch.setattr(contact, "KEEP_Z_ENTRIES", 0)
     monkeypatch.setattr(contact, "patch_rows", lambda n, nc, entries: rows)
     tr, solves, in_contact, ct = _run(problem)
-    assert not ct.keep_z and ct.Z.shape == ((problem.nfree, 1) if rows else (1, 1))
+    assert not ct.keep_z and ct.Z.shape == ((1, problem.nfree) if rows else (1, 1))
     assert in_contact == NSTEPS
     if rows == 0:
         assert solves == 2 * NSTEPS

@@ -89,7 +89,8 @@ class ContactOps(NamedTuple):
     """A gap operator with a factored S: G and G^T (CSR), gap0, `sel` (per row: the dof
     it selects, or -1 for a general row), W = G S^-1 G^T, Z = S^-1 G^T when `keep_z`,
     a curved obstacle's tangent data (`cv`, `FLAT` for a fixed G), and `zcol`: with a
-    patch (not `keep_z`), per row its column in Z or -1 (`NO_PATCH`: none)."""
+    patch (not `keep_z`), per row where its column of S^-1 G^T is stored in Z (k x n:
+    the patch's columns as rows), or -1 (`NO_PATCH`: no patch)."""
 
     G: CSR
     GT: CSR
@@ -151,7 +152,8 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
         order = np.argsort(np.asarray(gap0 if rank is None else rank, float), kind="stable")
         zcol = np.full(nc, -1, np.int64)
         zcol[order[:k]] = np.arange(k)
-    Z = np.empty((n, nc)) if keep else np.zeros((n, k)) if k else np.zeros((1, 1))
+    # the patch's columns stored as rows (k x n): a step reads only the pushing ones
+    Z = np.empty((n, nc)) if keep else np.zeros((k, n)) if k else np.zeros((1, 1))
     W = np.empty((nc, nc))
     for j0, j1, X in fac.solve_blocks(GT):
         if keep:
@@ -159,7 +161,7 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
         elif k:
             cols = zcol[j0:j1]
             mine = cols >= 0
-            Z[:, cols[mine]] = X[:, mine]
+            Z[cols[mine], :] = X[:, mine].T
         W[:, j0:j1] = X[sel] if np.all(sel >= 0) else G @ X
     return ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(gap0, float), sel,
                       np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep,
@@ -340,15 +342,18 @@ def in_patch(zcol, mu):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def add_patch(Z, zcol, mu, X):  # pragma: no cover - compiled
-    """X += Z mu over the rows that push, each row's column of the patch at `zcol`."""
+def add_patch(Zt, zcol, mu, X, acc):  # pragma: no cover - compiled
+    """X += S^-1 G^T mu over the rows that push, row j's column of S^-1 G^T stored as
+    Zt[zcol[j]] (contiguous: only the pushing ones are read); acc: scratch of X's size.
+    Each X[i] gets `add_response`'s sum, in its order."""
     on = np.flatnonzero(mu)
-    cols = zcol[on]
+    acc[:] = 0.0
+    for a in range(on.size):
+        z, m = Zt[zcol[on[a]]], mu[on[a]]
+        for i in range(X.size):
+            acc[i] += z[i] * m
     for i in range(X.size):
-        acc = 0.0
-        for a in range(on.size):
-            acc += Z[i, cols[a]] * mu[on[a]]
-        X[i] += acc
+        X[i] += acc[i]
 
 
 @njit(cache=True)
@@ -358,10 +363,10 @@ def push(ct, fac, mu, X, scr):  # pragma: no cover - compiled
     if ct.keep_z:
         add_response(ct.Z, mu, X)
         return
-    if in_patch(ct.zcol, mu):
-        add_patch(ct.Z, ct.zcol, mu, X)
-        return
     rhs, w, work = scr
+    if in_patch(ct.zcol, mu):
+        add_patch(ct.Z, ct.zcol, mu, X, w)
+        return
     if np.all(ct.sel >= 0):
         rhs[:] = 0.0
         for j in range(ct.sel.size):
