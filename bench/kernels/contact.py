@@ -20,8 +20,13 @@ to an iteration tolerance (projected Gauss-Seidel would leave them at its tolera
 `penalty_solve` is the same active-set iteration on the piecewise-linear spring law.
 
 `ContactOps` holds G (and G^T) as CSR, the gaps' origin, the Delassus matrix and the
-response Z = S^-1 G^T (kept when it fits in `KEEP_Z_ENTRIES` values; else the correction
-is one more solve with G^T mu); `contact_ops` builds it. A selection row keeps the exact
+response Z = S^-1 G^T: all of it when it fits in `KEEP_Z_ENTRIES` values; else the
+columns of the contact patch (`patch_rows`: the rows of smallest initial gap, as many as
+a bound proportional to n and to the factor's size allows; `zcol` maps a row to its
+column), so that a step whose pushing rows lie in the patch costs its one contact-free
+solve plus Z's columns times mu (`push`); a step pushing outside the patch makes one more
+solve with G^T mu. The columns come from the set-up's solves for W: keeping them costs
+no solve. `contact_ops` builds it. A selection row keeps the exact
 arithmetic of the dof-by-dof kernels (its gap is gap0 + X[dof], an active one is put on
 the obstacle exactly: `hold`); a general row's gap is its CSR product.
 
@@ -51,8 +56,14 @@ from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import Factor, lu
 from contact_bench.kernels.solvers import coulomb_solve, lcp_solve
 
-#: largest n x n_c response matrix Z = S^-1 G^T kept (values); beyond, a second solve
+#: largest n x n_c response matrix Z = S^-1 G^T kept whole (values); beyond, the patch's
 KEEP_Z_ENTRIES = 10_000_000
+#: the patch's response may hold this multiple of L's entries in values (at least
+#: `KEEP_Z_ENTRIES`; 3 x L is 1.5 x SuperLU's L and U, whichever the loops keep): its
+#: memory stays of the factor's order; docs/sparse.md, "One solve a step", says why
+PATCH_SHARE = 3.0
+#: no patch: the response is kept whole or not at all
+NO_PATCH = np.zeros(0, np.int64)
 
 
 class Curve(NamedTuple):
@@ -77,7 +88,9 @@ FLAT = Curve(False, Sphere(np.zeros(1), 1.0, np.zeros((0, 1)), np.zeros((0, 1), 
 class ContactOps(NamedTuple):
     """A gap operator with a factored S: G and G^T (CSR), gap0, `sel` (per row: the dof
     it selects, or -1 for a general row), W = G S^-1 G^T, Z = S^-1 G^T when `keep_z`,
-    and a curved obstacle's tangent data (`cv`, `FLAT` for a fixed G)."""
+    a curved obstacle's tangent data (`cv`, `FLAT` for a fixed G), and `zcol`: with a
+    patch (not `keep_z`), per row where its column of S^-1 G^T is stored in Z (k x n:
+    the patch's columns as rows), or -1 (`NO_PATCH`: no patch)."""
 
     G: CSR
     GT: CSR
@@ -87,6 +100,7 @@ class ContactOps(NamedTuple):
     Z: np.ndarray
     keep_z: bool
     cv: Curve = FLAT
+    zcol: np.ndarray = NO_PATCH
 
 
 def selection_rows(G: sp.csr_matrix) -> np.ndarray:
@@ -106,29 +120,52 @@ def is_selection(G: sp.csr_matrix) -> bool:
     return bool(np.all(selection_rows(G) >= 0))
 
 
+def patch_rows(n: int, nc: int, l_entries: int) -> int:
+    """How many columns of Z = S^-1 G^T the contact patch keeps when Z is not kept whole:
+    n x k values within max(`KEEP_Z_ENTRIES`, `PATCH_SHARE` x L's entries), at most n_c."""
+    budget = max(KEEP_Z_ENTRIES, int(PATCH_SHARE * l_entries))
+    return int(min(nc, budget // max(n, 1)))
+
+
 @phase("contact")
 def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
-                keep: bool | None = None, obstacle: Sphere | None = None) -> ContactOps:
+                keep: bool | None = None, obstacle: Sphere | None = None,
+                rank: np.ndarray | None = None) -> ContactOps:
     """`ContactOps` of the gap operator G (n_c x n) with S's factor `fac`: W = G S^-1 G^T
-    (symmetrised) from n_c solves in blocks, Z kept when `keep` (default: when n n_c <=
-    `KEEP_Z_ENTRIES`). A selection G is solved with unit right-hand sides and W read off
-    Z's rows (the numbers of the dof-by-dof kernels). With a curved `obstacle` (its dofs
-    numbered as S's), G and gap0 are its tangent at X = 0 (`curved_ops`)."""
+    (symmetrised) from n_c solves in blocks, Z kept whole when `keep` (default: when n
+    n_c <= `KEEP_Z_ENTRIES`), else the patch's columns (`patch_rows` of them; the rows
+    first in `rank`, default gap0: the smallest initial gaps; `keep` False: no patch). A
+    selection G is solved with unit right-hand sides and W read off Z's rows (the numbers
+    of the dof-by-dof kernels). With a curved `obstacle` (its dofs numbered as S's), G
+    and gap0 are its tangent at X = 0 (`curved_ops`)."""
     if obstacle is not None:
         return curved_ops(fac, obstacle, keep)
     G = sp.csr_matrix(G, dtype=float)
     n, nc = fac.n, G.shape[0]
-    keep = n * nc <= KEEP_Z_ENTRIES if keep is None else bool(keep)
+    auto = keep is None
+    keep = n * nc <= KEEP_Z_ENTRIES if auto else bool(keep)
     sel = selection_rows(G)
     GT = sp.csc_matrix(G.T)
-    Z = np.empty((n, nc)) if keep else np.zeros((1, 1))
+    k = patch_rows(n, nc, fac.arrays.Lx.size) if auto and not keep else 0
+    zcol = NO_PATCH
+    if k:
+        order = np.argsort(np.asarray(gap0 if rank is None else rank, float), kind="stable")
+        zcol = np.full(nc, -1, np.int64)
+        zcol[order[:k]] = np.arange(k)
+    # the patch's columns stored as rows (k x n): a step reads only the pushing ones
+    Z = np.empty((n, nc)) if keep else np.zeros((k, n)) if k else np.zeros((1, 1))
     W = np.empty((nc, nc))
     for j0, j1, X in fac.solve_blocks(GT):
         if keep:
             Z[:, j0:j1] = X
+        elif k:
+            cols = zcol[j0:j1]
+            mine = cols >= 0
+            Z[cols[mine], :] = X[:, mine].T
         W[:, j0:j1] = X[sel] if np.all(sel >= 0) else G @ X
     return ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(gap0, float), sel,
-                      np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep)
+                      np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep,
+                      FLAT, zcol)
 
 
 def restrict(ob: Sphere | None, cols: np.ndarray, n: int) -> Sphere | None:
@@ -294,13 +331,42 @@ def add_response(Z, mu, X):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def in_patch(zcol, mu):  # pragma: no cover - compiled
+    """Whether every row that pushes (mu != 0) has its column in the patch (`zcol`)."""
+    if zcol.size == 0:
+        return False
+    for j in range(mu.size):
+        if mu[j] != 0.0 and zcol[j] < 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def add_patch(Zt, zcol, mu, X, acc):  # pragma: no cover - compiled
+    """X += S^-1 G^T mu over the rows that push, row j's column of S^-1 G^T stored as
+    Zt[zcol[j]] (contiguous: only the pushing ones are read); acc: scratch of X's size.
+    Each X[i] gets `add_response`'s sum, in its order."""
+    on = np.flatnonzero(mu)
+    acc[:] = 0.0
+    for a in range(on.size):
+        z, m = Zt[zcol[on[a]]], mu[on[a]]
+        for i in range(X.size):
+            acc[i] += z[i] * m
+    for i in range(X.size):
+        X[i] += acc[i]
+
+
+@njit(cache=True)
 def push(ct, fac, mu, X, scr):  # pragma: no cover - compiled
-    """X += S^-1 G^T mu: Z mu if Z is kept, else one solve with S's factor `fac` (scr:
-    (rhs, w, work), scratch of X's size)."""
+    """X += S^-1 G^T mu: Z mu if Z is kept or the pushing rows lie in the patch, else one
+    solve with S's factor `fac` (scr: (rhs, w, work), scratch of X's size)."""
     if ct.keep_z:
         add_response(ct.Z, mu, X)
         return
     rhs, w, work = scr
+    if in_patch(ct.zcol, mu):
+        add_patch(ct.Z, ct.zcol, mu, X, w)
+        return
     if np.all(ct.sel >= 0):
         rhs[:] = 0.0
         for j in range(ct.sel.size):
@@ -364,7 +430,10 @@ def friction_ops(fac: Factor, contact, n: int, keep: bool | None = None) -> Fric
     gap0 = np.concatenate([np.asarray(contact.gap0, float), np.zeros(T.shape[0])])
     mu = np.zeros(nc) if contact.friction is None else np.asarray(contact.friction, float)
     thr = np.zeros(nc) if contact.tresca is None else np.asarray(contact.tresca, float)
-    return Friction(contact_ops(fac, H, gap0, keep), mu.copy(), thr.copy(), T.shape[0] // nc)
+    nt = T.shape[0] // nc
+    g0 = np.asarray(contact.gap0, float)  # a point's tangent rows ranked with its normal
+    rank = np.concatenate([g0, np.repeat(g0, nt)])
+    return Friction(contact_ops(fac, H, gap0, keep, rank=rank), mu.copy(), thr.copy(), nt)
 
 
 def law_ops(fac: Factor, P: sp.spmatrix, Q: sp.spmatrix, y0: np.ndarray,

@@ -18,6 +18,12 @@
   columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
 
+With `CONTACT_BENCH_LDLT=1` (or `Factor.of(S, ldlt=True)`) an SPD S keeps only SuperLU's L
+and D (U = D L^T to round-off in symmetric mode: half the factor's memory) and solves
+L D L^T x = b, the backward sweep scattering along L's rows; S not SPD keeps L and U, the
+reason in `Factor.fallback` (one line). The SPD test reads the one symmetric-mode factor
+(no row interchange, every pivot positive): no second factorisation.
+
 Every kernel module factors through `Factor` and no scheme imports a solver package:
 this module is the one place that knows about them. docs/sparse.md has the measurements
 behind the choice (`benchmarks/cholesky_compare.py`).
@@ -53,6 +59,8 @@ MANY_BLOCK_COLUMNS = 64
 #: largest number of values in one block of right-hand sides (the block, its solution
 #: and the scratch are dense n x k arrays): fewer columns on a very large n
 MANY_BLOCK_ENTRIES = 32_000_000
+#: keep L D L^T (L and D only) for an SPD S instead of SuperLU's L and U (module docstring)
+USE_LDLT = os.environ.get("CONTACT_BENCH_LDLT", "") == "1"
 #: relative asymmetry max |S - S^T| / max |S| up to which S counts as symmetric
 SYMMETRY_TOL = 1e-14
 #: the factor's index type in the loops: 32-bit indices read a quarter less memory per
@@ -63,8 +71,9 @@ INDEX = np.int32
 @njit(cache=True)
 def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b from SuperLU's Pr S Pc = L U (`fac`, an `LU`: L unit lower, U upper,
-    both CSR with sorted columns, L's diagonal last in its row, U's first)."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
+    both CSR with sorted columns, L's diagonal last in its row, U's first), or from
+    Pr S Pr^T = L D L^T when U is empty (`Up` of size 0, D in `Ux`)."""
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
     n = b.size
     for i in range(n):
         work[perm_r[i]] = b[i]
@@ -73,6 +82,17 @@ def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
         for k in range(Lp[i], Lp[i + 1] - 1):
             s -= Lx[k] * work[Li[k]]
         work[i] = s / Lx[Lp[i + 1] - 1]
+    if Up.size == 0:  # D w = y, then L^T z = w by columns of L^T (L's rows), scattering
+        for i in range(n):
+            work[i] /= Ux[i]
+        for i in range(n - 1, -1, -1):
+            zi = work[i] / Lx[Lp[i + 1] - 1]
+            work[i] = zi
+            for k in range(Lp[i], Lp[i + 1] - 1):
+                work[Li[k]] -= Lx[k] * zi
+        for i in range(n):
+            out[i] = work[perm_c[i]]
+        return
     for i in range(n - 1, -1, -1):  # U z = y
         s = work[i]
         for k in range(Up[i] + 1, Up[i + 1]):
@@ -84,7 +104,9 @@ def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
 
 class LU(NamedTuple):
     """A factor's arrays for the compiled loops: L and U as CSR (L unit lower with its
-    diagonal last in each row, U upper with its diagonal first), the permutations."""
+    diagonal last in each row, U upper with its diagonal first), the permutations, and
+    `solves`: (1,) int64, the number of solves the compiled loops made with it (`lu`
+    counts them: how a test sees what a step costs)."""
 
     Lp: np.ndarray
     Li: np.ndarray
@@ -94,11 +116,14 @@ class LU(NamedTuple):
     Ux: np.ndarray
     perm_r: np.ndarray
     perm_c: np.ndarray
+    solves: np.ndarray
 
 
 @njit(cache=True)
 def lu(fac, b, out, work):  # pragma: no cover - compiled
-    """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n)."""
+    """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n).
+    Counts the solve in `fac.solves`."""
+    fac.solves[0] += 1
     lu_solve(fac, b, out, work)
 
 
@@ -107,7 +132,7 @@ def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
     """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
     `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
     numbers to the bit), the factor read once for all k columns."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c = fac
+    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
     n, k = B.shape
     for i in range(n):
         work[perm_r[i], :] = B[i, :]
@@ -119,6 +144,21 @@ def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
         d = Lx[Lp[i + 1] - 1]
         for c in range(k):
             work[i, c] /= d
+    if Up.size == 0:  # L D L^T (`lu_solve`)
+        for i in range(n):
+            for c in range(k):
+                work[i, c] /= Ux[i]
+        for i in range(n - 1, -1, -1):
+            d = Lx[Lp[i + 1] - 1]
+            for c in range(k):
+                work[i, c] /= d
+            for kk in range(Lp[i], Lp[i + 1] - 1):
+                a, r = Lx[kk], Li[kk]
+                for c in range(k):
+                    work[r, c] -= a * work[i, c]
+        for i in range(n):
+            out[i, :] = work[perm_c[i], :]
+        return
     for i in range(n - 1, -1, -1):
         for kk in range(Up[i] + 1, Up[i + 1]):
             a, r = Ux[kk], Ui[kk]
@@ -156,6 +196,18 @@ def cholmod_factor(S: sp.spmatrix) -> Any | None:
         return None
 
 
+def spd_failure(symmetric: bool, perm_r: np.ndarray, perm_c: np.ndarray,
+                D: np.ndarray) -> str:
+    """Why SuperLU's symmetric-mode factor does not show S to be SPD, in one line."""
+    if not symmetric:
+        return f"S is not symmetric (beyond {SYMMETRY_TOL:g} relative): kept L and U"
+    if not np.array_equal(perm_r, perm_c):
+        return "S is not positive definite (its elimination interchanged rows): kept L and U"
+    i = int(np.argmin(D))
+    return (f"S is not positive definite (pivot {i} = {float(D[i]):.3g} <= 0): "
+            "kept L and U")
+
+
 @dataclass
 class Factor:
     """S factored once: SuperLU's arrays for the compiled loops' `lu_solve`, and
@@ -169,16 +221,22 @@ class Factor:
     many_backend: str = "superlu"
     #: CHOLMOD's factor, made by the first `solve_many`
     chol: Any = field(default=None, repr=False)
+    #: "ldlt" (L and D kept) or "lu" (L and U): what the loops' solves use
+    kind: str = "lu"
+    #: why an L D L^T factor was asked for and not made (one line), else ""
+    fallback: str = ""
 
     @classmethod
     @phase("factor")
-    def of(cls, S: sp.spmatrix) -> Factor:
+    def of(cls, S: sp.spmatrix, ldlt: bool | None = None) -> Factor:
         """S (square, nonsingular) factored by SuperLU (`symmetric_lu`), ordered by nested
         dissection from `contact_bench.core.ordering.NESTED_DISSECTION_DOFS` dofs on
         (S[q][:, q] factored in its natural order, q folded into the permutations) and by
         minimum degree below; `solve_many` will use
         CHOLMOD if asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from
-        SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive)."""
+        SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive).
+        `ldlt` (default `USE_LDLT`): keep L and D only when S is SPD (module docstring);
+        otherwise L and U, the reason in `fallback`."""
         C = sp.csc_matrix(S)
         lu, q = symmetric_lu(C)
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
@@ -189,18 +247,33 @@ class Factor:
         del lu  # SuperLU's own storage of the factor, freed before the CSR copies
         Lm = sp.csr_matrix(Lc)
         del Lc
-        Um = sp.csr_matrix(Uc)
-        del Uc
         Lm.sort_indices()
-        Um.sort_indices()
-        ix = INDEX if max(Lm.nnz, Um.nnz) < np.iinfo(INDEX).max else np.int64
+        D = Uc.diagonal()
+        symmetric = is_symmetric(C)
+        spd = symmetric and np.array_equal(perm_r, perm_c) and bool(np.all(D > 0))
+        want = USE_LDLT if ldlt is None else bool(ldlt)
+        keep_u = not (want and spd)
+        fallback = spd_failure(symmetric, perm_r, perm_c, D) if want and not spd else ""
+        if keep_u:
+            Um = sp.csr_matrix(Uc)
+            Um.sort_indices()
+            Up, Ui, Ux = Um.indptr, Um.indices, Um.data
+            del Um
+        else:  # U = D L^T: L and D are the whole factor
+            Up, Ui, Ux = np.zeros(0, np.int64), np.zeros(0, np.int64), D
+        del Uc
+        ix = INDEX if max(Lm.nnz, Ux.size) < np.iinfo(INDEX).max else np.int64
         arrays = LU(Lm.indptr.astype(ix), Lm.indices.astype(ix), Lm.data,
-                    Um.indptr.astype(ix), Um.indices.astype(ix), Um.data,
-                    np.asarray(perm_r, ix), np.asarray(perm_c, ix))
-        # symmetric, no pivoting (Pr = Pc) and U's diagonal positive: S is SPD
-        spd = (USE_CHOLMOD and cholespy is not None and is_symmetric(C)
-               and np.array_equal(arrays[6], arrays[7]) and bool(np.all(Um.diagonal() > 0)))
-        return cls(arrays, S.shape[0], C if spd else None, "cholmod" if spd else "superlu")
+                    Up.astype(ix), Ui.astype(ix), Ux,
+                    np.asarray(perm_r, ix), np.asarray(perm_c, ix), np.zeros(1, np.int64))
+        chol = USE_CHOLMOD and cholespy is not None and spd
+        return cls(arrays, S.shape[0], C if chol else None, "cholmod" if chol else "superlu",
+                   kind="lu" if keep_u else "ldlt", fallback=fallback)
+
+    @property
+    def entries(self) -> int:
+        """The values the loops' factor holds: L and U, or L and D."""
+        return int(self.arrays.Lx.size + self.arrays.Ux.size)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """S^-1 b for one right-hand side (`lu_solve`)."""

@@ -13,8 +13,10 @@ are numba kernels over CSR arrays.
   right-hand sides, `Factor.solve_many`)
   must satisfy the linear complementarity problem g >= 0, mu >= 0, g.mu = 0, solved
   exactly by principal pivoting (`lcp_solve`: block pivoting, then Murty's least-index
-  rule, which terminates for a positive definite W). Z is kept when it fits in
-  `KEEP_Z_ENTRIES` values; otherwise the correction is a second solve with C^T mu.
+  rule, which terminates for a positive definite W). Z is kept whole when it fits in
+  `KEEP_Z_ENTRIES` values, else the columns of the contact patch (the rows of smallest
+  initial gap, `contact_bench.kernels.contact.patch_rows`); a step pushing outside them
+  makes a second solve with C^T mu.
 * `newmark_sparse`: Newmark(beta > 0, gamma) in displacement form, S = M + beta dt^2 K,
   the obstacle's force lambda = mu / (beta dt^2) at t_{n+1} (the 1D kernel's algorithm,
   `contact_bench.kernels.newmark`, on many contact dofs). Massless dofs (zero mass

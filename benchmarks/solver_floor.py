@@ -1,0 +1,140 @@
+"""The implicit step against its solver's floor (issue 48): per configuration and per
+factor kind of the loops (`lu`: SuperLU's L and U; `ldlt`: its L and D,
+`Factor.of(S, ldlt=True)`), the set-up split (assembly, factorisation, contact operators),
+one solve of that factor, one implicit step of `redistributed` (every step in contact at
+lift 1e-6), their ratio, the solves a step makes (`LU.solves`), the contact patch kept
+(`contact_bench.kernels.contact.patch_rows`) and the peak memory.
+
+    python benchmarks/solver_floor.py                      # the issue's three configurations
+    python benchmarks/solver_floor.py "disc_drop[degree=2,lift=1e-6]:24" --kinds lu,ldlt
+    python benchmarks/solver_floor.py "disc_drop[degree=2,lift=1e-6]:12" --active 1500
+
+`--active N` prints instead how many contact rows a run of N steps puts on the obstacle
+(the most at once, and ever) and the largest rank, by initial gap, of a row ever active:
+how large the contact patch must be for one solve a step.
+
+A configuration is `scene:nx`; each (configuration, kind) runs in its own process, so
+that its peak memory (ru_maxrss) is its own. The step is the mean over `--steps` steps
+after one warm-up run of the same length (compilation excluded); the solve the minimum of
+`REPEATS` calls. Times are perturbed by whatever else runs on the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+#: the issue's configurations (scene:nx)
+CONFIGS = ("disc_drop[degree=2,lift=1e-6]:96", "disc_drop[degree=2,lift=1e-6]:144",
+           "sphere_drop[degree=1,lift=1e-6]:32")
+REPEATS = 5
+COLUMNS = ("config", "kind", "dofs", "n_c", "patch", "factor entries", "assembly s",
+           "factor s", "contact s", "setup s", "solve ms", "step ms", "step / solve",
+           "solves / step", "peak GB")
+
+
+def measure(config: str, kind: str, steps: int) -> dict:
+    """One (configuration, kind): the row of the table (runs in this process)."""
+    from contact_bench.api.registry import make_case, make_scheme
+    from contact_bench.core.timers import recording
+    from contact_bench.kernels import linalg
+    from contact_bench.kernels.linalg import lu_solve
+
+    spec, nx = config.rsplit(":", 1)
+    case, sch = make_case(spec), make_scheme("redistributed")
+    t0 = time.perf_counter()
+    p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
+    t_asm = time.perf_counter() - t0
+    keep, linalg.USE_LDLT = linalg.USE_LDLT, kind == "ldlt"
+    try:
+        t0 = time.perf_counter()
+        with recording() as ph:
+            st = sch.prepare(p, float(case.dt))
+        t_setup = time.perf_counter() - t0
+    finally:
+        linalg.USE_LDLT = keep
+    fac, ct = st.factor, st.ops.ct
+    n = p.nfree
+    b, x, w = np.random.default_rng(0).standard_normal(n), np.empty(n), np.empty(n)
+    lu_solve(fac.arrays, b, x, w)
+    solve = np.inf
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        lu_solve(fac.arrays, b, x, w)
+        solve = min(solve, time.perf_counter() - t0)
+    st.run(steps, steps)  # compiles
+    before = int(fac.arrays.solves[0])
+    t0 = time.perf_counter()
+    tr = st.run(steps, steps)
+    step = (time.perf_counter() - t0) / steps
+    solves = (int(fac.arrays.solves[0]) - before) / steps
+    return {"config": config, "kind": fac.kind, "dofs": n, "n_c": int(ct.gap0.size),
+            "patch": "whole" if ct.keep_z else int(np.count_nonzero(ct.zcol >= 0)),
+            "factor entries": fac.entries, "assembly s": round(t_asm, 2),
+            "factor s": round(ph.get("factor", 0.0), 2),
+            "contact s": round(ph.get("contact", 0.0), 2),
+            "setup s": round(t_setup, 2), "solve ms": round(1e3 * solve, 2),
+            "step ms": round(1e3 * step, 2), "step / solve": round(step / solve, 2),
+            "solves / step": solves, "in contact": bool(tr.stress[-1] != 0.0),
+            "peak GB": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20, 2)}
+
+
+def active(config: str, nsteps: int) -> dict:
+    """The contact rows a run of `nsteps` steps (stride 1) puts on the obstacle."""
+    from contact_bench.api.registry import make_case, make_scheme
+
+    spec, nx = config.rsplit(":", 1)
+    case, sch = make_case(spec), make_scheme("redistributed")
+    p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
+    tr = sch.prepare(p, float(case.dt)).run(nsteps, 1)
+    g0 = np.asarray(p.contact.gap0, float)
+    on = np.abs(tr.U @ p.contact.gap_operator(p.nfree).T + g0) <= 1e-14  # held exactly
+    rank = np.empty(g0.size, np.int64)
+    rank[np.argsort(g0, kind="stable")] = np.arange(g0.size)
+    ever = np.flatnonzero(on.any(axis=0))
+    return {"config": config, "steps": nsteps, "n_c": g0.size,
+            "most at once": int(on.sum(axis=1).max()), "ever": ever.size,
+            "largest rank": int(rank[ever].max()) if ever.size else -1}
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("configs", nargs="*", default=list(CONFIGS), help="scene:nx")
+    ap.add_argument("--kinds", default="lu,ldlt", help="factor kinds: lu, ldlt")
+    ap.add_argument("--steps", type=int, default=20, help="steps timed (after as many warm-up)")
+    ap.add_argument("--active", type=int, default=0, metavar="N",
+                    help="print the contact rows a run of N steps puts on the obstacle")
+    ap.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    if a.active:
+        rows = [active(c, a.active) for c in a.configs]
+        print("| " + " | ".join(rows[0]) + " |\n|" + "---|" * len(rows[0]))
+        for r in rows:
+            print("| " + " | ".join(str(v) for v in r.values()) + " |")
+        return
+    if a.one:  # a child: one configuration, one kind, its row as JSON
+        print(json.dumps(measure(a.configs[0], a.kinds, a.steps)))
+        return
+    print("| " + " | ".join(COLUMNS) + " |")
+    print("|" + "---|" * len(COLUMNS))
+    for config in a.configs:
+        for kind in a.kinds.split(","):
+            out = subprocess.run([sys.executable, __file__, config, "--kinds", kind,
+                                  "--steps", str(a.steps), "--one"],
+                                 capture_output=True, text=True)
+            if out.returncode:
+                last = (out.stderr.strip().splitlines() or ["no output"])[-1]
+                print(f"| {config} | {kind} | failed: {last} |" + " |" * (len(COLUMNS) - 3))
+                continue
+            row = json.loads(out.stdout.strip().splitlines()[-1])
+            print("| " + " | ".join(str(row[c]) for c in COLUMNS) + " |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
