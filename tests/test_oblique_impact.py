@@ -157,3 +157,79 @@ def test_the_fe_ball_in_gross_sliding_against_the_closed_form():
                                           rel=1e-9)
     assert r["Omega"] == pytest.approx((1 + e) / r["k2"], rel=0.15)
     assert r["Omega"] <= (1 + e) / r["k2"]
+
+
+# ------------------------------------------------ Maw-Barber-Fawcett's partial slip
+
+
+def test_mbf_in_gross_sliding_is_the_closed_form():
+    """Beyond psi1 = 4 chi - 1 every ring slips throughout: psi2 = psi1 - 4 chi and
+    Omega = 2 / k^2 (the impulses alone), whatever the rings."""
+    nu, k2 = 0.3, 0.4
+    psi1 = np.array([5.0, 8.0, 12.0])
+    psi2, omega = oblique.mbf_impact(psi1, nu, k2)
+    closed, spin = oblique.gross_sliding(psi1, nu, k2)
+    assert np.allclose(psi2, closed, rtol=0, atol=1e-6)
+    assert np.allclose(omega, spin, rtol=1e-6)
+    below, _ = oblique.mbf_impact(np.array([3.0]), nu, k2)  # partial slip: above the line
+    assert below[0] > oblique.gross_sliding(np.array([3.0]), nu, k2)[0][0] + 0.5
+
+
+def test_mbf_without_slip_is_mindlins_oscillator_with_the_leaving_rings_released():
+    """mu = inf: no ring slips; the tangential force Q obeys Q' = kappa 2a c while the
+    contact grows (Mindlin's stiffness, normal stiffness 2a) and, while it shrinks,
+    loses the rings leaving at the edge, Q' = kappa 2a c + kappa 2a' (s(t) - s(t_c - t))
+    (s the tangential displacement; the ring at a entered at t_c - t, Hertz's history
+    being symmetric), c' = -(1 + 1/k^2) Q: solved here by scipy as an ODE, not as rings.
+    The undamped incremental oscillator (no release) would give 0.955 instead."""
+    nu, k2 = 0.3, 0.4
+    kap, gain = oblique.kappa(nu), 1.0 + 1.0 / k2
+
+    def grow(t, y):
+        d, v, s, c, Q = y
+        return [v, -4 / 3 * max(d, 0.0) ** 1.5, c, -gain * Q,
+                2 * kap * math.sqrt(max(d, 0.0)) * c]
+
+    def top(t, y):
+        return y[1]
+
+    top.terminal, top.direction = True, -1
+    L = solve_ivp(grow, (0, 10), [0, 1, 0, 1, 0], events=top, rtol=1e-11, atol=1e-13,
+                  dense_output=True)
+    tm = L.t[-1]
+
+    def shrink(t, y):
+        d, v, s, c, Q = y
+        a = math.sqrt(max(d, 1e-300))
+        s_in = L.sol(2 * tm - t)[2]
+        return [v, -4 / 3 * a ** 3, c, -gain * Q,
+                2 * kap * a * c + 2 * kap * v / (2 * a) * (s - s_in)]
+
+    def apart(t, y):
+        return y[0] - 1e-12
+
+    apart.terminal, apart.direction = True, -1
+    U = solve_ivp(shrink, (tm, 2 * tm + 1), L.y[:, -1], events=apart, rtol=1e-11,
+                  atol=1e-13)
+    r = oblique.mbf_rebound(np.array([1.0]), math.inf, nu, k2)
+    assert r["c2"][0] == pytest.approx(U.y[3, -1], rel=0.01)  # 0.2336 against 0.2317
+    # small psi1 tends to the no-slip limit (the slip ring shrinks to the edge)
+    psi2, _ = oblique.mbf_impact(np.array([1e-3]), nu, k2)
+    assert psi2[0] / 1e-3 == pytest.approx(U.y[3, -1], rel=0.02)
+
+
+def test_mbf_tangential_traction_does_no_positive_work_and_mu_only_scales():
+    """The traction's work on the ball (its tangential and rotational kinetic energy's
+    change) is <= 0 at every incidence; the normalised rebound does not depend on mu."""
+    nu, k2 = 0.3, 0.4
+    c1 = np.linspace(0.05, 12.0, 25)
+    r = oblique.mbf_rebound(c1, 1.0, nu, k2, annuli=200, steps=2000)
+    assert np.all(r["work"] <= 1e-12)
+    assert np.all(r["work"] < 0.0)  # the rings' release or slip always takes some
+    r3 = oblique.mbf_rebound(0.3 * c1, 0.3, nu, k2, annuli=200, steps=2000)
+    assert np.allclose(r3["c2"], 0.3 * r["c2"], rtol=1e-9, atol=1e-12)
+
+
+def test_mbf_refuses_a_bad_mu():
+    with pytest.raises(ValueError, match="mu 0.0"):
+        oblique.mbf_rebound(np.array([1.0]), 0.0, 0.3, 0.4)
