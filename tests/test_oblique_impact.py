@@ -9,8 +9,11 @@ friction, no gravity (so the change of the body's momentum is the contact impuls
   along its own slip in the circular cone, and the slips lean off x (the patch spreads
   while pressed, and the schemes' tangential vibrations), so the length of the summed
   tangential impulse falls short of mu times the normal one by about the mean squared
-  lean: at 89.99 degrees (a slip 5730 times the normal speed) the test holds it in
-  [0, 2e-6] (docs/oblique-impact.md gives the measured values).
+  lean: at 89.99 degrees (a slip 5730 times the normal speed) the test holds |.| <=
+  5e-7. Above mu is round-off of the momentum balance, not the cone (each point's
+  reaction is inside its disc to 1e-15, tests/test_friction.py): the tangential
+  momentum is 2900 times the normal impulse there, and with mu = 0 the same run drifts
+  by 7e-8 of the normal impulse (docs/oblique-impact.md).
 - mu = 0: the tangential velocity of the centre of mass is unchanged by the impact and
   the spin is zero, to round-off (the ball is `ball=lattice`, mirror symmetric: on the
   refined octahedron's P2 ball the normal forces leave a spin of 8e-4 V_n / R).
@@ -93,9 +96,9 @@ def test_gross_sliding_tangential_impulse_is_mu_times_the_normal_one(scheme, bas
     if case.dim == 2:
         assert run.row["err_impulse_ratio"] <= 1e-9  # NaN (not sliding) fails too
         return
-    # 3D: short of mu by the slips' lean off x (above it by a cone solved to a tolerance)
+    # 3D: short of mu by the slips' lean off x, either side by the momentum's round-off
     short = (0.3 - _ratio(case, run, p, nx)) / 0.3
-    assert abs(short) <= 2e-6
+    assert abs(short) <= 5e-7
     assert run.row["err_impulse_ratio"] == pytest.approx(abs(short), rel=0, abs=1e-10)
 
 
