@@ -236,3 +236,13 @@ def test_mbf_tangential_traction_does_no_positive_work_and_mu_only_scales():
 def test_mbf_refuses_a_bad_mu():
     with pytest.raises(ValueError, match="mu 0.0"):
         oblique.mbf_rebound(np.array([1.0]), 0.0, 0.3, 0.4)
+
+
+def test_the_rebound_reads_the_bodys_poisson_ratio_not_the_friction():
+    """lambda = mu_L = 20 on both bases: nu = 1/4 (E = 50, nu = E / (2 G) - 1 with G =
+    mu_L = 20), whatever Coulomb's mu; psi1 and psi2 scale with kappa(nu)."""
+    for base in ("sphere_drop[lift=0.05]", "disc_drop[lift=0.05]"):
+        case = make_case(f"oblique_impact[of={base},mu=0.3,incidence=30]")
+        lam, g = 20.0, 20.0
+        young = g * (3 * lam + 2 * g) / (lam + g)
+        assert case.poisson_ratio == pytest.approx(young / (2 * g) - 1.0, rel=1e-15)
