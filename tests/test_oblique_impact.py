@@ -17,10 +17,12 @@ friction, no gravity (so the change of the body's momentum is the contact impuls
 - mu = 0: the tangential velocity of the centre of mass is unchanged by the impact and
   the spin is zero, to round-off (the ball is `ball=lattice`, mirror symmetric: on the
   refined octahedron's P2 ball the normal forces leave a spin of 8e-4 V_n / R).
-- The rebound against Maw-Barber-Fawcett's theory (`contact_bench.exact.oblique`): its
-  closed-form gross-sliding branch against the time integration of the compliant
-  contact; the FE ball in gross sliding against the closed form with the ball's own
-  k^2 and normal restitution (its spin below it: the contact forces' lever arm).
+- The rebound against Maw-Barber-Fawcett's theory (`contact_bench.exact.oblique`): the
+  ring-by-ring partial slip (`mbf_impact`) against independent facts (the closed-form
+  gross sliding; with mu = inf, scipy's ODE of Mindlin's stiffness with the leaving rings
+  released; the traction's work <= 0); the older one-spring model's limits; the FE
+  ball in gross sliding against the closed form with the ball's own k^2 and normal
+  restitution (its spin below it: the contact forces' lever arm).
 """
 
 from __future__ import annotations
