@@ -46,7 +46,8 @@ class ObliqueImpact(DerivedScene):
     quantities = frozenset({"impulse_ratio", "tangential_momentum"})
     study = StudyGrid(specs=("oblique_impact[mu=0.3]",), nx=(2, 4), T=None,
                       small="oblique_impact[of=disc_drop[degree=1,lift=0.0505]]",
-                      small_nx=(2, 3), small_T=5.0, in_default_study=False)
+                      small_nx=(2, 3), small_T=5.0, in_default_study=False,
+                      friction=("oblique_impact[mu=0.3]",), friction_stability_T=75.0)
 
     def validate(self) -> None:
         super().validate()
