@@ -3,10 +3,12 @@
 `oblique_impact[of=sphere_drop[lift=0.05],mu=0.3,incidence=...]` (the ball of radius 20,
 lambda = mu_L = 20, so nu = 0.25; normal speed 0.1; no gravity) run by one scheme at each
 incidence, its rebound read from the FE field (`ObliqueImpact.rebound`: psi1, psi2 and
-Omega with the ball's own k^2 = I / (m R^2) of the discrete mass), beside the theory
-(`contact_bench.exact.oblique`) at the ball's nu and k^2: the closed-form gross-sliding
-branch and the compliant contact integrated in time; the curve at nu = 0.3, k^2 = 2/5
-(Chung and Ooi's setting) drawn for reference. Writes `oblique_impact.md` (the table)
+Omega with the ball's own k^2 = I / (m R^2) of the discrete mass), beside Maw, Barber
+and Fawcett's theory (`contact_bench.exact.oblique.mbf_impact`: Hertz-Mindlin contact,
+ring-by-ring partial slip, rigid-body inertia) at the ball's nu and k^2, with the
+closed-form gross-sliding line and the cruder one-spring model (`compliant_impact`);
+the MBF curve at nu = 0.3, k^2 = 2/5 (Chung and Ooi's solid sphere) drawn for
+reference. Writes `oblique_impact.md` (the table, with the FE's differences from MBF)
 and `oblique_impact.png` (psi2 and Omega against psi1) under --out.
 
     python benchmarks/oblique_impact.py --out /tmp/oblique [--scheme moreau_jean]
@@ -37,15 +39,18 @@ def measure(a: argparse.Namespace) -> pd.DataFrame:
         run = run_one(spec, a.scheme, nx=a.nx, dt=a.dt)
         p = case.sparse_problem(a.nx, 1.0, make_scheme(a.scheme).mass_kind())
         r = case.rebound(p, run.trajectory, a.nx)
-        psi2, omega = oblique.compliant_impact(np.array([r["psi1"]]), r["nu"], r["k2"])
+        psi2, omega = oblique.mbf_impact(np.array([r["psi1"]]), r["nu"], r["k2"])
+        one, _ = oblique.compliant_impact(np.array([r["psi1"]]), r["nu"], r["k2"])
         rows.append({"incidence": inc, "psi1": r["psi1"], "psi2_fe": r["psi2"],
-                     "psi2_theory": float(psi2[0]), "Omega_fe": r["Omega"],
-                     "Omega_theory": float(omega[0]),
+                     "psi2_mbf": float(psi2[0]), "psi2_fe_minus_mbf": r["psi2"] - psi2[0],
+                     "psi2_one_spring": float(one[0]), "Omega_fe": r["Omega"],
+                     "Omega_mbf": float(omega[0]),
+                     "Omega_fe_over_mbf": r["Omega"] / float(omega[0]),
                      "e_normal": r["vn_after"] / r["vn_before"], "k2": r["k2"],
                      "err_impulse_ratio": run.row["err_impulse_ratio"],
                      "contact_end": run.trajectory.extra["first_contact_end"]})
         print(f"incidence {inc:5.1f}: psi1 {r['psi1']:7.3f} psi2 {r['psi2']:8.4f} "
-              f"(theory {psi2[0]:8.4f}) Omega {r['Omega']:7.4f} (theory {omega[0]:7.4f})",
+              f"(MBF {psi2[0]:8.4f}) Omega {r['Omega']:7.4f} (MBF {omega[0]:7.4f})",
               flush=True)
     return pd.DataFrame(rows)
 
@@ -58,11 +63,13 @@ def draw(df: pd.DataFrame, nu: float, k2: float, path: Path) -> None:
 
     psi = np.linspace(0.01, float(df["psi1"].max()) * 1.05, 300)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-    for (n, k), style, label in (((nu, k2), "-", f"theory, nu {nu:g}, k^2 {k2:.4f}"),
-                                 ((0.3, 0.4), ":", "theory, nu 0.3, k^2 0.4")):
-        s2, om = oblique.compliant_impact(psi, n, k)
+    for (n, k), style, label in (((nu, k2), "-", f"MBF, nu {nu:g}, k^2 {k2:.4f}"),
+                                 ((0.3, 0.4), ":", "MBF, nu 0.3, k^2 0.4")):
+        s2, om = oblique.mbf_impact(psi, n, k)
         ax[0].plot(psi, s2, "k" + style, label=label)
         ax[1].plot(psi, om, "k" + style, label=label)
+    s2, _ = oblique.compliant_impact(psi, nu, k2)
+    ax[0].plot(psi, s2, "--", color="C0", lw=0.8, label="one-spring model")
     g2, _ = oblique.gross_sliding(psi, nu, k2)
     ax[0].plot(psi, g2, color="0.6", lw=0.8, label="gross sliding, psi1 - 4 chi")
     ax[0].plot(df["psi1"], df["psi2_fe"], "o", color="C3", label="FE ball")
@@ -97,8 +104,13 @@ def main(argv: list[str] | None = None) -> None:
             f"`{cmd}` ({SPEC.format(mu=a.mu, inc='...')}, {a.scheme}, nx {a.nx}, "
             f"dt {a.dt:g}; nu {nu:g}, the discrete mass's k^2 {k2:.4f}, chi "
             f"{oblique.chi(nu, k2):.4f}). Theory: `contact_bench.exact.oblique."
-            "compliant_impact` at the ball's nu and k^2 (docs/oblique-impact.md).\n\n"
-            + df.to_markdown(index=False, floatfmt=".4g") + "\n")
+            "mbf_impact` (Maw-Barber-Fawcett, ring-by-ring partial slip) at the ball's nu "
+            "and k^2; `psi2_one_spring` the cruder `compliant_impact` "
+            "(docs/oblique-impact.md).\n\n"
+            f"FE minus MBF: psi2 by {df['psi2_fe_minus_mbf'].min():+.3f} to "
+            f"{df['psi2_fe_minus_mbf'].max():+.3f}; Omega FE / MBF "
+            f"{df['Omega_fe_over_mbf'].min():.3f} to {df['Omega_fe_over_mbf'].max():.3f}."
+            "\n\n" + df.to_markdown(index=False, floatfmt=".4g") + "\n")
     (a.out / "oblique_impact.md").write_text(text)
     print(text)
 

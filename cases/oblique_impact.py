@@ -46,7 +46,8 @@ class ObliqueImpact(DerivedScene):
     quantities = frozenset({"impulse_ratio", "tangential_momentum"})
     study = StudyGrid(specs=("oblique_impact[mu=0.3]",), nx=(2, 4), T=None,
                       small="oblique_impact[of=disc_drop[degree=1,lift=0.0505]]",
-                      small_nx=(2, 3), small_T=5.0, in_default_study=False)
+                      small_nx=(2, 3), small_T=5.0, in_default_study=False,
+                      friction=("oblique_impact[mu=0.3]",), friction_stability_T=75.0)
 
     def validate(self) -> None:
         super().validate()
@@ -68,6 +69,12 @@ class ObliqueImpact(DerivedScene):
     @property
     def exact_energy(self) -> float | None:
         return None
+
+    @property
+    def poisson_ratio(self) -> float:
+        """The body's Poisson ratio lambda / (2 (lambda + mu_l)) from its Lame constants
+        (not the friction coefficient `mu`)."""
+        return float(self.base.lam) / (2.0 * (float(self.base.lam) + float(self.base.mu_l)))
 
     def velocity(self) -> np.ndarray:
         """The impact velocity (dim,): speed tan(incidence) along x, -speed vertically."""
@@ -129,7 +136,7 @@ class ObliqueImpact(DerivedScene):
         rm = self.rigid_motion(problem, traj, nx)
         v, om = rm["v"][[0, -1]], rm["omega"][[0, -1], -1 if self.dim == 2 else 1]
         spin = -om if self.dim == 2 else om  # friction along -x turns the body this way
-        R, nu = float(self.base.R), self.base.lam / (2 * (self.base.lam + self.base.mu))
+        R, nu = float(self.base.R), self.poisson_ratio
         _, W = self.rigid_fields(problem, nx)
         w = W[-1 if self.dim == 2 else 1]
         mass = float(problem.body_mass)

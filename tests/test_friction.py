@@ -24,7 +24,7 @@ from scipy.sparse.linalg import spsolve
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness import run_one
 from contact_bench.kernels.kane import FrictionalKaneStepper
-from contact_bench.kernels.solvers import coulomb_solve
+from contact_bench.kernels.solvers import coulomb_solve, penalty_coulomb_solve
 from contact_bench.kernels.sparse import FrictionalNewmarkStepper
 from contact_bench.kernels.sparse_impact import FrictionalMoreauJeanStepper
 
@@ -81,6 +81,34 @@ def test_coulomb_solve_satisfies_the_law(nt, tresca):
         r, status = np.zeros(n), np.zeros(nc, np.int64)
         assert coulomb_solve(W, q, mu, thr, r, status, 1e-13) > 0
         assert _law_violation(W, q, mu, thr, r, nt) <= 1e-8
+
+
+@pytest.mark.parametrize("nt", [1, 2])
+def test_every_point_is_inside_its_disc_to_round_off(nt):
+    """Whatever sweep the solvers stop at, each point's tangential reaction is inside (or
+    on) its own disc |r_t| <= mu r_n to round-off (1e-14 of the largest reaction), with
+    r_n >= 0: every local solve ends on the bound or inside it, the sum over points then
+    obeys the cone too. Ill-conditioned W (ridge down to 1e-8) and stiff springs
+    included."""
+    rng = np.random.default_rng(11 + nt)
+    for _ in range(150):
+        nc = int(rng.integers(1, 9))
+        n = nc * (nt + 1)
+        B = rng.standard_normal((n, n))
+        W = B @ B.T + 10.0 ** rng.uniform(-8, 0) * np.eye(n)
+        q = rng.standard_normal(n) * 10.0 ** rng.uniform(-3, 3)
+        mu = rng.uniform(0.01, 1.0, nc)
+        for penalty in (False, True):
+            r = np.zeros(n)
+            if penalty:
+                c = np.full(nc, 10.0 ** rng.uniform(-2, 4))
+                penalty_coulomb_solve(W, q, mu, c, np.zeros(n - nc), r)
+            else:
+                coulomb_solve(W, q, mu, np.zeros(nc), r, np.zeros(nc, np.int64), 1e-13)
+            rn, rt = r[:nc], r[nc:].reshape(nc, nt)
+            scale = 1e-14 * np.max(np.abs(r))
+            assert np.all(rn >= 0.0)
+            assert np.all(np.linalg.norm(rt, axis=1) <= mu * rn + scale)
 
 
 def _block(spec: str, scheme: str):

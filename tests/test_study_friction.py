@@ -196,3 +196,18 @@ def test_the_report_and_the_command(part) -> None:
     assert "sweep.csv" not in names and "index.html" not in names
     table = pd.read_csv(cli_out / "friction_sweep.csv", comment="#")
     assert set(table[table["status"] == "ok"]["scheme"]) == {"moreau_jean"}
+
+
+def test_the_oblique_impact_declares_a_short_stability_time() -> None:
+    """oblique_impact's T (about 71: the flight, the impact and the rebound) times the
+    part's 10 would make its stability runs 710 long: it declares 75 (one impact and
+    the flight after it); the sliding block keeps the part's 10 T."""
+    tasks = plan_friction(scheme_specs=["penalty"], case_specs=["oblique_impact",
+                                                                 "sliding_block"])
+    stab = [t for t in tasks if t.group == "friction-stability"]
+    oblique = [t for t in stab if t.case.startswith("oblique_impact")]
+    block = [t for t in stab if t.case.startswith("sliding_block")]
+    assert oblique and block
+    assert make_case("oblique_impact[mu=0.3]").T > 70.0
+    assert {t.T for t in oblique} == {75.0}
+    assert {t.T for t in block} == {10.0 * make_case("sliding_block[mu=0.3]").T}

@@ -173,7 +173,10 @@ class StudyGrid:
     `friction`: the scene's frictional variants (each with a Coulomb coefficient as its
     parameter `mu` > 0) in the study's friction part (`contact_bench.sweeps.study.
     plan_friction`): work-precision on `nx` at T, stability in CFL against mu on the
-    coarsest mesh; empty (the default): the scene is not in it.
+    coarsest mesh; empty (the default): the scene is not in it. `friction_stability_T`:
+    the final time of those stability runs when the part's default (a multiple of T) is
+    longer (a scene whose T already holds a whole impact and the flight after it);
+    None: the part's default.
     """
 
     specs: tuple[str, ...]
@@ -184,6 +187,7 @@ class StudyGrid:
     small_T: float
     in_default_study: bool = True
     friction: tuple[str, ...] = ()
+    friction_stability_T: float | None = None
 
 
 class Case(Plugin):

@@ -407,6 +407,8 @@ def plan_friction(quick: bool = False, scheme_specs: Sequence[str] | None = None
                 runnable[spec] = scheme, _coarsest_accepted(case, scheme, nxs)
         scene_cfl0 = next((m[1] for _, m in runnable.values() if m and m[0] == nxs[0]), None)
         t_stab = g["long_t"] * float(case.T if T is None else T)
+        if grid.friction_stability_T is not None:  # the scene's declared cap
+            t_stab = min(t_stab, float(grid.friction_stability_T))
         for spec, (scheme, measured) in runnable.items():
             nx_stab, cfl0, lim = measured or (nxs[0], None, None)
             if measured is not None and scene_cfl0 is not None:
