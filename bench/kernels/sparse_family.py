@@ -38,7 +38,8 @@ Both accumulate the contact impulse and record it at each sample (the statistics
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -411,8 +412,14 @@ class AdaptiveStepper(SparseStepper):
         ops = massless_ops(split, p)
         active = np.zeros(nc, np.bool_)
 
+        # the compiled right-hand side of these arguments' types, resolved once: solve_ivp
+        # calls it thousands of times, and the dispatcher would type the operators' tuple
+        # at every call (costlier than the evaluation on small meshes)
+        f = _compiled_for(ode_rhs, 0.0, self.y0[:-1], U, ops, force, active)
+
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            return np.append(ode_rhs(float(t), y[:-1], U, ops, force, active), force.sum())
+            return np.append(f(float(t), np.ascontiguousarray(y[:-1]), U, ops, force, active),
+                             force.sum())
 
         sol = solve_ivp(rhs, (0.0, float(t_eval[-1])), self.y0.copy(), method="DOP853",
                         t_eval=t_eval, rtol=rtol, atol=self.atol)
@@ -451,6 +458,13 @@ class AdaptiveStepper(SparseStepper):
                           min_contact_u=float(cu[:k].min()) if k else 0.0,
                           steps_done=int(steps[k - 1]) if k else 0, blowup_time=blow,
                           extra=extra)
+
+
+def _compiled_for(dispatcher: Any, *args: Any) -> Callable[..., Any]:
+    """The compiled specialisation of a numba `dispatcher` for the types of `args` (loaded
+    from its cache or compiled, not called): a callable taking arguments of exactly those
+    types, without the dispatcher's typing of each argument at every call."""
+    return dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
 
 
 def prepare_adaptive(p: SparseProblem, dt: float, rtol: float) -> AdaptiveStepper:
