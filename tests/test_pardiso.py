@@ -27,8 +27,8 @@ NX, DT, NSTEPS = 4, 0.01, 200
 def _laplacian(m: int, shift: float) -> sp.csr_matrix:
     """The 5-point Laplacian on an m x m grid plus shift I (SPD for shift > -min eig)."""
     T = sp.diags([-np.ones(m - 1), 2 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1])
-    I = sp.identity(m)
-    return sp.csr_matrix(sp.kron(T, I) + sp.kron(I, T) + shift * sp.identity(m * m))
+    eye = sp.identity(m)
+    return sp.csr_matrix(sp.kron(T, eye) + sp.kron(eye, T) + shift * sp.identity(m * m))
 
 
 @needs_mkl

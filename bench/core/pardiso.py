@@ -173,6 +173,12 @@ class Pardiso(NamedTuple):
         return int(self.ip[17])
 
     @property
+    def factor_bytes(self) -> int:
+        """PARDISO's memory kept for the solves: the analysis' permanent memory and the
+        numerical factorisation's, bytes (iparm[15] + iparm[16], reported in KB)."""
+        return 1024 * int(self.ip[15] + self.ip[16])
+
+    @property
     def peak_bytes(self) -> int:
         """PARDISO's peak memory of analysis and factorisation, bytes (iparm[14..16])."""
         ip = self.ip

@@ -324,6 +324,14 @@ class Factor:
         return int(self.arrays.Lx.size + self.arrays.Ux.size)
 
     @property
+    def nbytes(self) -> int:
+        """The factor's memory: the loops' arrays, or PARDISO's own (analysis and
+        numerical factorisation, iparm[15] + iparm[16])."""
+        if self.pardiso is not None:
+            return self.pardiso.factor_bytes
+        return int(sum(a.nbytes for a in self.arrays))
+
+    @property
     def l_entries(self) -> int:
         """The values of the factor's L (SuperLU's, with its diagonal; PARDISO's)."""
         return self.entries if self.pardiso is not None else int(self.arrays.Lx.size)
