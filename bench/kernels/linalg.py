@@ -18,6 +18,13 @@
   columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
 
+From `contact_bench.core.pardiso.PARDISO_MIN_DOFS` rows on, a symmetric S is factored by
+MKL PARDISO's Cholesky when MKL loads (`Factor.of`'s `pardiso`): the loops' `lu_solve` and
+the set-up's block solves call PARDISO with the kept handle (`LU.ph`, `LU.pip`); S not
+positive definite (PARDISO's error -4) or MKL absent falls back to SuperLU, the reason in
+`Factor.fallback`. SuperLU is the fill-in for everything smaller, unsymmetric or
+indefinite.
+
 With `CONTACT_BENCH_LDLT=1` (or `Factor.of(S, ldlt=True)`) an SPD S keeps only SuperLU's L
 and D (U = D L^T to round-off in symmetric mode: half the factor's memory) and solves
 L D L^T x = b, the backward sweep scattering along L's rows; S not SPD keeps L and U, the
