@@ -24,6 +24,12 @@ CASE = "disc_drop[degree=2,lift=1e-6]"  # resting on the plane: every step in co
 NX, DT, NSTEPS = 4, 0.01, 200
 
 
+@pytest.fixture(autouse=True)
+def _superlu_keeps_l_and_u(monkeypatch):
+    """SuperLU's factor is L and U here, whatever another test or CONTACT_BENCH_LDLT set."""
+    monkeypatch.setattr(linalg, "USE_LDLT", False)
+
+
 def _laplacian(m: int, shift: float) -> sp.csr_matrix:
     """The 5-point Laplacian on an m x m grid plus shift I (SPD for shift > -min eig)."""
     T = sp.diags([-np.ones(m - 1), 2 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1])
