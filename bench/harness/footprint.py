@@ -51,7 +51,7 @@ MODELS: dict[tuple[int, int], Model] = {
 #: per dimension 3, degree: the constants when MKL PARDISO factors the 3D systems
 #: (`contact_bench.core.pardiso`, from `PARDISO_MIN_DOFS` unknowns): its Cholesky factor
 #: plus the contact patch the set-up keeps (`contact_bench.kernels.contact.patch_rows`:
-#: 3 values per entry of L), fitted to PARDISO's factors of the ball (docs/scale.md)
+#: 3 values per entry of L), fitted to PARDISO's factors of the ball (docs/sparse.md)
 PARDISO_MODELS: dict[tuple[int, int], Model] = {
     (3, 1): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
     (3, 2): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
