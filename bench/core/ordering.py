@@ -6,8 +6,8 @@ dissection (the `pymetis` wheel) than by SuperLU's minimum degree, from a few th
 dofs on; below that, and on a band, minimum degree is as good or better. The factor's
 size is also its time, so the ordering decides whether a 3D factorisation takes seconds
 or many minutes (docs/sparse.md). Shared by the assembly's mass checks (`is_spd`) and
-the kernels' factors (`contact_bench.kernels.linalg`). Bottom layer: imports nothing of
-the project.
+the kernels' factors (`contact_bench.kernels.linalg`). Bottom layer: imports only
+`contact_bench.core.pardiso` (PARDISO's SPD test of a large matrix).
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from contextlib import contextmanager
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import SuperLU, splu
+
+from contact_bench.core import pardiso
 
 try:  # METIS's nested dissection; minimum degree without it
     import pymetis
@@ -73,7 +75,12 @@ def symmetric_lu(A: sp.spmatrix) -> tuple[SuperLU, np.ndarray | None]:
 def is_spd(A: sp.spmatrix) -> bool:
     """Whether a sparse symmetric matrix is positive definite: its symmetric elimination
     (`symmetric_lu`; a symmetric permutation keeps the answer) made no row interchange
-    and has only positive pivots."""
+    and has only positive pivots; PARDISO's Cholesky (`contact_bench.core.pardiso`)
+    from `PARDISO_MIN_DOFS` rows on, when MKL loads (one factorisation either way)."""
+    if A.shape[0] >= pardiso.PARDISO_MIN_DOFS:
+        answer = pardiso.is_spd(A)
+        if answer is not None:
+            return answer
     try:
         lu, _ = symmetric_lu(A)
     except RuntimeError:  # exactly singular

@@ -8,7 +8,8 @@ matrix (an implicit scheme, or an explicit one whose mass is not diagonal), whic
 like n^p with a fill-reducing ordering (a factor's bytes per unknown nearly constant in
 2D, growing in 3D). The constants are fitted to measured peaks (docs/scale.md names the
 command and the table); the estimate decides only clearly impossible sizes, so it is a
-central fit, not a bound.
+central fit, not a bound. A 3D body that MKL PARDISO will factor (`PARDISO_MODELS`) has
+its own constants: PARDISO's Cholesky and the contact patch kept beside it.
 
 `memory_limit` is what this process may use: the smallest of the memory the kernel says is
 available (/proc/meminfo's MemAvailable), a cgroup's limit, and the address-space limit
@@ -22,6 +23,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from contact_bench.api.fem import LUMPED_KINDS, canonical_mass
+from contact_bench.core import pardiso
 from contact_bench.core.errors import BenchError
 
 
@@ -34,13 +36,36 @@ class Model(NamedTuple):
     power: float
 
 
-#: per (dimension, degree): the fitted constants (bytes per unknown; see the module doc)
+#: PARDISO's 3D factor and contact patch: bytes per unknown at 1e5 unknowns, and growth
+PARDISO_FACTOR, PARDISO_POWER = 3.4e4, 0.37
+#: per (dimension, degree): the fitted constants for SuperLU's factor (bytes per unknown;
+#: see the module doc)
 MODELS: dict[tuple[int, int], Model] = {
     (2, 1): Model(4.0e3, 3.2e3, 0.0),
     (2, 2): Model(4.0e3, 3.2e3, 0.0),
     (3, 1): Model(1.8e4, 3.2e4, 0.56),
     (3, 2): Model(1.8e4, 3.2e4, 0.56),
 }
+
+
+#: per dimension 3, degree: the constants when MKL PARDISO factors the 3D systems
+#: (`contact_bench.core.pardiso`, from `PARDISO_MIN_DOFS` unknowns): its Cholesky factor
+#: plus the contact patch the set-up keeps (`contact_bench.kernels.contact.patch_rows`:
+#: 3 values per entry of L), fitted to PARDISO's factors of the ball (docs/sparse.md)
+PARDISO_MODELS: dict[tuple[int, int], Model] = {
+    (3, 1): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
+    (3, 2): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
+}
+
+
+def model(dim: int, degree: int, unknowns: float) -> Model:
+    """The constants for a body: PARDISO's where it will factor (3D, MKL loaded, at least
+    `PARDISO_MIN_DOFS` unknowns), else SuperLU's (`MODELS`)."""
+    key = (int(dim), min(int(degree), 2))
+    if (key in PARDISO_MODELS and pardiso.MKL is not None
+            and unknowns >= pardiso.PARDISO_MIN_DOFS):
+        return PARDISO_MODELS[key]
+    return MODELS[key]
 
 
 def factors(scheme: Any) -> bool:
@@ -52,11 +77,11 @@ def factors(scheme: Any) -> bool:
 
 def estimate_bytes(footprint: Any, factored: bool) -> float:
     """The estimated peak bytes of a run on a body of this `Footprint`."""
-    model = MODELS[(int(footprint.dim), min(int(footprint.degree), 2))]
     n = float(footprint.unknowns)
-    total = model.linear * n
+    m = model(footprint.dim, footprint.degree, n)
+    total = m.linear * n
     if factored:
-        total += model.factor * n * (n / 1e5) ** model.power
+        total += m.factor * n * (n / 1e5) ** m.power
     return total
 
 

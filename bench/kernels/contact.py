@@ -146,7 +146,7 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
     keep = n * nc <= KEEP_Z_ENTRIES if auto else bool(keep)
     sel = selection_rows(G)
     GT = sp.csc_matrix(G.T)
-    k = patch_rows(n, nc, fac.arrays.Lx.size) if auto and not keep else 0
+    k = patch_rows(n, nc, fac.l_entries) if auto and not keep else 0
     zcol = NO_PATCH
     if k:
         order = np.argsort(np.asarray(gap0 if rank is None else rank, float), kind="stable")

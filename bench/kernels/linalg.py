@@ -18,6 +18,13 @@
   columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
 
+From `contact_bench.core.pardiso.PARDISO_MIN_DOFS` rows on, a symmetric S is factored by
+MKL PARDISO's Cholesky when MKL loads (`Factor.of`'s `pardiso`): the loops' `lu_solve` and
+the set-up's block solves call PARDISO with the kept handle (`LU.ph`, `LU.pip`); S not
+positive definite (PARDISO's error -4) or MKL absent falls back to SuperLU, the reason in
+`Factor.fallback`. SuperLU is the fill-in for everything smaller, unsymmetric or
+indefinite.
+
 With `CONTACT_BENCH_LDLT=1` (or `Factor.of(S, ldlt=True)`) an SPD S keeps only SuperLU's L
 and D (U = D L^T to round-off in symmetric mode: half the factor's memory) and solves
 L D L^T x = b, the backward sweep scattering along L's rows; S not SPD keeps L and U, the
@@ -40,7 +47,9 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from contact_bench.core import pardiso as mkl_pardiso
 from contact_bench.core.ordering import symmetric_lu
+from contact_bench.core.pardiso import PARDISO_MIN_DOFS, pardiso_call, upper_csr
 from contact_bench.core.timers import phase
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
@@ -73,7 +82,12 @@ def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b from SuperLU's Pr S Pc = L U (`fac`, an `LU`: L unit lower, U upper,
     both CSR with sorted columns, L's diagonal last in its row, U's first), or from
     Pr S Pr^T = L D L^T when U is empty (`Up` of size 0, D in `Ux`)."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
+    if fac.ph.size != 0:  # PARDISO's factor: its phase 33 with the kept handle
+        if pardiso_call(fac.ph, fac.pip, 33, 1, b, out) != 0:
+            out[:] = np.nan  # a failed solve shows as a blow-up
+        return
+    Lp, Li, Lx, Up, Ui, Ux = fac.Lp, fac.Li, fac.Lx, fac.Up, fac.Ui, fac.Ux
+    perm_r, perm_c = fac.perm_r, fac.perm_c
     n = b.size
     for i in range(n):
         work[perm_r[i]] = b[i]
@@ -104,9 +118,10 @@ def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
 
 class LU(NamedTuple):
     """A factor's arrays for the compiled loops: L and U as CSR (L unit lower with its
-    diagonal last in each row, U upper with its diagonal first), the permutations, and
+    diagonal last in each row, U upper with its diagonal first), the permutations,
     `solves`: (1,) int64, the number of solves the compiled loops made with it (`lu`
-    counts them: how a test sees what a step costs)."""
+    counts them: how a test sees what a step costs), and PARDISO's handle when the factor
+    is PARDISO's (`ph`, `pip`; then `lu_solve` calls PARDISO)."""
 
     Lp: np.ndarray
     Li: np.ndarray
@@ -117,6 +132,10 @@ class LU(NamedTuple):
     perm_r: np.ndarray
     perm_c: np.ndarray
     solves: np.ndarray
+    #: PARDISO's handle (`contact_bench.core.pardiso`: `h` and `ip`), size 0 for SuperLU's
+    #: factor (then L and U above are the factor; for PARDISO's they are empty)
+    ph: np.ndarray
+    pip: np.ndarray
 
 
 @njit(cache=True)
@@ -132,8 +151,16 @@ def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
     """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
     `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
     numbers to the bit), the factor read once for all k columns."""
-    Lp, Li, Lx, Up, Ui, Ux, perm_r, perm_c, _ = fac
     n, k = B.shape
+    if fac.ph.size != 0:  # PARDISO: its columns contiguous (B^T's rows), one call for all
+        Bt = np.ascontiguousarray(B.T)
+        Xt = np.empty((k, n))
+        if pardiso_call(fac.ph, fac.pip, 33, k, Bt, Xt) != 0:
+            Xt[:, :] = np.nan
+        out[:, :] = Xt.T
+        return
+    Lp, Li, Lx, Up, Ui, Ux = fac.Lp, fac.Li, fac.Lx, fac.Up, fac.Ui, fac.Ux
+    perm_r, perm_c = fac.perm_r, fac.perm_c
     for i in range(n):
         work[perm_r[i], :] = B[i, :]
     for i in range(n):
@@ -226,9 +253,13 @@ class Factor:
     #: why an L D L^T factor was asked for and not made (one line), else ""
     fallback: str = ""
 
+    #: PARDISO's factor (`contact_bench.core.pardiso.Pardiso`) when `kind` is "pardiso"
+    pardiso: Any = field(default=None, repr=False)
+
     @classmethod
     @phase("factor")
-    def of(cls, S: sp.spmatrix, ldlt: bool | None = None) -> Factor:
+    def of(cls, S: sp.spmatrix, ldlt: bool | None = None,
+           pardiso: bool | None = None) -> Factor:
         """S (square, nonsingular) factored by SuperLU (`symmetric_lu`), ordered by nested
         dissection from `contact_bench.core.ordering.NESTED_DISSECTION_DOFS` dofs on
         (S[q][:, q] factored in its natural order, q folded into the permutations) and by
@@ -236,8 +267,29 @@ class Factor:
         CHOLMOD if asked (`USE_CHOLMOD`) and S is symmetric positive definite (read from
         SuperLU's symmetric-mode factor: no row interchange, U's diagonal positive).
         `ldlt` (default `USE_LDLT`): keep L and D only when S is SPD (module docstring);
-        otherwise L and U, the reason in `fallback`."""
+        otherwise L and U, the reason in `fallback`.
+
+        `pardiso` (default: S has at least `PARDISO_MIN_DOFS` rows and MKL loads): a
+        symmetric S is factored by PARDISO's Cholesky (`contact_bench.core.pardiso`)
+        and the loops solve with it; S not positive definite, or MKL not loaded, falls
+        back to SuperLU with the reason in `fallback` (one line, no second PARDISO
+        factorisation)."""
         C = sp.csc_matrix(S)
+        n = S.shape[0]
+        use = (n >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None) if pardiso is None \
+            else bool(pardiso)
+        why = ""
+        if use and not is_symmetric(C):
+            why = f"S is not symmetric (beyond {SYMMETRY_TOL:g} relative): SuperLU's L and U"
+        elif use:
+            made, why = mkl_pardiso.factor(upper_csr(C), n)
+            if made is not None:
+                ix, f0 = INDEX, np.zeros(0)
+                empty = np.zeros(0, ix)
+                arrays = LU(np.zeros(1, ix), empty, f0, empty, empty, f0, empty, empty,
+                            np.zeros(1, np.int64), made.h, made.ip)
+                return cls(arrays, n, kind="pardiso", pardiso=made)
+            why = f"PARDISO refused S: {why}: SuperLU's L and U"
         lu, q = symmetric_lu(C)
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
         if q is not None:  # row q[i] of S is row i of S[q][:, q]: b[q[i]] goes where b'[i] goes
@@ -265,15 +317,31 @@ class Factor:
         ix = INDEX if max(Lm.nnz, Ux.size) < np.iinfo(INDEX).max else np.int64
         arrays = LU(Lm.indptr.astype(ix), Lm.indices.astype(ix), Lm.data,
                     Up.astype(ix), Ui.astype(ix), Ux,
-                    np.asarray(perm_r, ix), np.asarray(perm_c, ix), np.zeros(1, np.int64))
+                    np.asarray(perm_r, ix), np.asarray(perm_c, ix), np.zeros(1, np.int64),
+                    np.zeros(0, np.uint64), np.zeros(0, np.int32))
         chol = USE_CHOLMOD and cholespy is not None and spd
         return cls(arrays, S.shape[0], C if chol else None, "cholmod" if chol else "superlu",
-                   kind="lu" if keep_u else "ldlt", fallback=fallback)
+                   kind="lu" if keep_u else "ldlt", fallback=why or fallback)
 
     @property
     def entries(self) -> int:
-        """The values the loops' factor holds: L and U, or L and D."""
+        """The values the loops' factor holds: L and U, L and D, or PARDISO's L."""
+        if self.pardiso is not None:
+            return self.pardiso.entries
         return int(self.arrays.Lx.size + self.arrays.Ux.size)
+
+    @property
+    def nbytes(self) -> int:
+        """The factor's memory: the loops' arrays, or PARDISO's own (analysis and
+        numerical factorisation, iparm[15] + iparm[16])."""
+        if self.pardiso is not None:
+            return self.pardiso.factor_bytes
+        return int(sum(a.nbytes for a in self.arrays))
+
+    @property
+    def l_entries(self) -> int:
+        """The values of the factor's L (SuperLU's, with its diagonal; PARDISO's)."""
+        return self.entries if self.pardiso is not None else int(self.arrays.Lx.size)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """S^-1 b for one right-hand side (`lu_solve`)."""
@@ -309,7 +377,9 @@ class Factor:
             blk = np.ascontiguousarray(Bc[:, j0:j1].toarray() if Bc is not None
                                        else B[:, j0:j1], dtype=float)
             X = np.empty(blk.shape)
-            if chol is None:
+            if self.pardiso is not None:  # all the block's columns in one PARDISO call
+                X[:] = self.pardiso.solve(blk)
+            elif chol is None:
                 lu_solve_many(self.arrays, blk, X, np.empty(blk.shape))
             else:
                 chol.solve(blk, X)
