@@ -58,17 +58,22 @@ def measure(config: str, kind: str, steps: int) -> dict:
 
     spec, nx = config.rsplit(":", 1)
     case, sch = make_case(spec), make_scheme("redistributed")
-    # the kind decides the assembly's SPD test of the mass too (PARDISO or SuperLU)
+    # the kind decides the assembly's SPD test of the mass too (PARDISO or SuperLU);
+    # the module settings are put back afterwards (a test calls this in its process)
+    keep = linalg.USE_LDLT, linalg.PARDISO_MIN_DOFS, ordering.pardiso.PARDISO_MIN_DOFS
     linalg.USE_LDLT = kind == "ldlt"
     linalg.PARDISO_MIN_DOFS = ordering.pardiso.PARDISO_MIN_DOFS = (
         0 if kind == "pardiso" else np.iinfo(np.int64).max)
-    t0 = time.perf_counter()
-    p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
-    t_asm = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    with recording() as ph:
-        st = sch.prepare(p, float(case.dt))
-    t_setup = time.perf_counter() - t0
+    try:
+        t0 = time.perf_counter()
+        p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
+        t_asm = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        with recording() as ph:
+            st = sch.prepare(p, float(case.dt))
+        t_setup = time.perf_counter() - t0
+    finally:
+        linalg.USE_LDLT, linalg.PARDISO_MIN_DOFS, ordering.pardiso.PARDISO_MIN_DOFS = keep
     fac, ct = st.factor, st.ops.ct
     n = p.nfree
     b, x, w = np.random.default_rng(0).standard_normal(n), np.empty(n), np.empty(n)
