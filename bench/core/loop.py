@@ -134,19 +134,30 @@ def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def book_forces(stats, status, force, gap, n, dt, gamma):  # pragma: no cover - compiled
+    """The statistics of step n (step dt, impulse weight gamma) from its contact forces and
+    its smallest gap (`stats_update`, `impulse_update`), on the arrays they write: numba
+    counts references to every array of a typed tuple passed to a compiled function, so
+    the loop passes these two, not the whole `Record`."""
+    stats_update(stats, status, force, gap, n * dt)
+    impulse_update(stats, force, dt, gamma)
+
+
+@njit(cache=True)
 def book_step(rec, force, gap, n):  # pragma: no cover - compiled
     """The statistics of step n from its contact forces and its smallest gap
-    (`stats_update`, `impulse_update` with the record's weight)."""
-    stats_update(rec.stats, rec.status, force, gap, n * rec.dt)
-    impulse_update(rec.stats, force, rec.dt, rec.gamma)
+    (`book_forces` with the record's arrays, step and weight)."""
+    book_forces(rec.stats, rec.status, force, gap, n, rec.dt, rec.gamma)
 
 
 def book_friction(rec, st):  # pragma: no cover - compiled through its overload
     """The step's friction work (`friction_update`) from the tangential forces a
-    frictional step leaves in `st.tforce`; nothing for a state without them."""
+    frictional step leaves in `st.tforce`; nothing for a state without them. Inlined
+    (numba `inline="always"`): a call would count references to every array of rec and
+    st once per step, for nothing in a frictionless run."""
 
 
-@overload(book_friction)
+@overload(book_friction, inline="always")
 def _book_friction_compiled(rec, st):  # pragma: no cover - compiled
     if "tforce" in getattr(st, "fields", ()):
         def book(rec, st):
@@ -189,15 +200,18 @@ def drive(step, sample, ops, st, rec, nsteps, stride):  # pragma: no cover - com
         rec.energy[0] = e
         book_sample(rec, 0, 0.0, st.U, V, stress, e)
     friction_start(rec.friction, st.U)
-    min_gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
+    # read once: each read of a typed tuple's field counts references (`book_forces`)
+    G, gap0, stats, status, dt, gamma = rec.G, rec.gap0, rec.stats, rec.status, rec.dt, rec.gamma
+    U, force = st.U, st.force
+    min_gap = smallest_gap(G, gap0, U, np.inf)
     if rec.start != START_LEVEL:
-        stats_gap(rec.stats, min_gap, 0.0)  # the free gap at t = 0
+        stats_gap(stats, min_gap, 0.0)  # the free gap at t = 0
     k = 1
     for n in range(1, nsteps + 1):
         if step(ops, st, n) == BLOWN:
             return k, n, min_gap, n
-        gap = smallest_gap(rec.G, rec.gap0, st.U, np.inf)
-        book_step(rec, st.force, gap, n)
+        gap = smallest_gap(G, gap0, U, np.inf)
+        book_forces(stats, status, force, gap, n, dt, gamma)
         book_friction(rec, st)
         min_gap = min(min_gap, gap)
         if n % stride == 0 or n == nsteps:

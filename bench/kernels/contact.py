@@ -48,7 +48,8 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.timers import phase
@@ -68,7 +69,7 @@ NO_PATCH = np.zeros(0, np.int64)
 
 class Curve(NamedTuple):
     """A curved obstacle's tangent, updated in place by `relinearise` (module
-    docstring); `on` False: a fixed G (`FLAT`)."""
+    docstring); `on` True (a fixed G has `FLAT`)."""
 
     on: bool
     ob: Sphere
@@ -79,10 +80,17 @@ class Curve(NamedTuple):
     nrm: np.ndarray  # (n_c, d): the normals of the current tangent
 
 
+class Flat(NamedTuple):
+    """No curved obstacle: G fixed for the run (`FLAT`). A type of its own without arrays:
+    numba counts references to every array of a typed tuple each time the tuple is passed
+    or read, so a fixed G's `ContactOps` carries none of a tangent's arrays, and the
+    tangent's update (`tangent_at`, dispatched on the type) compiles to nothing."""
+
+    on: bool = False
+
+
 #: no curved obstacle: G fixed for the run
-FLAT = Curve(False, Sphere(np.zeros(1), 1.0, np.zeros((0, 1)), np.zeros((0, 1), np.int64)),
-             np.zeros((0, 1), np.int64), np.zeros((0, 1), np.int64), np.zeros((0, 0)),
-             np.zeros((1, 1)), np.zeros((0, 1)))
+FLAT = Flat()
 
 
 class ContactOps(NamedTuple):
@@ -99,7 +107,7 @@ class ContactOps(NamedTuple):
     W: np.ndarray
     Z: np.ndarray
     keep_z: bool
-    cv: Curve = FLAT
+    cv: Curve | Flat = FLAT
     zcol: np.ndarray = NO_PATCH
 
 
@@ -268,13 +276,25 @@ def relinearise(ct, X, out):  # pragma: no cover - compiled
                 Z[r, j] = acc
 
 
+def tangent_at(ct, X, out):  # pragma: no cover - compiled through its overload
+    """`relinearise` for a curved obstacle; nothing for a fixed G (`Flat`)."""
+
+
+@overload(tangent_at)
+def _tangent_at_compiled(ct, X, out):  # pragma: no cover - compiled
+    cv = ct.types[ct.fields.index("cv")]
+    if isinstance(cv, types.BaseNamedTuple) and cv.instance_class is Flat:
+        return lambda ct, X, out: None
+    return lambda ct, X, out: relinearise(ct, X, out)
+
+
 @njit(cache=True)
 def follow(ct, X, out):  # pragma: no cover - compiled
     """A curved obstacle's tangent moved to X (out: its exact gaps there), for a step
     whose contact law reads G without the gaps of a prediction (a velocity law); nothing
     for a fixed G."""
     if ct.cv.on:
-        relinearise(ct, X, out)
+        tangent_at(ct, X, out)
 
 
 @njit(cache=True)
@@ -293,7 +313,7 @@ def gaps(ct, X, out):  # pragma: no cover - compiled
     at X, its tangent moved to X first (`relinearise`)."""
     pen = False
     if ct.cv.on:
-        relinearise(ct, X, out)
+        tangent_at(ct, X, out)
         for j in range(out.size):
             pen = pen or out[j] < 0.0
         return pen

@@ -61,7 +61,7 @@ from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
 
 #: Laursen-Chawla: the persistency condition on the dofs closed at t_n
 PERSISTENCY = 0
@@ -90,7 +90,7 @@ class MidpointOps(NamedTuple):
     mode: int
     offset: float
     tol: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class MidpointState(NamedTuple):

@@ -51,7 +51,7 @@ from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
 
 #: Newton iterations of `discrete_gradient_solve` before it gives up
 NEWTON_MAX = 100
@@ -151,7 +151,7 @@ class PenaltyMidpointOps(NamedTuple):
     kappa: np.ndarray
     dt: float
     offset: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class PenaltyMidpointState(NamedTuple):

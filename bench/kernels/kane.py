@@ -70,7 +70,7 @@ from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
 
 #: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
 PREDICTORS = {"none": 0, "projected": 1, "projected_klapproth": 2}
@@ -95,7 +95,7 @@ class KaneOps(NamedTuple):
     predictor: int
     offset: float
     tol: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class KaneState(NamedTuple):

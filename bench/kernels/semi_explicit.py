@@ -60,7 +60,14 @@ from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, initial_load, load_ops, load_scratch
+from contact_bench.kernels.time_load import (
+    LoadOps,
+    NoLoad,
+    force_at,
+    initial_load,
+    load_ops,
+    load_scratch,
+)
 
 # ------------------------------------------------------------------------------ the bar
 
@@ -159,7 +166,7 @@ class BodyOps(NamedTuple):
     ct: ContactOps
     at_contact: np.ndarray  # -gap0
     weights: np.ndarray
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
     dt: float
     offset: float
     tol: float

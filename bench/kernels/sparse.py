@@ -72,6 +72,7 @@ from contact_bench.kernels.solvers import lcp_solve, penalty_coulomb_solve, pena
 from contact_bench.kernels.stepper import LoopStepper
 from contact_bench.kernels.time_load import (
     LoadOps,
+    NoLoad,
     force_at,
     initial_load,
     last_force,
@@ -108,7 +109,7 @@ class NewmarkOps(NamedTuple):
     sc: np.ndarray
     fscale: float
     alpha: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class NewmarkState(NamedTuple):
@@ -752,7 +753,7 @@ class CentralOps(NamedTuple):
     weights: np.ndarray
     dt: float
     offset: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class CentralState(NamedTuple):
@@ -906,7 +907,7 @@ class QuasistaticOps(NamedTuple):
     gamma: float
     offset: float
     tol: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class QuasistaticState(NamedTuple):

@@ -72,6 +72,7 @@ from contact_bench.kernels.sparse import (
 from contact_bench.kernels.stepper import LoopStepper
 from contact_bench.kernels.time_load import (
     LoadOps,
+    NoLoad,
     force_at,
     initial_load,
     load_ops,
@@ -116,7 +117,7 @@ class ExplicitLawOps(NamedTuple):
     dt: float
     gamma: float
     offset: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class ExplicitLawState(NamedTuple):
@@ -422,7 +423,7 @@ class TaylorFlanaganOps(NamedTuple):
     Zc: np.ndarray
     dt: float
     offset: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class TaylorFlanaganState(NamedTuple):

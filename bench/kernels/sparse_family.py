@@ -65,7 +65,14 @@ from contact_bench.kernels.recording import csr_energy
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, MasslessSplit
 from contact_bench.kernels.stepper import LoopStepper, SparseStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import (
+    LoadOps,
+    NoLoad,
+    force_at,
+    load_ops,
+    load_points,
+    load_scratch,
+)
 
 
 class MasslessOps(NamedTuple):
@@ -85,7 +92,7 @@ class MasslessOps(NamedTuple):
     ct: ContactOps  # G restricted to the massless dofs, with K_mm's factor
     at_contact: np.ndarray  # -gap0
     tol: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 def massless_ops(split: MasslessSplit, p: SparseProblem) -> MasslessOps:
@@ -325,7 +332,7 @@ def ode_rhs(t, y, U, o, mu, active):  # pragma: no cover - compiled
     (active: the last evaluation's contact set, the LCP's warm start)."""
     hv = o.hv
     nh, nm, nc = hv.size, o.mv.size, o.at_contact.size
-    F = force_at(o.load, o.F, t, np.empty(o.load.codes.size), np.empty(U.size))
+    F = force_at(o.load, o.F, t, np.empty(load_points(o.load)), np.empty(U.size))
     for a in range(nh):
         U[hv[a]] = y[a]
     massless_solve(o, F, U, mu, active, True,
@@ -347,7 +354,7 @@ def ode_samples(Ys, ts, o, U_out, V_out, lam_out):  # pragma: no cover - compile
     scr = (np.empty(nm), np.empty(nm), np.empty(nm), np.empty(nc))
     mu = np.zeros(nc)
     active = np.zeros(nc, np.bool_)
-    vals, Fn = np.empty(o.load.codes.size), np.empty(U_out.shape[1])
+    vals, Fn = np.empty(load_points(o.load)), np.empty(U_out.shape[1])
     for s in range(Ys.shape[1]):
         for a in range(nh):
             U_out[s, hv[a]] = Ys[a, s]

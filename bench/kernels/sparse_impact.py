@@ -67,7 +67,7 @@ from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, initial_acceleration
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
 
 
 class ImpactOps(NamedTuple):
@@ -90,7 +90,7 @@ class ImpactOps(NamedTuple):
     dt: float
     offset: float
     tol: float
-    load: LoadOps  # the time load (`contact_bench.kernels.time_load`)
+    load: LoadOps | NoLoad  # the time load (`contact_bench.kernels.time_load`)
 
 
 class ImpactState(NamedTuple):

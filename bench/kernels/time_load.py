@@ -10,7 +10,11 @@ t_n and t_{n+1}, a midpoint one at t_{n+1/2}, HHT at t_{n+1+alpha}. Each stepper
 docstring says which.
 
 Without a time load `force_at` returns the constant F itself and does no arithmetic, so
-a run without one steps exactly as it did before the load existed (bit for bit).
+a run without one steps exactly as it did before the load existed (bit for bit). Its
+`NoLoad` holds no array: numba counts references to every array of a typed tuple each
+time the tuple is passed or read, so a step without a load pays nothing for the load's
+arrays, and `force_at` and `last_force`, dispatched on the load's type (numba
+`overload`), compile to `return F`.
 """
 
 from __future__ import annotations
@@ -18,21 +22,15 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-import scipy.sparse as sp
-from numba import cfunc, float64, int64, njit
+from numba import types
+from numba.extending import overload
 
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 
 
-@cfunc(float64(float64, float64, float64, float64, int64))
-def NO_LOAD(x, y, z, t, code):  # pragma: no cover - compiled
-    """The time load's density of a problem without one (never called)."""
-    return 0.0
-
-
 class LoadOps(NamedTuple):
-    """A problem's time load for a compiled step: whether there is one (`on`), its
-    density (a numba cfunc, or `NO_LOAD`), B (n x m, CSR), the m points (3 x m) and the
+    """A problem's time load for a compiled step (`on` True: there is one), its
+    density (a numba cfunc), B (n x m, CSR), the m points (3 x m) and the
     density's codes (m)."""
 
     on: bool
@@ -42,20 +40,29 @@ class LoadOps(NamedTuple):
     codes: np.ndarray
 
 
-def load_ops(p: Any) -> LoadOps:
-    """The `LoadOps` of a `SparseProblem` (its `load`, or an empty one without)."""
+class NoLoad(NamedTuple):
+    """No time load: a type of its own without arrays (module docstring); `on` False."""
+
+    on: bool = False
+
+
+#: the time load of a problem without one
+NO_TIME_LOAD = NoLoad()
+
+
+def load_ops(p: Any) -> LoadOps | NoLoad:
+    """The `LoadOps` of a `SparseProblem` (its `load`), or `NO_TIME_LOAD` without one."""
     ld = getattr(p, "load", None)
     if ld is None:
-        return LoadOps(False, NO_LOAD, csr_arrays(sp.csr_matrix((p.nfree, 0))),
-                       np.zeros((3, 0)), np.zeros(0, np.int64))
+        return NO_TIME_LOAD
     return LoadOps(True, ld.density, csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
                    np.asarray(ld.codes, np.int64))
 
 
-def load_scratch(lo: LoadOps, n: int) -> tuple[np.ndarray, np.ndarray]:
+def load_scratch(lo: LoadOps | NoLoad, n: int) -> tuple[np.ndarray, np.ndarray]:
     """The scratch `force_at` writes, for a stepper's state: the density's m values and
     the n-vector of the load."""
-    return np.empty(lo.codes.size), np.empty(n)
+    return np.empty(load_points(lo)), np.empty(n)
 
 
 def initial_load(p: Any) -> np.ndarray:
@@ -65,22 +72,50 @@ def initial_load(p: Any) -> np.ndarray:
     return F if ld is None else F + ld.at(0.0)
 
 
-@njit(cache=True)
-def force_at(lo, F, t, vals, Fn):  # pragma: no cover - compiled
+def is_load_free(lo: Any) -> bool:
+    """Whether `lo`, a numba type, is `NoLoad`'s (a problem without a time load)."""
+    return isinstance(lo, types.BaseNamedTuple) and lo.instance_class is NoLoad
+
+
+def load_points(lo):  # pragma: no cover - compiled through its overload
+    """The number m of the load's points (0 without a time load)."""
+    return 0 if isinstance(lo, NoLoad) else lo.codes.size
+
+
+@overload(load_points)
+def _load_points_compiled(lo):  # pragma: no cover - compiled
+    if is_load_free(lo):
+        return lambda lo: 0
+    return lambda lo: lo.codes.size
+
+
+def force_at(lo, F, t, vals, Fn):  # pragma: no cover - compiled through its overload
     """The load at time t: F + B v(t) written to Fn (vals: the density's values, scratch)
-    and returned; without a time load, F itself (nothing written)."""
-    if not lo.on:
-        return F
-    for j in range(lo.codes.size):
-        vals[j] = lo.density(lo.X[0, j], lo.X[1, j], lo.X[2, j], t, lo.codes[j])
-    matvec(lo.B, vals, Fn)
-    for i in range(F.size):
-        Fn[i] += F[i]
-    return Fn
+    and returned; without a time load (`NoLoad`), F itself (nothing written)."""
 
 
-@njit(cache=True)
-def last_force(lo, F, Fn):  # pragma: no cover - compiled
+@overload(force_at)
+def _force_at_compiled(lo, F, t, vals, Fn):  # pragma: no cover - compiled
+    if is_load_free(lo):
+        return lambda lo, F, t, vals, Fn: F
+
+    def loaded(lo, F, t, vals, Fn):
+        for j in range(lo.codes.size):
+            vals[j] = lo.density(lo.X[0, j], lo.X[1, j], lo.X[2, j], t, lo.codes[j])
+        matvec(lo.B, vals, Fn)
+        for i in range(F.size):
+            Fn[i] += F[i]
+        return Fn
+    return loaded
+
+
+def last_force(lo, F, Fn):  # pragma: no cover - compiled through its overload
     """The load `force_at` last wrote to Fn (F without a time load): for a step or a
     sample that reads the load of a time level evaluated earlier."""
-    return Fn if lo.on else F
+
+
+@overload(last_force)
+def _last_force_compiled(lo, F, Fn):  # pragma: no cover - compiled
+    if is_load_free(lo):
+        return lambda lo, F, Fn: F
+    return lambda lo, F, Fn: Fn
