@@ -142,7 +142,7 @@ class LU(NamedTuple):
 def lu(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b with S's factor `fac` (an `LU`; `lu_solve`); work: scratch (n).
     Counts the solve in `fac.solves`. Inlined into its caller: a call of its own would
-    count references to the factor's nine arrays once more per solve."""
+    count references to every array of the factor once more per solve."""
     fac.solves[0] += 1
     lu_solve(fac, b, out, work)
 
