@@ -67,23 +67,31 @@ def hertz() -> None:
               f"{h.peak_force:.5f}, {force.max() / h.peak_force - 1:+.1%})")
 
 
+def gap_defects(spec: str, dt: float) -> tuple[float, float]:
+    """(largest, smallest) exact minus linearised gap at the points the obstacle pushes,
+    after each step of the ball's first 6 time units on a sphere of radius 1 (nx 3):
+    (c), and the bounds tests/test_curved_drop.py asserts on it."""
+    scheme = make_scheme(spec)
+    p = make_case("curved_drop").sparse_problem(3, 1.0, scheme.mass_kind())
+    st = scheme.prepare(p, dt)
+    state, ct = st.new_state(), st.ops.ct
+    step = kane_step if spec == "kane" else newmark_step
+    hi, lo = 0.0, np.inf
+    for n in range(1, int(round(6.0 / dt)) + 1):
+        step(st.ops, state, n)
+        on = state.force > 0
+        if on.any():
+            G = sp.csr_matrix((ct.G.data, ct.G.indices, ct.G.indptr),
+                              shape=(ct.gap0.size, p.nfree))
+            d = (sphere_gaps(p.contact.obstacle, state.U) - (ct.gap0 + G @ state.U))[on]
+            hi, lo = max(hi, float(d.max())), min(lo, float(d.min()))
+    return hi, lo
+
+
 def defects() -> None:
     for spec in ("kane", "redistributed"):
-        scheme = make_scheme(spec)
-        p = make_case("curved_drop").sparse_problem(3, 1.0, scheme.mass_kind())
         for dt in (0.02, 0.01, 0.005):
-            st = scheme.prepare(p, dt)
-            state, ct = st.new_state(), st.ops.ct
-            step = kane_step if spec == "kane" else newmark_step
-            hi, lo = 0.0, np.inf
-            for n in range(1, int(round(6.0 / dt)) + 1):
-                step(st.ops, state, n)
-                on = state.force > 0
-                if on.any():
-                    G = sp.csr_matrix((ct.G.data, ct.G.indices, ct.G.indptr),
-                                      shape=(ct.gap0.size, p.nfree))
-                    d = (sphere_gaps(p.contact.obstacle, state.U) - ct.gap0 - G @ state.U)[on]
-                    hi, lo = max(hi, float(d.max())), min(lo, float(d.min()))
+            hi, lo = gap_defects(spec, dt)
             print(f"(c) {spec:<14} dt {dt:<6} exact - linearised gap: max {hi:.2e}, "
                   f"min {lo:.1e}")
 

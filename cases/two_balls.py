@@ -23,11 +23,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from contact_bench.api import fem_nd
+from contact_bench.api import fem_nd, two_bodies
 from contact_bench.api import node_to_facet as ntf
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, Contact, Footprint, StudyGrid
+from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.registry import make_case
 from contact_bench.api.sparse import ContactSet, SparseProblem
 
@@ -84,24 +84,10 @@ class TwoBalls(BodyCase):
         return one._replace(unknowns=one.unknowns + self.ball_b_case.footprint(nx).unknowns)
 
     def cannot_run(self, scheme) -> str | None:
-        if not int(self.half) and scheme.traits().contact == Contact.NITSCHE:
-            return ("Nitsche's method between two bodies (the mean of their normal "
-                    "stresses) is not built: use two_balls[half=1]")
-        return self.ball_a.cannot_run(scheme)
+        return two_bodies.nitsche_refusal(self, scheme) or self.ball_a.cannot_run(scheme)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
-        """err_pair_momentum (two bodies): max over the samples and the three directions
-        of |p_c(t_k) - p_c(0)|, p_c = 1_c . M V the pair's momentum along e_c, relative
-        to the pair's mass times `speed`. Without gravity and with rows whose weights
-        sum to one it is kept (round-off); nothing for `half=1`, where the plane pushes."""
-        if int(self.half):
-            return {}
-        n = problem.nfree
-        drift = 0.0
-        for c in range(3):
-            p = traj.V @ (problem.M @ (np.arange(n) % 3 == c).astype(float))
-            drift = max(drift, float(np.max(np.abs(p - p[0]))))
-        return {"err_pair_momentum": drift / (float(problem.body_mass) * float(self.speed))}
+        return two_bodies.pair_momentum_errors(self, problem, traj)
 
     def turn(self) -> np.ndarray:
         """The 3 x 3 map of ball B's reference displacement to the scene's: the mirror

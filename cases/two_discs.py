@@ -21,11 +21,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from contact_bench.api import fem_nd
+from contact_bench.api import fem_nd, two_bodies
 from contact_bench.api import node_to_segment as nts
 from contact_bench.api.fem import REDISTRIBUTED_KINDS, canonical_mass
 from contact_bench.api.params import Param
-from contact_bench.api.plugin import BodyCase, Contact, Footprint, StudyGrid
+from contact_bench.api.plugin import BodyCase, Footprint, StudyGrid
 from contact_bench.api.registry import make_case
 from contact_bench.api.sparse import ContactSet, SparseProblem
 
@@ -72,24 +72,10 @@ class TwoDiscs(BodyCase):
         return one._replace(unknowns=one.unknowns + other.unknowns)
 
     def cannot_run(self, scheme) -> str | None:
-        if not int(self.half) and scheme.traits().contact == Contact.NITSCHE:
-            return ("Nitsche's method between two bodies (the mean of their normal "
-                    "stresses) is not built: use two_discs[half=1]")
-        return self.disc.cannot_run(scheme)
+        return two_bodies.nitsche_refusal(self, scheme) or self.disc.cannot_run(scheme)
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:
-        """err_pair_momentum (two bodies): max over the samples and the two directions
-        of |p_c(t_k) - p_c(0)|, p_c = 1_c . M V the pair's momentum along e_c, relative
-        to the pair's mass times `speed`. Without gravity and with rows whose weights
-        sum to one it is kept (round-off); nothing for `half=1`, where the plane pushes."""
-        if int(self.half):
-            return {}
-        n = problem.nfree
-        drift = 0.0
-        for c in range(2):
-            p = traj.V @ (problem.M @ (np.arange(n) % 2 == c).astype(float))
-            drift = max(drift, float(np.max(np.abs(p - p[0]))))
-        return {"err_pair_momentum": drift / (float(problem.body_mass) * float(self.speed))}
+        return two_bodies.pair_momentum_errors(self, problem, traj)
 
     def place_b(self, X: np.ndarray) -> np.ndarray:
         """Disc B's points (2, m) of disc A's mesh points X: mirrored about y = 0, then

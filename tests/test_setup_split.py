@@ -7,8 +7,9 @@ import itertools
 
 import pytest
 
+from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.core import timers
-from contact_bench.harness.runner import run_one
+from contact_bench.harness.runner import problem_for, run_one
 
 
 def test_phases_are_exclusive_and_only_while_recording(monkeypatch) -> None:
@@ -42,3 +43,12 @@ def test_a_run_splits_its_setup(scheme: str, factored: bool) -> None:
     assert (row["setup_factor_s"] > 0.0) == factored
     assert (row["setup_contact_s"] > 0.0) == factored  # the lumped one: a diagonal W
     assert row["setup_factor_s"] + row["setup_contact_s"] <= row["setup_s"] * 1.05 + 1e-3
+
+
+def test_the_assembly_time_is_a_field_of_the_problem_built() -> None:
+    """The harness's problems carry their building time in their own field (a body's: a
+    copy; the scene's own problem, which it may keep, is left as the scene built it)."""
+    case, scheme = make_case("disc_drop[degree=1,lift=0.5]"), make_scheme("redistributed")
+    assert problem_for(case, scheme, 3, keep=False).assembly_s > 0.0
+    assert case.sparse_problem(3, 1.0, scheme.mass_kind()).assembly_s is None
+    assert problem_for(make_case("dropped_bar"), scheme, 10, keep=False).assembly_s > 0.0

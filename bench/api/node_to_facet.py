@@ -30,8 +30,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contact_bench.api.fem_nd import Elasticity, Facets, facets_of
-from contact_bench.api.node_to_segment import REACH, SNAP, Projection, gap_rows
+from contact_bench.api.fem_nd import Elasticity, Facets
+from contact_bench.api.node_to_segment import (
+    REACH,
+    SNAP,
+    Projection,
+    checked_points,
+    gap_rows,
+    master_facets,
+)
 
 #: the P2 triangle's nodes in (l1, l2): the vertices, then the edge midpoints 01, 12, 02
 NODES = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])
@@ -78,11 +85,7 @@ def surface(body: Elasticity, where: Facets, place: Callable[[np.ndarray], np.nd
     ((3, m) -> (3, m), e.g. the body mirrored or turned into its place in the scene;
     None: as meshed). The displacement's degree is the body's (P1 or P2 dofs)."""
     mesh = body.mesh
-    if body.dim != 3:
-        raise ValueError(f"node-to-facet rows are built in 3D; got a {body.dim}D body")
-    facets = facets_of(body, where)
-    if facets.size == 0:
-        raise ValueError("the master surface has no boundary facet")
+    facets = master_facets(body, where, 3)
     X = np.asarray(mesh.p, float)
     if place is not None:
         X = np.asarray(place(X), float)
@@ -194,15 +197,7 @@ def project(points: np.ndarray, surf: TriangleSurface, normal: np.ndarray | None
     meets no facing facet (past the master's edge) is put on the facing facets' vertex
     nearest to its line, if within that facet's longest edge of it. ValueError naming
     the first point that lands on no facet."""
-    P = np.asarray(points, float)
-    if P.ndim != 2 or P.shape[0] != 3:
-        raise ValueError(f"points of shape {P.shape}: need (3, n)")
-    d = None
-    if normal is not None:
-        d = np.asarray(normal, float).reshape(3)
-        if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
-            raise ValueError(f"projection direction {d.tolist()!r}: need a nonzero vector")
-        d = d / np.linalg.norm(d)
+    P, d = checked_points(points, normal, 3)
     normals = surf.normals()
     n_s = P.shape[1]
     facet, lams = np.zeros(n_s, np.int64), np.zeros((n_s, 3))

@@ -78,6 +78,34 @@ class Projection:
     gap0: np.ndarray
 
 
+def master_facets(body: Elasticity, where: Facets, dim: int) -> np.ndarray:
+    """The boundary facets `where` of a master surface (`fem_nd.facets_of`), checked:
+    ValueError when the body is not `dim`-dimensional (node-to-segment rows are 2D,
+    node-to-facet rows 3D) or when no facet is selected."""
+    if body.dim != dim:
+        kind = "node-to-segment" if dim == 2 else "node-to-facet"
+        raise ValueError(f"{kind} rows are built in {dim}D; got a {body.dim}D body")
+    facets = facets_of(body, where)
+    if facets.size == 0:
+        raise ValueError("the master surface has no boundary facet")
+    return facets
+
+
+def checked_points(points: np.ndarray, normal: np.ndarray | None, dim: int
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
+    """The slave points as a (dim, n) float array and the projection direction made unit
+    (None: closest-point projection); ValueError naming a bad shape or direction."""
+    P = np.asarray(points, float)
+    if P.ndim != 2 or P.shape[0] != dim:
+        raise ValueError(f"points of shape {P.shape}: need ({dim}, n)")
+    if normal is None:
+        return P, None
+    d = np.asarray(normal, float).reshape(dim)
+    if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
+        raise ValueError(f"projection direction {d.tolist()!r}: need a nonzero vector")
+    return P, d / np.linalg.norm(d)
+
+
 def surface(body: Elasticity, where: Facets, place: Callable[[np.ndarray], np.ndarray] | None = None
             ) -> Surface:
     """The `Surface` of the body's boundary facets `where` (a predicate on points or
@@ -88,11 +116,7 @@ def surface(body: Elasticity, where: Facets, place: Callable[[np.ndarray], np.nd
     import skfem as fe
 
     mesh = body.mesh
-    if body.dim != 2:
-        raise ValueError(f"node-to-segment rows are built in 2D; got a {body.dim}D body")
-    facets = facets_of(body, where)
-    if facets.size == 0:
-        raise ValueError("the master surface has no boundary facet")
+    facets = master_facets(body, where, 2)
     geo = fe.Basis(mesh, mesh.elem())
     ends = mesh.facets[:, facets]  # (2, n_f) vertices
     X = np.asarray(geo.doflocs, float)
@@ -177,15 +201,7 @@ def project(points: np.ndarray, surf: Surface, normal: np.ndarray | None = None
     `normal`; a point whose line meets no facet facing it (past the master's edge) is
     put on the nearest facing facet end within a facet's length of its line.
     ValueError naming the first point that lands on no facet."""
-    P = np.asarray(points, float)
-    if P.ndim != 2 or P.shape[0] != 2:
-        raise ValueError(f"points of shape {P.shape}: need (2, n)")
-    d = None
-    if normal is not None:
-        d = np.asarray(normal, float).reshape(2)
-        if not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0.0:
-            raise ValueError(f"projection direction {d.tolist()!r}: need a nonzero vector")
-        d = d / np.linalg.norm(d)
+    P, d = checked_points(points, normal, 2)
     q, k = surf.geometry.shape[1], surf.dofs.shape[1]
     coeffs = [_coefficients(g) for g in surf.geometry]
     n_s = P.shape[1]
@@ -286,5 +302,5 @@ def gap_rows(proj: Projection, slave_scalar: np.ndarray, surf: Any, n_slave: int
     return G
 
 
-__all__ = ["REACH", "SNAP", "Projection", "Surface", "gap_rows", "project", "shape",
-           "surface"]
+__all__ = ["REACH", "SNAP", "Projection", "Surface", "checked_points", "gap_rows",
+           "master_facets", "project", "shape", "surface"]

@@ -125,6 +125,8 @@ class BarProblem:
     equal_groups: tuple[np.ndarray, ...] = ()
     #: no time-dependent load on a bar (`SparseProblem.load`: the same attribute)
     load = None
+    #: the seconds the harness took to build it (`SparseProblem.assembly_s`)
+    assembly_s: float | None = None
 
     def __init__(self, semi: Semidiscrete, mass_kind: str = "consistent") -> None:
         self.banded = semi

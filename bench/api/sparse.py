@@ -188,6 +188,9 @@ class SparseProblem:
     #: the bar's tridiagonal form of the same problem (`contact_bench.api.problem.
     #: BarProblem`), the fast backend of the 1D kernels; None for a 2D/3D body
     banded: Any = None
+    #: the seconds the harness took to build this problem (the `assembly_s` column; set
+    #: by `contact_bench.harness.runner.problem_for`); None: built elsewhere
+    assembly_s: float | None = None
 
     @property
     def nfree(self) -> int:

@@ -402,11 +402,15 @@ def check_run(case: Case, scheme: Scheme, nx: Any, dt: Any, T: Any, stride: Any,
 def _discretise(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
     """The problem (one form for every scene) with the scheme's mass variant: a body's
     `SparseProblem`, or the bar's `BarProblem` (its banded form inside), with the seconds
-    its building took as `assembly_s`."""
+    its building took as its `assembly_s` (the bar's, built here, set on it; a body's, a
+    copy with the field set: the scene may keep the problem it built)."""
     start = time.perf_counter()
     problem = _build(case, scheme, nx, grading)
-    object.__setattr__(problem, "assembly_s", time.perf_counter() - start)  # frozen class
-    return problem
+    seconds = time.perf_counter() - start
+    if isinstance(problem, BarProblem):
+        problem.assembly_s = seconds
+        return problem
+    return dataclasses.replace(problem, assembly_s=seconds)
 
 
 def _build(case: Case, scheme: Scheme, nx: int, grading: float) -> Any:
@@ -548,7 +552,7 @@ def _execute(plan: _Plan, step_repeats: int = STEP_REPEATS) -> Run:
     stepper, row["setup_s"] = prepare_stepper(scheme, semi, dt, phases)
     row["setup_factor_s"] = phases.get("factor", 0.0)
     row["setup_contact_s"] = phases.get("contact", 0.0)
-    row["assembly_s"] = getattr(semi, "assembly_s", None)
+    row["assembly_s"] = semi.assembly_s
     key = ("stepper", type(scheme), scheme.mass_kind(), scheme.traits().implicit, case.form)
     if key not in _warmed:  # one kernel each; JIT compilation stays out of run_s, step_s
         stepper.run(1, 1)

@@ -49,16 +49,15 @@ from contact_bench.core.tridiag import eliminate_contact_node, tri_matvec
 from contact_bench.kernels.common import allocate, trajectory
 from contact_bench.kernels.contact import (
     ContactOps,
-    add_response,
     contact_ops,
     gaps,
-    hold,
     restrict,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
-from contact_bench.kernels.linalg import LU, Factor, lu
+from contact_bench.kernels.linalg import LU, Factor
 from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
+from contact_bench.kernels.sparse_family import condensed_stiffness, massless_solve
 from contact_bench.kernels.stepper import LoopStepper
 from contact_bench.kernels.time_load import (
     LoadOps,
@@ -195,7 +194,7 @@ class BodyState(NamedTuple):
 @njit(cache=True)
 def body_step(o, s, step):  # pragma: no cover - compiled
     """One step on a body (module docstring)."""
-    U, V, A, rm, um, rh, mu = s.U, s.V, s.A, s.rm, s.um, s.rh, s.force
+    U, V, A, rh = s.U, s.V, s.A, s.rh
     hv, mv, dt, m = o.hv, o.mv, o.dt, o.m
     nh, nm = hv.size, mv.size
     h = 0.5 * dt
@@ -204,22 +203,13 @@ def body_step(o, s, step):  # pragma: no cover - compiled
         i = hv[a]
         V[i] += h * A[i]
         U[i] += dt * V[i]
-    matvec(o.Km, U, rm)  # K_mh U_h
-    for b in range(nm):
-        rm[b] = Fn[mv[b]] - rm[b]
-    lu(o.mfac, rm, um, s.wm)
-    pen = gaps(o.ct, um, s.gf)
-    if pen:
-        lcp_solve(o.ct.W, s.gf, mu, s.active, o.tol, s.was[0])
-        add_response(o.ct.Z, mu, um)
-        hold(o.ct, s.active, um, o.at_contact)  # exactly on the obstacle
-    else:
-        mu[:] = 0.0
-    s.was[0] = pen
-    for b in range(nm):
+    for b in range(nm):  # the massless dofs' old positions, kept in V until solved
+        V[mv[b]] = U[mv[b]]
+    s.was[0] = massless_solve(o, Fn, U, s.force, s.active, s.was[0],
+                              (s.rm, s.um, s.wm, s.gf))  # exactly on the obstacle
+    for b in range(nm):  # their backward difference
         i = mv[b]
-        V[i] = (um[b] - U[i]) / dt
-        U[i] = um[b]
+        V[i] = (U[i] - V[i]) / dt
     matvec(o.Kh, U, rh)  # (K U)_h
     for a in range(nh):
         i = hv[a]
@@ -257,29 +247,15 @@ def body_limit(p: SparseProblem) -> float:
     """2 / omega_max of lumped central differences on the dofs with mass, the massless
     contact dofs held and the other massless dofs condensed (their rows solved): the
     largest eigenvalue of D^-1/2 S D^-1/2, S the Schur complement, D the lumped mass."""
-    from scipy.sparse.linalg import LinearOperator, eigsh
+    from scipy.sparse.linalg import eigsh
 
     m, hv, mv, cl = split(p)
     free = np.ones(mv.size, bool)
     free[cl] = False
-    iv = mv[free]
-    K = sp.csr_matrix(p.K)
-    s = 1.0 / np.sqrt(m[hv])
-    Khh = sp.diags(s) @ sp.csr_matrix(K[hv][:, hv]) @ sp.diags(s)
-    if iv.size:
-        KIh = sp.csr_matrix(K[iv][:, hv]) @ sp.diags(s)
-        fac = Factor.of(K[iv][:, iv])
-
-        def op(x: np.ndarray) -> np.ndarray:
-            x = np.ravel(x)
-            return Khh @ x - KIh.T @ fac.solve(KIh @ x)
-    else:
-        def op(x: np.ndarray) -> np.ndarray:
-            return Khh @ np.ravel(x)
+    op = condensed_stiffness(sp.csr_matrix(p.K), hv, mv[free], 1.0 / np.sqrt(m[hv]))
     if hv.size <= 2:
         raise ValueError("the semi-explicit scheme needs more than two dofs with mass")
-    lam = eigsh(LinearOperator((hv.size, hv.size), matvec=op, dtype=float), k=1, which="LA",
-                tol=1e-10, return_eigenvectors=False,
+    lam = eigsh(op, k=1, which="LA", tol=1e-10, return_eigenvectors=False,
                 v0=np.random.default_rng(0).standard_normal(hv.size))  # the same each call
     return float(2.0 / np.sqrt(lam[0]))
 

@@ -44,6 +44,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
+from scipy.sparse.linalg import LinearOperator
 
 from contact_bench.api.plugin import Trajectory
 from contact_bench.api.sparse import SparseProblem
@@ -287,22 +288,19 @@ def verlet_sparse(p: SparseProblem, dt: float, nsteps: int, stride: int) -> Traj
     return prepare_verlet(p, dt).run(nsteps, stride)
 
 
-def massless_ode_omega(p: SparseProblem) -> float:
-    """omega_max of the massless-contact ODE in its stiffest contact state (module
-    docstring); velocity Verlet is stable for dt omega_max < 2."""
-    from scipy.sparse.linalg import LinearOperator, eigsh
-
-    massless = p.massless
-    hv = np.flatnonzero(~massless)
-    free = massless.copy()
-    # pinned on the obstacle: every dof in a contact row (for a general row, its
-    # tangential dofs too: a stiffer state still, so the limit stays a bound)
-    free[np.unique(sp.csr_matrix(p.contact.gap_operator(p.nfree)).indices)] = False
-    iv = np.flatnonzero(free)
-    K = sp.csr_matrix(p.K)
+def condensed_stiffness(K: sp.csr_matrix, hv: np.ndarray, iv: np.ndarray,
+                        s: np.ndarray | None = None) -> LinearOperator:
+    """x -> S x on the dofs hv: S = K_hh - K_hI K_II^-1 K_Ih, the stiffness with the dofs
+    iv condensed (their rows solved; none: K_hh), for the largest eigenvalue of a state
+    whose other dofs are held. With s: D S D, D = diag(s) (s = m^-1/2 of a lumped mass
+    turns the generalised eigenproblem into a standard one)."""
     Khh = sp.csr_matrix(K[hv][:, hv])
+    if s is not None:
+        Khh = sp.diags(s) @ Khh @ sp.diags(s)
     if iv.size:
         KIh = sp.csr_matrix(K[iv][:, hv])
+        if s is not None:
+            KIh = KIh @ sp.diags(s)
         fac = Factor.of(K[iv][:, iv])
 
         def schur(x: np.ndarray) -> np.ndarray:
@@ -311,7 +309,21 @@ def massless_ode_omega(p: SparseProblem) -> float:
     else:
         def schur(x: np.ndarray) -> np.ndarray:
             return Khh @ np.ravel(x)
-    op = LinearOperator((hv.size, hv.size), matvec=schur, dtype=float)
+    return LinearOperator((hv.size, hv.size), matvec=schur, dtype=float)
+
+
+def massless_ode_omega(p: SparseProblem) -> float:
+    """omega_max of the massless-contact ODE in its stiffest contact state (module
+    docstring); velocity Verlet is stable for dt omega_max < 2."""
+    from scipy.sparse.linalg import eigsh
+
+    massless = p.massless
+    hv = np.flatnonzero(~massless)
+    free = massless.copy()
+    # pinned on the obstacle: every dof in a contact row (for a general row, its
+    # tangential dofs too: a stiffer state still, so the limit stays a bound)
+    free[np.unique(sp.csr_matrix(p.contact.gap_operator(p.nfree)).indices)] = False
+    op = condensed_stiffness(sp.csr_matrix(p.K), hv, np.flatnonzero(free))
     Mhh = sp.csc_matrix(p.M[hv][:, hv])
     if hv.size <= 2:
         raise ValueError("the massless-contact ODE needs more than two dofs with mass")

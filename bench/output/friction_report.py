@@ -22,16 +22,17 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
+from matplotlib.figure import Figure
 
 from contact_bench.harness.environment import provenance
 from contact_bench.harness.io import write_text
 from contact_bench.output.figures import (
     check_formats,
     friction_stability_figure,
-    save_figure,
     use_style,
     work_precision_figure,
 )
+from contact_bench.output.page import figure_block, file_links
 from contact_bench.output.report import header, html_table, slug, write_tables
 from contact_bench.sweeps import analysis
 from contact_bench.sweeps.study import FRICTION_GROUPS, FRICTION_PARAM
@@ -67,22 +68,16 @@ def write_friction_report(df: pd.DataFrame, out: str | Path,
     prov = provenance(argv)
     written: list[Path] = []
     parts: list[str] = []
-    shown = next((f for f in ("png", "svg") if f in formats), None)
 
-    def links(paths: list[Path]) -> str:
-        return " ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.name)}</a>'
-                        for p in paths)
-
-    def figure(fig: object, stem: str) -> str:
-        files = save_figure(fig, out / stem, formats, prov)  # type: ignore[arg-type]
+    def figure(fig: Figure, stem: str) -> str:
+        body, files = figure_block(fig, out, stem, formats, prov, stem)
         written.extend(files)
-        img = f'<img src="{stem}.{shown}" alt="{html.escape(stem)}">' if shown else ""
-        return f"{img}<p>figure: {links(files)}</p>"
+        return body
 
     def tables(tab: pd.DataFrame, stem: str) -> str:
         files = write_tables(tab, out, stem, prov)
         written.extend(files)
-        return f"<p>tables: {links(files)}</p>" + html_table(tab)
+        return f"<p>tables: {file_links(files)}</p>" + html_table(tab)
 
     refine = analysis.finest_run_error(df[analysis.tagged(df, FRICTION_GROUPS[0])])
     stab = df[analysis.tagged(df, FRICTION_GROUPS[1])]

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 from contact_bench.api.registry import make_case
 from contact_bench.core.errors import BenchError
@@ -31,11 +32,11 @@ from contact_bench.output.figures import (
     check_style,
     convergence_figure,
     energy_figure,
-    save_figure,
     stability_figure,
     use_style,
     work_precision_figure,
 )
+from contact_bench.output.page import figure_block, file_links
 from contact_bench.output.pictures import scene_pictures, snapshot_figure
 from contact_bench.sweeps import analysis
 from contact_bench.sweeps.sweep import STABILITY_CLASSES, check_error_column
@@ -307,18 +308,11 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     written: list[Path] = []
     sections: list[str] = []
     toc: list[str] = []
-    shown_fmt = next((f for f in ("png", "svg") if f in formats), None)
 
-    def links(paths: list[Path]) -> str:
-        return " ".join(f'<a href="{html.escape(p.name)}">{html.escape(p.name)}</a>'
-                        for p in paths)
-
-    def figure(fig: object, stem: str, alt: str) -> str:
-        files = save_figure(fig, out / stem, formats, prov)  # type: ignore[arg-type]
+    def figure(fig: Figure, stem: str, alt: str) -> str:
+        body, files = figure_block(fig, out, stem, formats, prov, alt)
         written.extend(files)
-        img = (f'<img src="{stem}.{shown_fmt}" alt="{html.escape(alt)}">' if shown_fmt
-               else "")
-        return f"{img}<p>figure: {links(files)}</p>"
+        return body
 
     def section(case: str, key: str, title: str, body: str) -> None:
         anchor = f"{slug(case)}-{key}"
@@ -353,7 +347,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
             "against log dt on a smooth motion without contact, the error of a dt being the "
             "difference with the same scheme at dt / 2 (docs/order.md). 'dt only samples': "
             "the output does not change with dt.</p>"
-            f"<p>tables: {links(tabs)}</p>" + html_table(time_orders))
+            f"<p>tables: {file_links(tabs)}</p>" + html_table(time_orders))
     energy_rows = analysis.select(df, "energy")
     energy_all = analysis.energy_table(energy_rows)
     stab_rows = analysis.select(df, "stability")
@@ -375,7 +369,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, "work-precision" + ("" if k == 0 else f"-{slug(err)}"),
                         f"Work-precision ({header(err)} against stepping time)",
-                        body + f"<p>tables: {links(tabs)}</p>"
+                        body + f"<p>tables: {file_links(tabs)}</p>"
                         + html_table(wp.drop(columns=["case"])))
             conv = conv_all[conv_all["case"] == case] if not conv_all.empty else conv_all
             if not conv.empty:
@@ -390,7 +384,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                         f"Convergence ({header(err)}; fitted and local orders; round-off "
                         "floor points left out; declared order and smooth order: away from "
                         "impacts)",
-                        body + f"<p>tables: {links(tabs)}</p>"
+                        body + f"<p>tables: {file_links(tabs)}</p>"
                         + html_table(conv.drop(columns=["case"])))
             smap = analysis.stability_map(stab_rows, case)
             if not smap.empty:
@@ -404,7 +398,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                                      prov)
                 written.extend(tabs)
                 section(case, "stability", "Stability (worst class per scheme and CFL)",
-                        body + f"<p>tables: {links(tabs)}</p>" + html_table(tab_map))
+                        body + f"<p>tables: {file_links(tabs)}</p>" + html_table(tab_map))
             for (name, pname), pmap in analysis.parameter_maps(stab_rows, case).items():
                 tab = pmap.reset_index()
                 tab.columns = [pname, *(f"CFL {c:g}" for c in pmap.columns)]
@@ -412,7 +406,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 written.extend(tabs)
                 section(case, f"stability-{slug(name)}-{slug(pname)}",
                         f"Stability of {name}: CFL against {pname} (worst class per cell)",
-                        f"<p>tables: {links(tabs)}</p>" + html_table(tab))
+                        f"<p>tables: {file_links(tabs)}</p>" + html_table(tab))
             tolerances = _published_tolerances(case)
             ver = analysis.verification_table(df[df["case"] == case], tolerances)
             if not ver.empty:
@@ -422,7 +416,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 section(case, "verification",
                         "Against the published values (every scheme at the published "
                         "grid; relative errors; within: how many within the tolerance)",
-                        f"<p>tolerances: {html.escape(tol)}</p><p>tables: {links(tabs)}</p>"
+                        f"<p>tolerances: {html.escape(tol)}</p><p>tables: {file_links(tabs)}</p>"
                         + html_table(ver))
             if snapshots:  # a 2D/3D scene: the deformed body at its first contact
                 try:
@@ -445,7 +439,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
                 body = "" if fig is None else figure(fig, f"energy_{s}", f"energy {case}")
                 tabs = write_tables(en.drop(columns=["case"]), out, f"energy_{s}", prov)
                 written.extend(tabs)
-                section(case, "energy", "Energy", body + f"<p>tables: {links(tabs)}</p>"
+                section(case, "energy", "Energy", body + f"<p>tables: {file_links(tabs)}</p>"
                         + html_table(en.drop(columns=["case"])))
             toc.append("</ul></li>")
             sections.append(f'<h2 id="{s}">{html.escape(case)} '
@@ -456,7 +450,7 @@ def write_report(df: pd.DataFrame, out: str | Path, argv: Sequence[str] | None =
     title = command_title(argv)
     page = _PAGE.format(title=html.escape(title), prov=html.escape(prov),
                         sections="\n".join(sections), toc="\n".join(toc),
-                        status=html_table(status), runs=links(written[:1]))
+                        status=html_table(status), runs=file_links(written[:1]))
     written.append(write_text(out / "index.html", f"<!-- {html.escape(prov)} -->\n{page}"))
     return written + friction_files
 

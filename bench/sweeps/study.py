@@ -144,9 +144,7 @@ def plan_study(quick: bool = False, scheme_specs: Sequence[str] | None = None,
                case_specs: Sequence[str] | None = None) -> list[Task]:
     """The tasks of the study (see the module docstring)."""
     g = QUICK if quick else FULL
-    specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
-    if quick:
-        specs = [_quick_spec(s) for s in specs]
+    specs = _study_specs(scheme_specs, quick)
     given = [s for spec in case_specs or () for s in expand_spec(spec)]
     sparse = [s for s in given if make_case(s).form != "banded1d"]
     scenes = [s for s in given if s not in sparse and not make_case(s).published]
@@ -334,6 +332,13 @@ def _param_variants(spec: str, scheme: Scheme, which: str) -> list[Scheme]:
     return out
 
 
+def _study_specs(scheme_specs: Sequence[str] | None, quick: bool) -> list[str]:
+    """The scheme specs a part of the study runs: the given ones (every registered scheme
+    when none is given), each expanded, with the quick study's parameter values when quick."""
+    specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
+    return [_quick_spec(s) for s in specs] if quick else specs
+
+
 def _quick_spec(spec: str) -> str:
     """The spec with the quick study's value of each parameter it does not fix
     (`Param.quick`)."""
@@ -385,9 +390,7 @@ def plan_friction(quick: bool = False, scheme_specs: Sequence[str] | None = None
                   case_specs: Sequence[str] | None = None) -> list[Task]:
     """The tasks of the friction part (module docstring)."""
     g = FRICTION_QUICK if quick else FRICTION
-    specs = [s for spec in (scheme_specs or default_schemes()) for s in expand_spec(spec)]
-    if quick:
-        specs = [_quick_spec(s) for s in specs]
+    specs = _study_specs(scheme_specs, quick)
     ms = g["max_samples"]
     tasks: list[Task] = []
     for variant, grid in friction_variants(case_specs):
