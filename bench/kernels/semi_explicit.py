@@ -17,7 +17,7 @@ lambda = K_00 u_0 + K_01 u_1 - F_0 (`contact_bench.core.tridiag.eliminate_contac
 On a body K_mm is factored once and the contact is exact on the contact dofs among the
 massless ones: the contact-free solution corrected by Z mu, Z = K_mm^-1 C^T, mu from the
 complementarity problem on the Delassus matrix W = C K_mm^-1 C^T (computed once;
-`contact_bench.kernels.sparse.lcp_solve`). The contact stress is -sum(lambda) / area.
+`contact_bench.kernels.solvers.lcp_solve`). The contact stress is -sum(lambda) / area.
 
 The stability limit is lumped central differences' on the mass with the massless dofs
 eliminated, in the stiffest contact state (the massless contact dofs held on the obstacle,
