@@ -12,23 +12,14 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_stepping import CASE  # noqa: E402
-
-from contact_bench.api.fem import mesh_nodes  # noqa: E402
-from contact_bench.api.problem import discretise  # noqa: E402
-from contact_bench.api.registry import make_case, make_scheme  # noqa: E402
+from test_stepping import _setup  # noqa: E402
 
 
 def step_ns(spec: str, n: int, steps: int, repeats: int = 7) -> float:
-    """Best time of one step (ns) of `spec` on the bar of n cells, at dt 0.5 h / c (0.9 of
-    the scheme's stability limit where that is smaller)."""
-    case, scheme = make_case(CASE), make_scheme(spec)
-    semi = discretise(case, mesh_nodes(case.L, n), scheme.mass_kind())
-    dt = 0.5 * semi.hmin / semi.c_max
-    lim = scheme.stability_limit(semi)
-    if lim is not None:
-        dt = min(dt, 0.9 * lim)
-    scheme.integrate(semi, dt, 10, 10)  # compiles
+    """Best time of one step (ns) of `spec` on the bar of n cells, with test_stepping.py's
+    set-up (`_setup`: dt 0.5 h / c, 0.9 of the scheme's stability limit where that is
+    smaller, compiled outside the timing)."""
+    scheme, semi, dt, steps = _setup(spec, n, steps)
     best = float("inf")
     for _ in range(repeats):
         t0 = time.perf_counter()
