@@ -132,6 +132,41 @@ def test_redistribution_written_for_the_symmetric_unknowns_matters():
     assert np.abs(_moments(R, X) - _moments(body.Ms, X)).max() > 1e-5
 
 
+def _ball_contact(nx: int):
+    """sphere_drop's ball (radius 20 about z = 20) and the scalar dofs of its lower half."""
+    body = make_case("sphere_drop").body(nx)
+    zone = body.boundary_facets(lambda x: x[2] < 19.8)
+    return body, np.unique(body.scalar.get_dofs(zone).flatten())
+
+
+def test_the_coarse_balls_redistributed_mass_is_spd_where_a_positive_diagonal_exists():
+    """At nx 4 the ball's contact dofs carry 22 % of the mass and the least change of
+    every entry is indefinite (smallest eigenvalue -69 of the non-contact block; the
+    construction refused it), yet a positive diagonal mass keeps the moments: the
+    mass on the segment between them keeps every moment, zero contact rows, and a
+    non-contact block no closer to singular than the consistent mass's (eigenvalues by
+    numpy, not by the factorisation the construction reads). At nx 2 no positive diagonal
+    exists (12 non-contact dofs): refused in one line."""
+    body, contact = _ball_contact(4)
+    ev = fem_nd.redistribution_evidence(body, contact)
+    assert ev["lambda_min"] < 0 < ev["diagonal_margin"]
+    R = fem_nd.redistributed(body, contact)
+    X = body.dof_coordinates
+    before = _moments(body.Ms, X)
+    np.testing.assert_allclose(_moments(R, X), before, rtol=0,
+                               atol=1e-12 * np.abs(before).max())
+    assert abs(R - R.T).max() == 0.0 and abs(R[contact]).max() == 0.0
+    rest = np.setdiff1d(np.arange(X.shape[1]), contact)
+    smallest = np.linalg.eigvalsh(R[rest][:, rest].toarray()).min()
+    consistent = np.linalg.eigvalsh(body.Ms[rest][:, rest].toarray()).min()
+    assert smallest >= consistent * (1 - 1e-6) and smallest <= consistent * 1.01
+    body, contact = _ball_contact(2)
+    assert np.isnan(fem_nd.redistribution_evidence(body, contact)["diagonal_margin"])
+    with pytest.raises(ValueError, match=r"on the 12 non-contact scalar dofs \(of 25\)") as e:
+        fem_nd.redistributed(body, contact)
+    assert "\n" not in str(e.value)
+
+
 # ------------------------------------------------------------ Dirichlet and sliding
 
 

@@ -53,15 +53,15 @@ def test_plan_follows_the_declarations() -> None:
 
 
 def test_a_mass_refused_on_coarse_meshes_is_planned_on_the_first_mesh_accepting_it() -> None:
-    """The ball refuses the redistributed mass at nx 2 and 4 (not positive definite): its
-    refine rows keep the scene's CFL (another scheme's, on nx 2) and its stability runs
-    move to nx 8, the coarsest mesh it runs."""
+    """The ball refuses the redistributed mass at nx 2 (no positive definite mass keeps
+    its moments by the construction): its refine rows keep the scene's CFL (another
+    scheme's, on nx 2) and its stability runs move to nx 4, the coarsest mesh it runs."""
     tasks = plan_sparse("sphere_drop", ["redistributed", "nitsche"])
     refine = {(t.scheme, t.nx): t for t in tasks if "refine" in t.group}
     assert {nx for s, nx in refine if s == "redistributed"} == {2, 4, 8}
     assert refine["redistributed", 8].cfl == refine["nitsche", 8].cfl is not None
     stab = {(t.scheme, t.nx) for t in tasks if "stability" in t.group}
-    assert {nx for s, nx in stab if s == "redistributed"} == {8}
+    assert {nx for s, nx in stab if s == "redistributed"} == {4}
     assert {nx for s, nx in stab if s == "nitsche"} == {2}
 
 

@@ -280,34 +280,27 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray,
     met on those entries (rank-deficient) or the rest of the mass is not positive
     definite, one more neighbourhood is taken, up to the whole body.
 
+    On a coarse mesh whose contact dofs carry much of the mass, even the least change
+    of every entry is indefinite: it moves that mass onto a few interior dofs with
+    negative couplings. The moments alone do not forbid a positive definite mass there:
+    a positive diagonal mass on the non-contact dofs often keeps them too (a linear
+    programme, `_positive_diagonal`). The mass is then the point of the segment from
+    the least change to that diagonal closest to the least change whose non-contact
+    block is as far from singular as the consistent mass's (smallest eigenvalue at
+    least the consistent block's): on the segment every moment is kept, as the
+    constraints are linear.
+
     The constraints are written for the symmetric unknowns (one per pair i <= j), so the
     result is symmetric and keeps every moment exactly; writing them for the unsymmetric
-    entries and symmetrising afterwards would break the first moments. ValueError if
-    the non-contact block is not positive definite even with every entry free.
+    entries and symmetrising afterwards would break the first moments. ValueError when
+    no positive diagonal keeps the moments either (too few non-contact dofs, the ball
+    at nx 2: docs/schemes.md "The redistributed mass on coarse meshes").
     """
     if layers < 1:
         raise ValueError(f"redistribution layers must be at least 1; got {layers!r}")
-    Ms = sp.csr_matrix(body.Ms)
-    n = Ms.shape[0]
-    contact = np.zeros(n, bool)
-    contact[np.asarray(contact_scalar, np.int64)] = True
-    X = body.dof_coordinates
-    d = body.dim
-    vecs = [np.ones(n)] + [X[k] for k in range(d)]
-    pairs = [(0, 0)] + [(0, k + 1) for k in range(d)] + [
-        (k + 1, j + 1) for k in range(d) for j in range(k, d)]
-    target = np.array([vecs[a] @ (Ms @ vecs[b]) for a, b in pairs])
-    U = sp.triu(Ms, format="coo")
-    keep = ~(contact[U.row] | contact[U.col]) & (U.data != 0)
-    r, c, m0 = U.row[keep], U.col[keep], U.data[keep]
-    diag = r == c
-    A = np.empty((len(pairs), r.size))
-    for q, (a, b) in enumerate(pairs):
-        va, vb = vecs[a], vecs[b]
-        A[q] = np.where(diag, va[r] * vb[r], va[r] * vb[c] + va[c] * vb[r])
-    residual = target - A @ m0
-    free = np.flatnonzero(~contact)
-    graph = sp.csr_matrix((Ms != 0).astype(np.int32))
+    moments = _MomentSystem(body, contact_scalar)
+    contact, free = moments.contact, np.flatnonzero(~moments.contact)
+    graph = sp.csr_matrix((body.Ms != 0).astype(np.int32))
 
     def grown(sel: np.ndarray) -> np.ndarray:
         """sel and every dof sharing an element with it (32-bit neighbour counts: 8-bit
@@ -319,20 +312,133 @@ def redistributed(body: Elasticity, contact_scalar: np.ndarray,
         near = grown(near)
     while True:
         whole = bool(near.all())
+        out = moments.least_change(near, check_condition=not whole)
+        if out is not None and is_spd(out[free][:, free]):
+            return out
+        if whole:
+            break
+        near = grown(near)
+    diagonal = moments.positive_diagonal()
+    if out is None or diagonal is None:
+        raise ValueError(
+            f"redistributed mass: no positive definite mass on the {free.size} non-contact "
+            f"scalar dofs (of {contact.size}) keeps the moments by this construction: the "
+            f"least change is indefinite and no positive diagonal keeps them; refine the mesh")
+    floor = _smallest_eigenvalue(sp.csr_matrix(body.Ms)[free][:, free])
+
+    def margin(t: float) -> float:
+        return _smallest_eigenvalue(((1.0 - t) * out + t * diagonal)[free][:, free]) - floor
+
+    if margin(1.0) < 0.0:  # the diagonal itself is the farthest from singular we have
+        return diagonal
+    lo, hi = 0.0, 1.0  # margin(lo) < 0 <= margin(hi); concave in t: one crossing
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if margin(mid) >= 0.0 else (mid, hi)
+    return sp.csr_matrix((1.0 - hi) * out + hi * diagonal)
+
+
+def _smallest_eigenvalue(B: sp.spmatrix) -> float:
+    """The smallest eigenvalue of the symmetric B (dense below 600 rows, else Lanczos)."""
+    from scipy.sparse.linalg import eigsh
+
+    if B.shape[0] < 600:
+        return float(np.linalg.eigvalsh(B.toarray())[0])
+    return float(eigsh(B, k=1, which="SA")[0][0])
+
+
+class _MomentSystem:
+    """The constraints of the redistribution (`redistributed`): the consistent mass's
+    upper-triangle entries off the contact dofs (rows r, columns c, values m0) and the
+    moments (total mass, first and second) they must carry, `A @ m = target`."""
+
+    def __init__(self, body: Elasticity, contact_scalar: np.ndarray) -> None:
+        Ms = sp.csr_matrix(body.Ms)
+        n = Ms.shape[0]
+        contact = np.zeros(n, bool)
+        contact[np.asarray(contact_scalar, np.int64)] = True
+        X = body.dof_coordinates
+        d = body.dim
+        vecs = [np.ones(n)] + [X[k] for k in range(d)]
+        pairs = [(0, 0)] + [(0, k + 1) for k in range(d)] + [
+            (k + 1, j + 1) for k in range(d) for j in range(k, d)]
+        target = np.array([vecs[a] @ (Ms @ vecs[b]) for a, b in pairs])
+        U = sp.triu(Ms, format="coo")
+        keep = ~(contact[U.row] | contact[U.col]) & (U.data != 0)
+        r, c, m0 = U.row[keep], U.col[keep], U.data[keep]
+        diag = r == c
+        A = np.empty((len(pairs), r.size))
+        for q, (a, b) in enumerate(pairs):
+            va, vb = vecs[a], vecs[b]
+            A[q] = np.where(diag, va[r] * vb[r], va[r] * vb[c] + va[c] * vb[r])
+        self.n, self.contact, self.target = n, contact, target
+        self.r, self.c, self.m0, self.diag, self.A = r, c, m0, diag, A
+        self.residual = target - A @ m0
+
+    def least_change(self, near: np.ndarray, check_condition: bool = True
+                     ) -> sp.csr_matrix | None:
+        """The symmetric mass with the moments kept and the least change (2-norm weighted
+        by 1 / |entry|) of the entries between dofs of `near`; None when
+        `check_condition` and the constraints' normal matrix is near singular there, or
+        it is singular."""
+        r, c, m0, diag, A = self.r, self.c, self.m0, self.diag, self.A
         w = np.abs(m0) * (near[r] & near[c])  # the entries allowed to change
         N = (A * w) @ A.T
-        if whole or np.linalg.cond(N) < REDISTRIBUTION_CONDITION:
-            m = m0 + w * (A.T @ np.linalg.solve(N, residual))
-            rows = np.concatenate([r, c[~diag]])
-            cols = np.concatenate([c, r[~diag]])
-            vals = np.concatenate([m, m[~diag]])
-            out = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
-            if is_spd(out[free][:, free]):
-                return out
-            if whole:
-                raise ValueError(
-                    "redistributed mass: the non-contact block is not positive definite")
-        near = grown(near)
+        if check_condition and np.linalg.cond(N) >= REDISTRIBUTION_CONDITION:
+            return None
+        try:
+            m = m0 + w * (A.T @ np.linalg.solve(N, self.residual))
+        except np.linalg.LinAlgError:  # too few non-contact dofs to hold the moments
+            return None
+        rows = np.concatenate([r, c[~diag]])
+        cols = np.concatenate([c, r[~diag]])
+        vals = np.concatenate([m, m[~diag]])
+        return sp.csr_matrix((vals, (rows, cols)), shape=(self.n, self.n))
+
+    def positive_diagonal(self) -> sp.csr_matrix | None:
+        """A diagonal mass on the non-contact dofs keeping the moments, with the largest
+        smallest weight (a linear programme: maximise t with every weight >= t times the
+        mean weight); None when no such mass has every weight positive."""
+        from scipy.optimize import linprog
+
+        free = np.flatnonzero(~self.contact)
+        nf, q = free.size, self.target.size
+        at = np.zeros((q, self.n))
+        at[:, self.r[self.diag]] = self.A[:, self.diag]  # a diagonal entry's coefficients
+        mean = self.target[0] / nf
+        lp = linprog(np.r_[np.zeros(nf), -1.0],
+                     A_ub=np.hstack([-np.eye(nf), np.full((nf, 1), mean)]), b_ub=np.zeros(nf),
+                     A_eq=np.hstack([at[:, free], np.zeros((q, 1))]), b_eq=self.target,
+                     bounds=[(0, None)] * nf + [(None, 1.0)])
+        if lp.status != 0 or lp.x[-1] <= 1e-6:
+            return None
+        d = np.zeros(self.n)
+        d[free] = lp.x[:nf]
+        return sp.csr_matrix(sp.diags(d))
+
+
+def redistribution_evidence(body: Elasticity, contact_scalar: np.ndarray) -> dict[str, float]:
+    """Why the least-change redistribution is or is not positive definite on a body: the
+    contact dofs' share of the dofs and of the mass (row sums), the smallest eigenvalue of
+    the non-contact block of the least change with every entry free and of the
+    consistent mass's non-contact block, and the smallest weight over the mean weight
+    of the positive diagonal mass keeping the same moments (NaN: none has every weight
+    positive)."""
+    moments = _MomentSystem(body, contact_scalar)
+    contact = moments.contact
+    free = np.flatnonzero(~contact)
+    Ms = sp.csr_matrix(body.Ms)
+    whole = moments.least_change(np.ones(moments.n, bool), check_condition=False)
+    diagonal = moments.positive_diagonal()
+    rowsum = np.asarray(Ms.sum(axis=1)).ravel()
+    return {"dofs": float(moments.n), "contact_dofs": float(contact.sum()),
+            "contact_mass_share": float(rowsum[contact].sum() / rowsum.sum()),
+            "lambda_min": (float("nan") if whole is None
+                           else _smallest_eigenvalue(whole[free][:, free])),
+            "lambda_min_consistent": _smallest_eigenvalue(Ms[free][:, free]),
+            "diagonal_margin": (float("nan") if diagonal is None
+                                else float(diagonal.diagonal()[free].min()
+                                           / (moments.target[0] / free.size)))}
 
 
 def mass_matrix(body: Elasticity, kind: str, contact_scalar: np.ndarray | None = None
