@@ -81,9 +81,11 @@ class TrajectoryRecorder:
         self.stats = new_stats(samples=k)  # the compiled loop's contact statistics
         G = sp.csr_matrix(p.contact.gap_operator(n))
         curved = getattr(p.contact, "obstacle", None)  # its exact gaps
-        # the friction work, with the compiled loop's function (with friction only)
+        # the friction work and tangential impulse, with the compiled loop's functions
+        # (with friction only)
         self.friction = new_friction_book(
-            p.contact.tangents if getattr(p.contact, "frictional", False) else None, k)
+            p.contact.tangents if getattr(p.contact, "frictional", False) else None, k,
+            p.contact.size)
         self._rec = Record(self.t, self.U, self.V, self.contact_u, self.stress, self.energy,
                            self.stats, np.zeros(p.contact.size, np.bool_),
                            curved or (G.indptr.astype(np.int64), G.indices.astype(np.int64),
@@ -146,7 +148,7 @@ class TrajectoryRecorder:
         """The recorded samples as a `Trajectory` (extra: scheme-specific diagnostics;
         the contact statistics when `record` was given the forces)."""
         stats = contact_extra(self.stats, self.samples) if self._forces_given else {}
-        stats.update(friction_extra(self.friction, self.samples))
+        stats.update(friction_extra(self.friction, self.samples, self.dt))
         return self.from_kernel(self.samples, self.steps_done, self.min_contact_u,
                                 self.blowup_step, **stats, **extra)
 

@@ -235,10 +235,12 @@ def contact_extra(stats: np.ndarray, samples: int | None = None) -> dict[str, An
 
 
 class FrictionBook(NamedTuple):
-    """The work of the tangential contact forces on the body (`friction_update`): the
-    tangent rows T as CSR arrays (`ContactSet.tangents`; none without friction), T U and
-    the effective forces of the last step, the work so far (acc, one value) and at each
-    sample."""
+    """The work and the impulse of the tangential contact forces on the body
+    (`friction_update`): the tangent rows T as CSR arrays (`ContactSet.tangents`, point
+    by point, n_t rows a point; none without friction), T U and the effective forces of
+    the last step, the work so far (acc, one value) and at each sample, and the
+    tangential impulse over dt so far summed per tangent (timp, n_t values: row j n_t +
+    k adds to k) and at each sample (tsamples, samples x n_t)."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -247,20 +249,28 @@ class FrictionBook(NamedTuple):
     last: np.ndarray
     acc: np.ndarray
     samples: np.ndarray
+    timp: np.ndarray
+    tsamples: np.ndarray
 
 
-def new_friction_book(tangents: Any = None, samples: int = 0) -> FrictionBook:
+def new_friction_book(tangents: Any = None, samples: int = 0, points: int = 0
+                      ) -> FrictionBook:
     """The book of a run with tangent rows `tangents` (a sparse matrix; None: frictionless,
-    an empty book that keeps nothing) and `samples` per-sample slots."""
+    an empty book that keeps nothing) for `points` contact points (n_t = rows / points
+    tangents each; 0: one) and `samples` per-sample slots."""
     if tangents is None:
         e = np.zeros(0)
         return FrictionBook(np.zeros(1, np.int64), np.zeros(0, np.int64), e, e, e,
-                            np.zeros(1), e)
+                            np.zeros(1), e, e, np.zeros((0, 0)))
     T = sp.csr_matrix(tangents, dtype=float)
     m = T.shape[0]
+    nt = m // int(points) if points else 1
+    if points and (nt < 1 or nt * int(points) != m):
+        raise ValueError(f"{m} tangent rows are not a whole number per point for "
+                         f"{points!r} contact points")
     return FrictionBook(T.indptr.astype(np.int64), T.indices.astype(np.int64),
                         T.data.astype(float), np.zeros(m), np.zeros(m), np.zeros(1),
-                        np.zeros(int(samples)))
+                        np.zeros(int(samples)), np.zeros(nt), np.zeros((int(samples), nt)))
 
 
 @njit(cache=True)
@@ -282,13 +292,18 @@ def friction_update(fb, tforce, U, gamma):  # pragma: no cover - compiled
     step's tangential impulse over dt times the tangential displacement it moves through.
     For Newmark with gamma = 1/2 and for Moreau-Jean's theta = 1/2 (the force its
     impulse over dt, gamma = 1) this is exactly the tangential forces' share of the
-    energy's change over the step, so E - friction work is conserved where E is."""
+    energy's change over the step, so E - friction work is conserved where E is. The
+    same weighted force, summed per tangent, is the step's tangential impulse over dt
+    (`impulse_update`'s rule on the tangent rows)."""
     w = 0.0
+    nt = fb.timp.size
     for i in range(fb.ut.size):
         acc = 0.0
         for k in range(fb.indptr[i], fb.indptr[i + 1]):
             acc += fb.data[k] * U[fb.indices[k]]
-        w += (gamma * tforce[i] + (1.0 - gamma) * fb.last[i]) * (acc - fb.ut[i])
+        f = gamma * tforce[i] + (1.0 - gamma) * fb.last[i]
+        w += f * (acc - fb.ut[i])
+        fb.timp[i % nt] += f
         fb.ut[i] = acc
         fb.last[i] = tforce[i]
     fb.acc[0] += w
@@ -296,14 +311,20 @@ def friction_update(fb, tforce, U, gamma):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def friction_sample(fb, k):  # pragma: no cover - compiled
-    """Record the friction work so far as sample k's (nothing for an empty book)."""
+    """Record the friction work and the tangential impulse so far as sample k's
+    (nothing for an empty book)."""
     if k < fb.samples.size:
         fb.samples[k] = fb.acc[0]
+        for j in range(fb.timp.size):
+            fb.tsamples[k, j] = fb.timp[j]
 
 
-def friction_extra(fb: FrictionBook, samples: int) -> dict[str, Any]:
-    """{"friction_work": the work at each of the first `samples` samples} for a book
-    with tangent rows; {} for a frictionless run's (its trajectory unchanged)."""
+def friction_extra(fb: FrictionBook, samples: int, dt: float) -> dict[str, Any]:
+    """{"friction_work": the work at each of the first `samples` samples,
+    "tangential_impulse": the tangential contact impulse on the body so far at each of
+    them, (samples, n_t), per tangent (a step of dt)} for a book with tangent rows; {}
+    for a frictionless run's (its trajectory unchanged)."""
     if fb.indptr.size <= 1:
         return {}
-    return {"friction_work": np.array(fb.samples[:samples])}
+    return {"friction_work": np.array(fb.samples[:samples]),
+            "tangential_impulse": float(dt) * np.array(fb.tsamples[:samples])}

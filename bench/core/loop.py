@@ -15,10 +15,11 @@ place):
 `drive(step, sample, ops, st, rec, nsteps, stride)` makes the steps and does the
 bookkeeping, here and nowhere else: the contact statistics (chatter, first contact with
 its start and end interpolated within the step from the smallest gap, peak force,
-impulse: `contact_bench.core.contact_stats`) and the friction work (with tangential
-forces: `contact_stats.friction_update`) after every step, the smallest gap over every
-step, a sample every `stride` steps and at the last one (time, U, V, smallest gap,
-stress, energy, the impulse and the friction work so far), and the blow-up rule
+impulse: `contact_bench.core.contact_stats`) and the friction work and tangential
+impulse (with tangential forces: `contact_stats.friction_update`) after every step, the
+smallest gap over every step, a sample every `stride` steps and at the last one (time, U,
+V, smallest gap, stress, energy, the impulse, the friction work and the tangential
+impulse so far), and the blow-up rule
 (`contact_bench.core.sampling.blown_up`) at each sample. Each distinct step function
 compiles its own specialisation of the loop (numba dispatchers as arguments), so the
 loop costs no indirect call. `drive` is inlined into (numba `inline="always"`) and
@@ -151,8 +152,9 @@ def book_step(rec, force, gap, n):  # pragma: no cover - compiled
 
 
 def book_friction(rec, st):  # pragma: no cover - compiled through its overload
-    """The step's friction work (`friction_update`) from the tangential forces a
-    frictional step leaves in `st.tforce`; nothing for a state without them. Inlined
+    """The step's friction work and tangential impulse (`friction_update`) from the
+    tangential forces a frictional step leaves in `st.tforce`; nothing for a state
+    without them. Inlined
     (numba `inline="always"`): a call would count references to every array of rec and
     st once per step, for nothing in a frictionless run."""
 

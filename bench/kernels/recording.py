@@ -96,11 +96,11 @@ class SampleBuffers:
         """The first k samples as a `Trajectory`: `done` steps taken, `min_gap` the
         smallest gap over every step, `blow` the blow-up step (< 0: none), the contact
         statistics `stats` (`contact_extra`) in `extra` (with `U_absmax`, `V_absmax` when
-        only some dofs were kept, and the friction work at each sample, `friction_extra`,
-        when the run kept it)."""
+        only some dofs were kept, and the friction work and tangential impulse at each
+        sample, `friction_extra`, when the run kept it)."""
         extra = contact_extra(stats, k)
         if friction is not None:
-            extra.update(friction_extra(friction, k))
+            extra.update(friction_extra(friction, k, dt))
         if self.keep is not None:
             extra.update(U_absmax=self.U_absmax[:k], V_absmax=self.V_absmax[:k])
         return Trajectory(t=self.t[:k], U=self.U[:k], V=self.V[:k], contact_u=self.gap[:k],

@@ -136,7 +136,7 @@ class LoopStepper(SparseStepper):
         stats = new_stats(self.force0, out.size)
         t, U, V, gap, stress, energy = out.arrays()
         book = new_friction_book(p.contact.tangents if getattr(p.contact, "frictional", False)
-                                 else None, out.size)
+                                 else None, out.size, p.contact.size)
         rec = Record(t, U, V, gap, stress, energy, stats, np.zeros(p.contact.size, np.bool_),
                      self.gap_operator(), np.asarray(p.contact.gap0, float), self.dt,
                      float(self.gamma), int(self.start), book)
