@@ -23,6 +23,7 @@ from scipy.sparse.linalg import spsolve
 
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness import run_one
+from contact_bench.harness.impacts import tangential_impulse_residual
 from contact_bench.kernels.kane import FrictionalKaneStepper
 from contact_bench.kernels.solvers import coulomb_solve, penalty_coulomb_solve
 from contact_bench.kernels.sparse import FrictionalNewmarkStepper
@@ -125,6 +126,8 @@ def test_sliding_block_momentum_identity(scheme):
     slides = case.sliding(p, run.trajectory.V)
     assert slides.mean() > 0.5  # the identity is checked on most steps
     assert run.row["err_sliding_momentum"] <= 1e-9
+    # the recorded tangential impulse is the tangential momentum's change less gravity's
+    assert tangential_impulse_residual(p, run.trajectory) <= 1e-9
     # and it is the sliding law's: the frictionless rate misses it by far
     t = case.tilt.tangent(p)
     p_t = run.trajectory.V @ (p.M @ t)

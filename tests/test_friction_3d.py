@@ -35,6 +35,7 @@ from contact_bench.api.plugin import Energy
 from contact_bench.api.recorder import TrajectoryRecorder
 from contact_bench.api.registry import make_case, make_scheme, schemes
 from contact_bench.harness import run_one
+from contact_bench.harness.impacts import tangential_impulse_residual
 from contact_bench.kernels.kane import FrictionalKaneStepper
 from contact_bench.kernels.sparse import FrictionalNewmarkStepper
 from contact_bench.kernels.sparse_impact import FrictionalMoreauJeanStepper
@@ -91,6 +92,8 @@ def test_sliding_block_3d_momentum_identity(scheme, degree):
     assert run.row["status"] == "ok", run.row["notes"]
     assert case.sliding(p, run.trajectory.V).mean() > 0.5  # checked on most intervals
     assert run.row["err_sliding_momentum"] <= 1e-9
+    # the recorded tangential impulse (two tangents) against the momentum's change
+    assert tangential_impulse_residual(p, run.trajectory) <= 1e-9
     # the sliding law's rate, not the frictionless one's
     t = case.tilt.tangent(p)
     p_t = run.trajectory.V @ (p.M @ t)

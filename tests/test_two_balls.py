@@ -31,8 +31,8 @@ def _rel(a, b) -> float:
 
 def _grid(spec: str) -> tuple[int, float]:
     """(nx, T): the ball at nx 4 through the contact of its first ring of nodes off the
-    pole, or at nx 8 for a scheme with the redistributed mass (not positive definite on
-    the ball below nx 8), through the pole's contact."""
+    pole, or at nx 8 for a scheme with the redistributed mass (refused on the ball at nx
+    2; nx 4 would take the first ring in too), through the pole's contact."""
     if canonical_mass(make_scheme(spec).mass_kind()) in REDISTRIBUTED_KINDS:
         return 8, 1.5
     return 4, 3.0

@@ -88,6 +88,55 @@ def impulse_residual(problem: Any, traj: Any, dt: float) -> float | None:
     return float(np.max(np.abs(residual)) / impulse[-1])
 
 
+def tangent_translations(problem: Any) -> np.ndarray | None:
+    """(n_t, n): the rigid translations along the contact's tangents, one per tangent
+    index k (`ContactSet.tangents`: row j n_t + k is point j's k-th unit tangent), read
+    from point 0's rows on a body whose free dofs are the nodes' components in turn
+    (`SparseProblem.dim` a node); None without tangent rows or when a translation so
+    built is not rigid (K tau not zero: a curved obstacle, eliminated dofs)."""
+    contact = problem.contact
+    T = getattr(contact, "tangents", None)
+    dim = getattr(problem, "dim", None)
+    if T is None or not dim or contact.size == 0 or problem.nfree % int(dim):
+        return None
+    T = T.tocsr()
+    nt = T.shape[0] // contact.size
+    out = np.zeros((nt, problem.nfree))
+    for k in range(nt):
+        d = np.zeros(int(dim))
+        row = T[k]
+        d[row.indices % int(dim)] = row.data
+        out[k] = np.tile(d, problem.nfree // int(dim))
+    scale = abs(problem.K).max() * np.abs(out).max()
+    if np.abs(problem.K @ out.T).max() > 1e-9 * scale:
+        return None
+    return out
+
+
+def tangential_impulse_residual(problem: Any, traj: Any) -> float | None:
+    """The tangential impulse balance, as `impulse_residual` along each tangent: the
+    change of momentum tau_k.M.V along the rigid translation tau_k of tangent k
+    (`tangent_translations`) equals the load's resultant along it times t plus the
+    kernel's tangential impulse J_k (`Trajectory.extra["tangential_impulse"]`, recorded
+    at every sample). The largest residual over the samples and tangents, relative to the
+    normal impulse J_N at the last sample (`extra["impulse"]`); None without them."""
+    extra = getattr(traj, "extra", None) or {}
+    J = extra.get("tangential_impulse")
+    impulse = extra.get("impulse")
+    tau = tangent_translations(problem)
+    t = np.asarray(traj.t)
+    if J is None or impulse is None or tau is None or t.size < 2 or traj.V.shape[1] == 0:
+        return None
+    J = np.asarray(J, float)
+    JN = float(np.asarray(impulse)[-1] - np.asarray(impulse)[0])
+    if not JN > 0.0:
+        return None
+    p = traj.V @ (problem.M @ tau.T)  # (samples, n_t)
+    load = tau @ problem.F
+    residual = p - p[0] - np.outer(t - t[0], load) - (J - J[0])
+    return float(np.max(np.abs(residual)) / JN)
+
+
 def impact_metrics(problem: Any, traj: Any, dt: float | None = None) -> dict[str, float]:
     """The row's impact columns: number of impacts, the first impact's rebound ratio, the
     energy after it minus 1 (relative to E0), and the impulse residual
@@ -106,4 +155,5 @@ def impact_metrics(problem: Any, traj: Any, dt: float | None = None) -> dict[str
     return out
 
 
-__all__ = ["IMPACT_COLUMNS", "impact_metrics", "impact_table", "impulse_residual"]
+__all__ = ["IMPACT_COLUMNS", "impact_metrics", "impact_table", "impulse_residual",
+           "tangent_translations", "tangential_impulse_residual"]
