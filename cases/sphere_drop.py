@@ -8,8 +8,8 @@ tangents e_x, e_y, the circular cone); T = 40, dt = 0.01. Tetrahedra:
 scikit-fem's ball (an octahedron refined), straight-sided, `--nx` elements along the
 radius (a power of two; default 8, 2499 dofs), P1 or P2 (`degree`, default 1: a default
 run takes under a minute; the redistributed mass needs nx >= 4: docs/schemes.md).
-`ball=lattice` takes any nx: the octahedral lattice mapped onto the ball (`lattice_ball`), the same counts
-as the refined octahedron but not the same tetrahedra.
+`ball=lattice` takes any nx: the octahedral lattice mapped onto the ball (`lattice_ball`),
+the same counts as the refined octahedron but not the same tetrahedra.
 
 References it has exactly: the free fall u = (0, 0, lift - g t^2 / 2) until the impact at
 sqrt(2 lift / g); E0 = m g lift of the mesh's ball (its volume is below 4/3 pi R^3: flat
