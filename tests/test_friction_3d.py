@@ -219,7 +219,8 @@ def test_energy_with_friction_work_within_the_declared_bound(spec, dim):
 
 def test_the_recorder_keeps_the_same_friction_work():
     """TrajectoryRecorder's book against numpy: sum over steps of (gamma f^{n+1} + (1 -
-    gamma) f^n) . T (U^{n+1} - U^n), at each sample."""
+    gamma) f^n) . T (U^{n+1} - U^n), at each sample; and the tangential impulse, dt times
+    the same weighted forces summed per tangent."""
     case = make_case(SLIDE.format(dim=3, degree=1))
     p = case.sparse_problem(NX, 1.0, "consistent")
     Tm = p.contact.tangents
@@ -228,12 +229,20 @@ def test_the_recorder_keeps_the_same_friction_work():
     rec = TrajectoryRecorder(p, 0.01, nsteps, stride, gamma=gamma)
     Us = [p.U0] + [rng.standard_normal(p.nfree) * 1e-3 for _ in range(nsteps)]
     fs = [np.zeros(Tm.shape[0])] + [rng.standard_normal(Tm.shape[0]) for _ in range(nsteps)]
+    nt = Tm.shape[0] // p.contact.size
     expect, acc = [0.0], 0.0
+    impulse, imp = [np.zeros(nt)], np.zeros(nt)  # per tangent: rows j nt + k
     for n in range(1, nsteps + 1):
-        acc += (gamma * fs[n] + (1 - gamma) * fs[n - 1]) @ (Tm @ (Us[n] - Us[n - 1]))
+        f = gamma * fs[n] + (1 - gamma) * fs[n - 1]
+        acc += f @ (Tm @ (Us[n] - Us[n - 1]))
+        imp = imp + 0.01 * f.reshape(-1, nt).sum(axis=0)
         rec.record(n, Us[n], np.zeros(p.nfree), 0.0, forces=np.zeros(p.contact.size),
                    tangential_forces=fs[n])
         if n % stride == 0 or n == nsteps:
             expect.append(acc)
-    got = rec.trajectory().extra["friction_work"]
-    assert np.allclose(got, expect, rtol=1e-13, atol=0.0) and abs(expect[-1]) > 0
+            impulse.append(imp)
+    extra = rec.trajectory().extra
+    assert np.allclose(extra["friction_work"], expect, rtol=1e-13, atol=0.0)
+    assert abs(expect[-1]) > 0
+    assert np.allclose(extra["tangential_impulse"], impulse, rtol=1e-13, atol=1e-15)
+    assert nt == 2 and np.abs(impulse[-1]).min() > 0
