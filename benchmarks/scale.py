@@ -2,30 +2,37 @@
 
     python benchmarks/scale.py                      # every size (up to ~5e5 dofs), results/scale.md
     python benchmarks/scale.py --max-dofs 2e4       # the sizes up to 2e4 dofs only
+    python benchmarks/scale.py --scene ball_1e6     # the ball to 976,875 dofs, explicit lumped
 
 Scenes and sizes (`CONFIGS`; the same ids as benchmarks/test_scale.py, the work fixed
 by the id): `disc_drop[degree=2]` (2D, P2) at nx = 6 ... 144 rings (938 to 499,394 dofs)
 and `sphere_drop` P1 (nx = 8, 16, 32) and P2 (nx = 4, 8, 16), 2,499 to 137,475 dofs (the
-ball's nx is a power of two: the next size, 1.07e6 dofs, is past the issue's 3e5). Both
+refined octahedron's nx is a power of two: its next size has 1.07e6 dofs). All
 at lift = 1e-6, touching the plane from the first step, so every step solves its
 contact subproblem. Schemes (`SCHEMES`, `KINDS`): implicit `redistributed` at the
 scene's dt (0.01); explicit `redistributed[beta=0]` (central differences, massless
 contact nodes) and, on P1 only (a P2 mass has negative row sums),
 `taylor_flanagan[mass=lumped]`, at 0.9 x the declared limit on the mesh (the smaller of
-that and the scene's dt).
+that and the scene's dt). `ball_1e6`, run only when named (`OPT_IN`): the lattice ball
+(`sphere_drop[ball=lattice]`, any nx) P1 at nx = 16, 32, 62 (18,051 to 976,875 dofs),
+`taylor_flanagan[mass=lumped]` only: a run near a million dofs in 3D needs no factor
+(an implicit one's Cholesky would not fit in memory, docs/scale.md).
 
 Each configuration runs in a fresh process (`--one`, `measure`): JIT compilation on the
 scene's smallest mesh its scheme runs first (outside, `warm_up`), then, from the
 resident set size of that moment (`base`), the problem built and the stepper prepared
-(`setup_s`), one warm-up call, `repeats` timed calls of `stepper.run(steps, steps)`
+(`setup_s`, split by `build`: assembly, stability limit, stepper with its
+factorisations), one warm-up call, `repeats` timed calls of `stepper.run(steps, steps)`
 (the stepping alone: samples at the first and the last step), `step_s` = median call /
-steps. Memory: the process's peak resident set size (`peak_MiB`, Linux VmHWM, reset at
+steps; then the solver floor in the same process (`floor`): one solve of the stepper's
+factor as benchmarks/solver_floor.py times it, the ratios step / solve and set-up /
+factorisation. Memory: the process's peak resident set size (`peak_MiB`, Linux VmHWM, reset at
 `base` through
 /proc/self/clear_refs) and what the run added to it (`growth_MiB` = peak - base:
 problem, factors, operators and run; the interpreter and libraries excluded).
 
-The growth exponents: least squares of log(step_s) and log(growth_MiB) against
-log(dofs), per scene and scheme, over the sizes that ran (two at least). A size that
+The growth exponents: least squares of log(setup_s), log(step_s) and log(growth_MiB)
+against log(dofs), per scene and scheme, over the sizes that ran (two at least). A size that
 fails (a mass refused on a coarse mesh, memory) is a row with its reason; the others go
 on. The table, the exponents and the command go to results/scale.md (`--out`).
 """
@@ -51,7 +58,11 @@ SCHEMES = {"implicit": "redistributed", "explicit": "redistributed[beta=0]",
 #: the kinds run on each scene: a lumped mass only on P1 (P2 row sums are negative)
 KINDS = {"disc_p2": ("implicit", "explicit"),
          "sphere_p1": ("implicit", "explicit", "explicit_lumped"),
-         "sphere_p2": ("implicit", "explicit")}
+         "sphere_p2": ("implicit", "explicit"),
+         "ball_1e6": ("explicit_lumped",)}
+#: scenes run only when named (`--scene`): the lattice ball up to 976,875 dofs, explicit
+#: with the lumped mass (no factor), about 6 GB and a quarter of an hour
+OPT_IN = ("ball_1e6",)
 LIFT = 1e-6
 #: (label, scene spec, nx, dofs): dofs as the mesh gives them (the id's work)
 SIZES = (
@@ -67,6 +78,9 @@ SIZES = (
     ("sphere_p2", f"sphere_drop[degree=2,lift={LIFT:g}]", 4, 2_499),
     ("sphere_p2", f"sphere_drop[degree=2,lift={LIFT:g}]", 8, 18_051),
     ("sphere_p2", f"sphere_drop[degree=2,lift={LIFT:g}]", 16, 137_475),
+    ("ball_1e6", f"sphere_drop[degree=1,ball=lattice,lift={LIFT:g}]", 16, 18_051),
+    ("ball_1e6", f"sphere_drop[degree=1,ball=lattice,lift={LIFT:g}]", 32, 137_475),
+    ("ball_1e6", f"sphere_drop[degree=1,ball=lattice,lift={LIFT:g}]", 62, 976_875),
 )
 
 
@@ -78,11 +92,11 @@ def steps_for(kind: str, dofs: int) -> int:
 
 
 def configs(max_dofs: float = float("inf"), labels: Any = None) -> list[dict[str, Any]]:
-    """Every (size, scheme) up to max_dofs (of the scenes `labels`, default all), with its
-    id `label-nxN-dofsD-kind-stepsS`."""
+    """Every (size, scheme) up to max_dofs (of the scenes `labels`, default all but
+    `OPT_IN`), with its id `label-nxN-dofsD-kind-stepsS`."""
     out = []
     for label, scene, nx, dofs in SIZES:
-        if dofs > max_dofs or (labels and label not in labels):
+        if dofs > max_dofs or (label not in labels if labels else label in OPT_IN):
             continue
         for kind in KINDS[label]:
             scheme = SCHEMES[kind]
@@ -106,6 +120,15 @@ def warm_up(cfg: dict[str, Any]) -> None:
             continue
         stepper.run(2, 2)
         return
+
+
+def forget() -> None:
+    """Empty the process's caches of meshes, bodies and problems (`Kept.clear_all`):
+    the warm-up's mesh may be the configuration's own, whose set-up is then measured
+    whole."""
+    from contact_bench.api.kept import Kept
+
+    Kept.clear_all()
 
 
 # ------------------------------------------------------------------ memory
@@ -136,21 +159,49 @@ def reset_peak() -> float:
 # ------------------------------------------------------------------ one measurement
 
 
-def build(cfg: dict[str, Any], nx: int | None = None) -> tuple[Any, int, float]:
+def build(cfg: dict[str, Any], nx: int | None = None,
+          split: dict[str, float] | None = None) -> tuple[Any, int, float]:
     """The prepared stepper of a configuration (at nx, default the configuration's), the
-    problem's dofs and the time step."""
+    problem's dofs and the time step. `split` (given): filled with the set-up's parts in
+    seconds: `assembly_s` (the problem: mesh, K, M, contact zone), `limit_s` (an
+    explicit scheme's stability limit on the mesh, an eigenvalue), `prepare_s` (the
+    stepper) and, inside it, `factor_s` and `contact_s` (its factorisations and contact
+    operators, `contact_bench.core.timers`)."""
     from contact_bench.api.registry import make_case, make_scheme
+    from contact_bench.core.timers import recording
     from contact_bench.harness.runner import declared_limit, problem_for
 
     case, scheme = make_case(cfg["scene"]), make_scheme(cfg["scheme"])
+    t0 = time.perf_counter()
     problem = problem_for(case, scheme, cfg["nx"] if nx is None else nx)
+    t1 = time.perf_counter()
     dt = float(case.dt)
     if cfg["kind"].startswith("explicit"):
         limit = declared_limit(case, scheme, problem)
         if limit is not None:
             dt = min(dt, 0.9 * limit)
-    stepper = scheme.prepare(problem, dt)
+    t2 = time.perf_counter()
+    with recording() as phases:
+        stepper = scheme.prepare(problem, dt)
+    t3 = time.perf_counter()
+    if split is not None:
+        split.update(assembly_s=t1 - t0, limit_s=t2 - t1, prepare_s=t3 - t2,
+                     factor_s=phases.get("factor", 0.0), contact_s=phases.get("contact", 0.0))
     return stepper, int(problem.U0.size), dt
+
+
+def floor(stepper: Any, step_s: float, setup_s: float,
+          factor_s: float) -> dict[str, float]:
+    """The solver floor beside a size, in this process: one solve of the stepper's
+    factor (`solve_seconds` of benchmarks/solver_floor.py) and the ratios step / solve
+    and set-up / factorisation; NaN for a stepper without a factor (a lumped mass)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import solver_floor
+
+    fac = getattr(stepper, "factor", None)
+    solve = solver_floor.solve_seconds(fac) if fac is not None else float("nan")
+    return {"solve_s": solve, "step_per_solve": step_s / solve,
+            "setup_per_factor": setup_s / factor_s if factor_s > 0 else float("nan")}
 
 
 def measure(cfg: dict[str, Any], repeats: int = 3) -> dict[str, Any]:
@@ -160,9 +211,11 @@ def measure(cfg: dict[str, Any], repeats: int = 3) -> dict[str, Any]:
                                                "scheme", "steps")}
     try:
         warm_up(cfg)  # JIT outside
+        forget()
         base = reset_peak()
+        split: dict[str, float] = {}
         start = time.perf_counter()
-        stepper, dofs, dt = build(cfg)
+        stepper, dofs, dt = build(cfg, split=split)
         setup = time.perf_counter() - start
         steps = int(cfg["steps"])
         stepper.run(steps, steps)  # warm-up call
@@ -172,9 +225,10 @@ def measure(cfg: dict[str, Any], repeats: int = 3) -> dict[str, Any]:
             stepper.run(steps, steps)
             times.append(time.perf_counter() - t0)
         peak = rss_mib("VmHWM")
-        row.update(dofs=dofs, dt=dt, setup_s=setup,
-                   step_s=statistics.median(times) / steps, repeats=len(times),
-                   peak_MiB=peak, growth_MiB=peak - base, status="ok", notes="")
+        step = statistics.median(times) / steps
+        row.update(dofs=dofs, dt=dt, setup_s=setup, **split, step_s=step,
+                   repeats=len(times), peak_MiB=peak, growth_MiB=peak - base,
+                   **floor(stepper, step, setup, split["factor_s"]), status="ok", notes="")
     except Exception as exc:  # noqa: BLE001 - a failing size is a row, the others go on
         row.update(status="error", notes=" ".join(f"{type(exc).__name__}: {exc}".split()))
     return row
@@ -196,9 +250,14 @@ def measure_fresh(cfg: dict[str, Any], repeats: int) -> dict[str, Any]:
 # ------------------------------------------------------------------ table and fit
 
 
+#: the growth exponents: column -> its name in the exponents' table
+GROWTH = {"setup_s": "setup_exponent", "step_s": "step_exponent",
+          "growth_MiB": "memory_exponent"}
+
+
 def exponents(df: Any) -> Any:
-    """Least-squares slopes of log(step_s) and log(growth_MiB) against log(dofs), per
-    scene label and kind, over the ok rows (NaN below two sizes)."""
+    """Least-squares slopes of log(setup_s), log(step_s) and log(growth_MiB) against
+    log(dofs), per scene label and kind, over the ok rows (NaN below two sizes)."""
     import numpy as np
     import pandas as pd
 
@@ -207,7 +266,7 @@ def exponents(df: Any) -> Any:
     for (label, kind), g in ok.groupby(["label", "kind"], sort=False):
         rec = {"label": label, "kind": kind, "scheme": g["scheme"].iloc[0], "sizes": len(g),
                "dofs_min": int(g["dofs"].min()), "dofs_max": int(g["dofs"].max())}
-        for col, name in (("step_s", "time_exponent"), ("growth_MiB", "memory_exponent")):
+        for col, name in GROWTH.items():
             y = g[col].to_numpy(float)
             x = g["dofs"].to_numpy(float)
             keep = np.isfinite(y) & (y > 0)
@@ -215,7 +274,7 @@ def exponents(df: Any) -> Any:
                          if keep.sum() >= 2 else float("nan"))
         rows.append(rec)
     return pd.DataFrame(rows, columns=["label", "kind", "scheme", "sizes", "dofs_min",
-                                       "dofs_max", "time_exponent", "memory_exponent"])
+                                       "dofs_max", *GROWTH.values()])
 
 
 def report(rows: list[dict[str, Any]], command: str, max_dofs: float) -> str:
@@ -226,14 +285,17 @@ def report(rows: list[dict[str, Any]], command: str, max_dofs: float) -> str:
     from contact_bench.harness.environment import provenance
 
     df = pd.DataFrame(rows)
-    cols = [c for c in ("label", "nx", "dofs", "kind", "scheme", "steps", "setup_s",
-                        "step_s", "peak_MiB", "growth_MiB", "status", "notes") if c in df]
-    table = df[cols].copy()
-    if "step_s" in table:
-        table["step_ms"] = 1e3 * table.pop("step_s")
-        table = table[[c for c in (*cols[:7], "step_ms", *cols[8:]) if c in table]]
+    for col in ("step_s", "solve_s"):
+        if col in df:
+            df[col.replace("_s", "_ms")] = 1e3 * df[col]
+    cols = [c for c in ("label", "nx", "dofs", "kind", "scheme", "steps", "assembly_s",
+                        "limit_s", "prepare_s", "setup_s", "factor_s", "step_ms",
+                        "solve_ms", "step_per_solve", "setup_per_factor", "peak_MiB",
+                        "growth_MiB", "status", "notes") if c in df]
+    table = df[cols]
     fit = exponents(df)
-    full = max_dofs >= max(d for *_, d in SIZES) and set(df["label"]) == set(KINDS)
+    every = {label for label in KINDS if label not in OPT_IN}
+    full = max_dofs >= max(d for *_, d in SIZES) and set(df["label"]) >= every
     sizes = ("every size" if max_dofs >= max(d for *_, d in SIZES)
              else f"the sizes up to {max_dofs:g} dofs")
     scope = ("every size" if full else
@@ -247,7 +309,11 @@ def report(rows: list[dict[str, Any]], command: str, max_dofs: float) -> str:
         "Growth exponents (least squares on log-log, over the sizes that ran):", "",
         fit.to_markdown(index=False, floatfmt=".3g"), "",
         "Every configuration (a fresh process each; `setup_s`: problem and stepper, "
-        "`step_ms`: one step, median of the timed calls; `peak_MiB`: the process's peak "
+        "the sum of `assembly_s` (the problem), `limit_s` (an explicit scheme's stability "
+        "limit) and `prepare_s` (the stepper; its factorisations `factor_s`); `step_ms`: "
+        "one step, median of the timed calls; the solver floor in the same process: "
+        "`solve_ms`, one solve of the stepper's factor, `step_per_solve` and "
+        "`setup_per_factor` (empty without a factor); `peak_MiB`: the process's peak "
         "RSS, `growth_MiB`: what the run added to it):", "",
         table.to_markdown(index=False, floatfmt=".4g"), ""])
 
@@ -261,7 +327,8 @@ def main(argv: list[str]) -> int:
     p.add_argument("--same-process", action="store_true",
                    help="every size in this process (quick check; memory then less clean)")
     p.add_argument("--scene", action="append", choices=list(KINDS),
-                   help="only these scenes (repeatable; default: all)")
+                   help="only these scenes (repeatable; default: all but "
+                   f"{', '.join(OPT_IN)})")
     p.add_argument("--one", help=argparse.SUPPRESS)  # a fresh process's configuration
     args = p.parse_args(argv)
     if args.repeats < 1:

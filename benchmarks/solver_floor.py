@@ -48,13 +48,29 @@ COLUMNS = ("config", "kind", "dofs", "n_c", "patch", "factor entries", "assembly
            "solves / step", "peak GB", "M K factor GB", "peak / (M K factor)")
 
 
+def solve_seconds(fac) -> float:
+    """One solve of a factor (`contact_bench.kernels.linalg.Factor`) by the loops'
+    `lu_solve` on a random right-hand side: the least of `REPEATS` calls after one
+    (compiling) call, on `CLOCK`. Also benchmarks/scale.py's floor."""
+    from contact_bench.kernels.linalg import lu_solve
+
+    n = int(fac.n)
+    b, x, w = np.random.default_rng(0).standard_normal(n), np.empty(n), np.empty(n)
+    lu_solve(fac.arrays, b, x, w)
+    solve = np.inf
+    for _ in range(REPEATS):
+        t0 = CLOCK()
+        lu_solve(fac.arrays, b, x, w)
+        solve = min(solve, CLOCK() - t0)
+    return float(solve)
+
+
 def measure(config: str, kind: str, steps: int) -> dict:
     """One (configuration, kind): the row of the table (runs in this process)."""
     from contact_bench.api.registry import make_case, make_scheme
     from contact_bench.core import ordering
     from contact_bench.core.timers import recording
     from contact_bench.kernels import linalg
-    from contact_bench.kernels.linalg import lu_solve
 
     spec, nx = config.rsplit(":", 1)
     case, sch = make_case(spec), make_scheme("redistributed")
@@ -76,13 +92,7 @@ def measure(config: str, kind: str, steps: int) -> dict:
         linalg.USE_LDLT, linalg.PARDISO_MIN_DOFS, ordering.pardiso.PARDISO_MIN_DOFS = keep
     fac, ct = st.factor, st.ops.ct
     n = p.nfree
-    b, x, w = np.random.default_rng(0).standard_normal(n), np.empty(n), np.empty(n)
-    lu_solve(fac.arrays, b, x, w)
-    solve = np.inf
-    for _ in range(REPEATS):
-        t0 = CLOCK()
-        lu_solve(fac.arrays, b, x, w)
-        solve = min(solve, CLOCK() - t0)
+    solve = solve_seconds(fac)
     st.run(steps, steps)  # compiles
     before = int(fac.arrays.solves[0])
     t0 = CLOCK()

@@ -86,7 +86,9 @@ def _scalar_mass(u, v, w):
 class Elasticity:
     """Stiffness and consistent scalar mass of a body, and the bases they came from.
 
-    K is over the vector dofs (`dim * s + c`), Ms over the scalar dofs s.
+    K is over the vector dofs (`dim * s + c`), Ms over the scalar dofs s. On a mesh
+    assembled in chunks (`assemble`) the bases cover the first element only (the mesh's
+    dofs and dof locations, not its integrals).
     """
 
     mesh: fe.Mesh
@@ -168,17 +170,52 @@ def element_for(mesh: fe.Mesh, degree: int) -> fe.Element:
     return table[degree]()
 
 
+#: meshes of more elements than this are assembled `CHUNK_ELEMENTS` elements at a time: a
+#: basis over every element holds each shape function and its gradient at every
+#: quadrature point (for P1 tetrahedra about 11 kB an element with the COO triplets, tens
+#: of GB at a million dofs), a chunk's basis only its own
+ASSEMBLY_CHUNK_ABOVE = 300_000
+CHUNK_ELEMENTS = 100_000
+
+
 def assemble(mesh: fe.Mesh, E: float, nu: float, rho: float, degree: int = 1) -> Elasticity:
-    """Plane strain (2D meshes) or 3D linear elasticity: sparse K and the scalar mass."""
+    """Plane strain (2D meshes) or 3D linear elasticity: sparse K and the scalar mass.
+
+    Above `ASSEMBLY_CHUNK_ABOVE` elements, K and Ms are sums of the assemblies over
+    chunks of `CHUNK_ELEMENTS` elements (bounded memory; the same matrices up to the
+    order of the sums), and the bases kept in the `Elasticity` cover the first element
+    only: their dofs, dof locations and element are the mesh's, but a form assembled
+    over them integrates that element alone."""
     lam, mu = lame(float(E), float(nu))
     if not (rho > 0 and np.isfinite(rho)):
         raise ValueError(f"rho must be finite and > 0, got {rho!r}")
     elem = element_for(mesh, degree)
-    scalar = fe.Basis(mesh, elem)
-    vector = fe.Basis(mesh, fe.ElementVector(elem), quadrature=scalar.quadrature)
-    K = _stiffness.assemble(vector, lam=lam, mu=mu).tocsr()
-    Ms = _scalar_mass.assemble(scalar, rho=float(rho)).tocsr()
-    return Elasticity(mesh, scalar, vector, K, Ms, lam, mu, float(rho))
+    if mesh.nelements <= ASSEMBLY_CHUNK_ABOVE:
+        scalar = fe.Basis(mesh, elem)
+        vector = fe.Basis(mesh, fe.ElementVector(elem), quadrature=scalar.quadrature)
+        K = _stiffness.assemble(vector, lam=lam, mu=mu).tocsr()
+        Ms = _scalar_mass.assemble(scalar, rho=float(rho)).tocsr()
+        return Elasticity(mesh, scalar, vector, K, Ms, lam, mu, float(rho))
+    scalar = fe.CellBasis(mesh, elem, elements=np.array([0]))
+    vector = fe.CellBasis(mesh, fe.ElementVector(elem), elements=np.array([0]),
+                          quadrature=scalar.quadrature)
+    K = Ms = None
+    for start in range(0, mesh.nelements, CHUNK_ELEMENTS):
+        part = np.arange(start, min(start + CHUNK_ELEMENTS, mesh.nelements))
+        sb = fe.CellBasis(mesh, elem, elements=part, quadrature=scalar.quadrature,
+                          dofs=scalar.dofs, disable_doflocs=True)
+        vb = fe.CellBasis(mesh, fe.ElementVector(elem), elements=part,
+                          quadrature=scalar.quadrature, dofs=vector.dofs,
+                          disable_doflocs=True)
+        k = _stiffness.assemble(vb, lam=lam, mu=mu).tocsr()
+        del vb
+        m = _scalar_mass.assemble(sb, rho=float(rho)).tocsr()
+        del sb
+        K = k if K is None else K + k
+        Ms = m if Ms is None else Ms + m
+        del k, m
+    return Elasticity(mesh, scalar, vector, sp.csr_matrix(K), sp.csr_matrix(Ms), lam, mu,
+                      float(rho))
 
 
 def vector_mass(Ms: sp.spmatrix, dim: int) -> sp.csr_matrix:
@@ -634,7 +671,6 @@ def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
     """The contact zone of the boundary facets `where` against the plane x_axis = plane
     (`ContactZone`). `axisymmetric`: the body is a meridian section (x_0 the radius):
     every integral weighted by 2 pi r and the hoop strain u_0 / r in the trace."""
-    from scipy.sparse.linalg import splu
 
     if not 0 <= axis < body.dim:
         raise ValueError(f"axis {axis!r} outside 0..{body.dim - 1}")
@@ -663,12 +699,7 @@ def contact_zone(body: Elasticity, where: Facets, axis: int, plane: float = 0.0,
     Mf = sp.csr_matrix(Mf[scalar][:, scalar])
     weights = np.asarray(fe.LinearForm(lambda v, w: weight(w.x) * v).assemble(fb))[scalar]
     G = sigma_nn.assemble(fv, fb).tocsr()[scalar]
-    # M_f^-1 G on the columns G touches (the zone's layer of elements) only
-    cols = np.unique(G.indices)
-    X = splu(sp.csc_matrix(Mf)).solve(G[:, cols].toarray())
-    X[np.abs(X) < 1e-14 * np.abs(X).max()] = 0.0
-    r, k = np.nonzero(X)
-    B = sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
+    B = _projection(Mf, G, body.ndofs)
     return ContactZone(scalar=scalar, dofs=body.dim * scalar + c, gap0=gap0, weights=weights,
                        face_mass=Mf, normal_stress=B, dim=body.dim, axis=c)
 
@@ -679,8 +710,6 @@ def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) ->
     normal there: the L2 projection onto the zone's trace space, as the zone's
     `normal_stress` (n_c x every vector dof; exact for uniform strains). Nitsche's
     friction term reads it (`SparseProblem.tangential_stress`)."""
-    from scipy.sparse.linalg import splu
-
     if not (0 <= axis < body.dim and 0 <= direction < body.dim and direction != axis):
         raise ValueError(f"axis {axis!r} and direction {direction!r}: two different "
                          f"components in 0..{body.dim - 1}")
@@ -698,11 +727,48 @@ def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) ->
     Mf = sp.csr_matrix(fe.BilinearForm(lambda u, v, w: u * v).assemble(fb).tocsr()[scalar][
         :, scalar])
     G = shear.assemble(fv, fb).tocsr()[scalar]
+    return _projection(Mf, G, body.ndofs)
+
+
+#: a zone's projection M_f^-1 G (n_c x the columns G touches) is solved at once up to
+#: this many entries, else `ZONE_BLOCK` columns at a time (a million-dof ball: 8,000
+#: zone dofs x 48,000 columns, 3 GB dense)
+ZONE_DENSE_ENTRIES = 50_000_000
+ZONE_BLOCK = 1024
+
+
+def _projection(Mf: sp.csr_matrix, G: sp.csr_matrix, n: int) -> sp.csr_matrix:
+    """M_f^-1 G (n_c x n CSR), solved on the columns G touches (the zone's layer of
+    elements) only, its entries below 1e-14 of the largest dropped (M_f^-1 is dense but
+    decays away from the diagonal). Past `ZONE_DENSE_ENTRIES` a block of columns at a
+    time, each block's entries below 1e-14 of the largest so far dropped at once (they
+    are below the final cut too), the final cut applied at the end: the same entries
+    kept as the dense solve."""
+    from scipy.sparse.linalg import splu
+
     cols = np.unique(G.indices)
-    X = splu(sp.csc_matrix(Mf)).solve(G[:, cols].toarray())
-    X[np.abs(X) < 1e-14 * max(np.abs(X).max(), 1e-300)] = 0.0
-    r, k = np.nonzero(X)
-    return sp.csr_matrix((X[r, k], (r, cols[k])), shape=(scalar.size, body.ndofs))
+    lu = splu(sp.csc_matrix(Mf))
+    if Mf.shape[0] * cols.size <= ZONE_DENSE_ENTRIES:
+        X = lu.solve(G[:, cols].toarray())
+        X[np.abs(X) < 1e-14 * max(np.abs(X).max(), 1e-300)] = 0.0
+        r, k = np.nonzero(X)
+        return sp.csr_matrix((X[r, k], (r, cols[k])), shape=(Mf.shape[0], n))
+    rows, where, vals, top = [], [], [], 1e-300
+    for start in range(0, cols.size, ZONE_BLOCK):
+        c = cols[start:start + ZONE_BLOCK]
+        X = lu.solve(G[:, c].toarray())
+        top = max(top, float(np.abs(X).max()))
+        r, k = np.nonzero(np.abs(X) >= 1e-14 * top)
+        rows.append(r.astype(np.int32))
+        where.append(c[k].astype(np.int32) if n < 2**31 else c[k])
+        vals.append(X[r, k])
+        del X
+    v = np.concatenate(vals)
+    keep = (np.abs(v) >= 1e-14 * top) & (v != 0.0)
+    out = sp.csr_matrix((v[keep], (np.concatenate(rows)[keep], np.concatenate(where)[keep])),
+                        shape=(Mf.shape[0], n))
+    out.sort_indices()
+    return out
 
 
 def tangent_rows(scalar: np.ndarray, directions: np.ndarray, n: int) -> sp.csr_matrix:
