@@ -15,8 +15,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit
 from numba.extending import overload
+
+from contact_bench.core.numba_types import is_tuple_type
 
 
 class Sphere(NamedTuple):
@@ -83,7 +85,7 @@ def min_gap(G, gap0, U, start):  # pragma: no cover - compiled through its overl
 
 @overload(min_gap)
 def _min_gap_compiled(G, gap0, U, start):  # pragma: no cover - compiled
-    if isinstance(G, types.BaseNamedTuple) and G.instance_class is Sphere:
+    if is_tuple_type(G, Sphere):
         def curved(G, gap0, U, start):
             g = start
             for j in range(G.points.shape[0]):

@@ -48,9 +48,10 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit, types
+from numba import njit
 from numba.extending import overload
 
+from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
@@ -69,9 +70,8 @@ NO_PATCH = np.zeros(0, np.int64)
 
 class Curve(NamedTuple):
     """A curved obstacle's tangent, updated in place by `relinearise` (module
-    docstring); `on` True (a fixed G has `FLAT`)."""
+    docstring); a fixed G has `FLAT` instead."""
 
-    on: bool
     ob: Sphere
     gpos: np.ndarray  # (n_c, d) int64: where normal component a of row j sits in G.data
     tpos: np.ndarray  # (n_c, d) int64: the same in G^T's data
@@ -85,8 +85,6 @@ class Flat(NamedTuple):
     numba counts references to every array of a typed tuple each time the tuple is passed
     or read, so a fixed G's `ContactOps` carries none of a tangent's arrays, and the
     tangent's update (`tangent_at`, dispatched on the type) compiles to nothing."""
-
-    on: bool = False
 
 
 #: no curved obstacle: G fixed for the run
@@ -226,7 +224,7 @@ def curved_ops(fac: Factor, ob: Sphere, keep: bool | None = None) -> ContactOps:
     GT = CSR(np.cumsum(counts), (cols[order] // dim).astype(np.int64), np.zeros(used.size))
     tpos = np.full(flat.size, -1, np.int64)
     tpos[cols[order]] = np.arange(used.size)
-    cv = Curve(True, ob, gpos.reshape(nc, dim), tpos.reshape(nc, dim),
+    cv = Curve(ob, gpos.reshape(nc, dim), tpos.reshape(nc, dim),
                np.ascontiguousarray(0.5 * (B + B.T)), np.ascontiguousarray(Zd),
                np.zeros((nc, dim)))
     ct = ContactOps(G, GT, np.zeros(nc), np.full(nc, -1, np.int64), np.zeros((nc, nc)),
@@ -276,14 +274,31 @@ def relinearise(ct, X, out):  # pragma: no cover - compiled
                 Z[r, j] = acc
 
 
+def _is_flat(ct) -> bool:
+    """Whether `ct`, the numba type of a `ContactOps`, has a fixed G (its `cv` `Flat`)."""
+    return is_tuple_type(ct.types[ct.fields.index("cv")], Flat)
+
+
+def is_curved(ct):  # pragma: no cover - compiled through its overload
+    """Whether `ct` (a `ContactOps`) follows a curved obstacle (its `cv` a `Curve`, not
+    `FLAT`): a constant of its type in compiled code."""
+    return isinstance(ct.cv, Curve)
+
+
+@overload(is_curved)
+def _is_curved_compiled(ct):  # pragma: no cover - compiled
+    if _is_flat(ct):
+        return lambda ct: False
+    return lambda ct: True
+
+
 def tangent_at(ct, X, out):  # pragma: no cover - compiled through its overload
     """`relinearise` for a curved obstacle; nothing for a fixed G (`Flat`)."""
 
 
 @overload(tangent_at)
 def _tangent_at_compiled(ct, X, out):  # pragma: no cover - compiled
-    cv = ct.types[ct.fields.index("cv")]
-    if isinstance(cv, types.BaseNamedTuple) and cv.instance_class is Flat:
+    if _is_flat(ct):
         return lambda ct, X, out: None
     return lambda ct, X, out: relinearise(ct, X, out)
 
@@ -293,8 +308,7 @@ def follow(ct, X, out):  # pragma: no cover - compiled
     """A curved obstacle's tangent moved to X (out: its exact gaps there), for a step
     whose contact law reads G without the gaps of a prediction (a velocity law); nothing
     for a fixed G."""
-    if ct.cv.on:
-        tangent_at(ct, X, out)
+    tangent_at(ct, X, out)
 
 
 @njit(cache=True)
@@ -312,7 +326,7 @@ def gaps(ct, X, out):  # pragma: no cover - compiled
     """out = gap0 + G X; True if a gap is negative. A curved obstacle's: its exact gaps
     at X, its tangent moved to X first (`relinearise`)."""
     pen = False
-    if ct.cv.on:
+    if is_curved(ct):
         tangent_at(ct, X, out)
         for j in range(out.size):
             pen = pen or out[j] < 0.0

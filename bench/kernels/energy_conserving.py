@@ -120,23 +120,27 @@ class MidpointState(NamedTuple):
 @njit(cache=True)
 def midpoint_step(o, s, step):  # pragma: no cover - compiled
     """The midpoint step with the contact condition `o.mode` (module docstring); F is the
-    load at the midpoint t_{n+1/2}."""
+    load at the midpoint t_{n+1/2}. Every field is read once, first: the structures are
+    then dead before the step's first branch, so numba's pruning drops the references it
+    took to the arrays the step does not use (docs/reference-counting.md)."""
     U, V, X, rhs, w, work, qg = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg
     mu, lam, kick, active, y, g0, g1 = s.mu, s.lam, s.force, s.active, s.y, s.g0, s.g1
-    ct, dt, mode, tol = o.ct, o.dt, o.mode, o.tol
-    sel = ct.sel
+    was, vals, Fn = s.was, s.vals, s.Fn
+    M, K, F0, fac, ct, load, at_contact = o.M, o.K, o.F, o.fac, o.ct, o.load, o.at_contact
+    mfac, Y, keep_y, dt, mode, tol = o.mfac, o.Y, o.keep_y, o.dt, o.mode, o.tol
+    sel, W, G = ct.sel, ct.W, ct.G
     n = U.size
     nc = sel.size
     q = 0.25 * dt * dt
     to_force = 2.0 / (dt * dt)
-    F = force_at(o.load, o.F, (step - 0.5) * dt, s.vals, s.Fn)
+    F = force_at(load, F0, (step - 0.5) * dt, vals, Fn)
     for i in range(n):
         w[i] = U[i] + dt * V[i]
-    matvec(o.M, w, rhs)
-    matvec(o.K, U, w)
+    matvec(M, w, rhs)
+    matvec(K, U, w)
     for i in range(n):
         rhs[i] += q * (2.0 * F[i] - w[i])
-    lu(o.fac, rhs, X, work)
+    lu(fac, rhs, X, work)
     gaps(ct, U, g0)
     gaps(ct, X, g1)
     pen = False
@@ -153,20 +157,20 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
     if pen:
         for j in range(nc):
             active[j] = active[j] and qg[j] < np.inf  # a free point is never active
-        lcp_solve(ct.W, qg, mu, active, tol, s.was[0])
-        push(ct, o.fac, mu, X, (rhs, w, work))
+        lcp_solve(W, qg, mu, active, tol, was[0])
+        push(ct, fac, mu, X, (rhs, w, work))
         # exactly: no increment (persistency), or gap 0 (Signorini)
-        hold(ct, active, X, U[np.maximum(sel, 0)] if mode == PERSISTENCY else o.at_contact)
+        hold(ct, active, X, U[np.maximum(sel, 0)] if mode == PERSISTENCY else at_contact)
     else:
         mu[:] = 0.0
-    s.was[0] = pen
+    was[0] = pen
     loss = 0.0  # lambda . (g0 - g1): the energy the contact took this step
     for j in range(nc):
         lam[j] = to_force * mu[j]
         if g0[j] > tol:  # arrived from an open gap (beyond round-off)
             d = sel[j]
-            loss += lam[j] * ((U[d] - X[d]) if d >= 0 else (row_dot(ct.G, j, U)
-                                                            - row_dot(ct.G, j, X)))
+            loss += lam[j] * ((U[d] - X[d]) if d >= 0 else (row_dot(G, j, U)
+                                                            - row_dot(G, j, X)))
     for i in range(n):
         V[i] = (X[i] - U[i]) * (2.0 / dt) - V[i]
         U[i] = X[i]
@@ -174,11 +178,11 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
         kick[j] = lam[j]
     if mode == SIGNORINI_VELOCITY_UPDATE and loss > 0.0:
         # y = M^-1 G^T lambda; a = 1/2 lambda.D_M.lambda; b = lambda.(G V1)
-        if o.keep_y:
+        if keep_y:
             for i in range(n):
                 acc = 0.0
                 for j in range(nc):
-                    acc += o.Y[i, j] * lam[j]
+                    acc += Y[i, j] * lam[j]
                 y[i] = acc
         else:
             if np.all(sel >= 0):
@@ -187,13 +191,13 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
                     rhs[sel[j]] = lam[j]
             else:
                 apply_gt(ct, lam, rhs)
-            lu(o.mfac, rhs, y, work)
+            lu(mfac, rhs, y, work)
         a = 0.0
         b = 0.0
         for j in range(nc):
             d = sel[j]
-            a += 0.5 * lam[j] * (y[d] if d >= 0 else row_dot(ct.G, j, y))
-            b += lam[j] * (V[d] if d >= 0 else row_dot(ct.G, j, V))
+            a += 0.5 * lam[j] * (y[d] if d >= 0 else row_dot(G, j, y))
+            b += lam[j] * (V[d] if d >= 0 else row_dot(G, j, V))
         if a > 0.0:
             # the root s >= 0: the obstacle's impulse pushes (lambda >= 0)
             root = np.sqrt(b * b + 4.0 * a * loss)

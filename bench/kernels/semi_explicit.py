@@ -51,6 +51,7 @@ from contact_bench.kernels.contact import (
     ContactOps,
     contact_ops,
     gaps,
+    is_curved,
     restrict,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
@@ -288,7 +289,7 @@ class BodyStepper(LoopStepper):
         F0 = initial_load(p)  # the load at t = 0
         um = fac.solve(F0[mv] - Kmh @ U)  # the massless dofs at t = 0, exact contact
         gf = gap0 + G @ um
-        if ct.cv.on:  # a curved obstacle: its exact gaps, its tangent at um
+        if is_curved(ct):  # a curved obstacle: its exact gaps, its tangent at um
             gaps(ct, um, gf)
         mu = np.zeros(gap0.size)
         if np.any(gf < 0.0):

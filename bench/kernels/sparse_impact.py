@@ -56,6 +56,7 @@ from contact_bench.kernels.contact import (
     friction_ops,
     gaps,
     hold,
+    is_curved,
     push,
     row_dot,
     row_value,
@@ -67,7 +68,14 @@ from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, initial_acceleration
 from contact_bench.kernels.stepper import LoopStepper
-from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
+from contact_bench.kernels.time_load import (
+    LoadOps,
+    NoLoad,
+    force_at,
+    has_time_load,
+    load_ops,
+    load_scratch,
+)
 
 
 class ImpactOps(NamedTuple):
@@ -143,7 +151,7 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
         tmp[i] = (1.0 - 2.0 * beta) * U[i] + beta * Um[i]
     matvec(o.K, tmp, w)
     F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
-    if o.load.on and beta != 0.0:
+    if has_time_load(o.load) and beta != 0.0:
         Fa = force_at(o.load, o.F, (step - 1) * dt, s.vals, s.Fa)
         Fb = force_at(o.load, o.F, (step + 1) * dt, s.vals, s.Fb)
         for i in range(n):
@@ -177,7 +185,7 @@ def ps_step(o, s, step):  # pragma: no cover - compiled
                     mu[j] = -gf[j] * o.sdiag[d] if active[j] else 0.0
                 else:
                     swj = o.sw[j]
-                    if ct.cv.on:  # 1 / (G_j S^-1 G_j^T) of the moving normal
+                    if is_curved(ct):  # 1 / (G_j S^-1 G_j^T) of the moving normal
                         acc = 0.0
                         for kk in range(Gp[j], Gp[j + 1]):
                             acc += Gx[kk] * Gx[kk] / o.sdiag[Gi[kk]]

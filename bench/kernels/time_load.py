@@ -22,18 +22,16 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import types
 from numba.extending import overload
 
+from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 
 
 class LoadOps(NamedTuple):
-    """A problem's time load for a compiled step (`on` True: there is one), its
-    density (a numba cfunc), B (n x m, CSR), the m points (3 x m) and the
-    density's codes (m)."""
+    """A problem's time load for a compiled step: its density (a numba cfunc), B (n x m,
+    CSR), the m points (3 x m) and the density's codes (m)."""
 
-    on: bool
     density: Any
     B: CSR
     X: np.ndarray
@@ -41,9 +39,7 @@ class LoadOps(NamedTuple):
 
 
 class NoLoad(NamedTuple):
-    """No time load: a type of its own without arrays (module docstring); `on` False."""
-
-    on: bool = False
+    """No time load: a type of its own without arrays (module docstring)."""
 
 
 #: the time load of a problem without one
@@ -55,7 +51,7 @@ def load_ops(p: Any) -> LoadOps | NoLoad:
     ld = getattr(p, "load", None)
     if ld is None:
         return NO_TIME_LOAD
-    return LoadOps(True, ld.density, csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
+    return LoadOps(ld.density, csr_arrays(ld.B), np.ascontiguousarray(ld.points, float),
                    np.asarray(ld.codes, np.int64))
 
 
@@ -74,7 +70,19 @@ def initial_load(p: Any) -> np.ndarray:
 
 def is_load_free(lo: Any) -> bool:
     """Whether `lo`, a numba type, is `NoLoad`'s (a problem without a time load)."""
-    return isinstance(lo, types.BaseNamedTuple) and lo.instance_class is NoLoad
+    return is_tuple_type(lo, NoLoad)
+
+
+def has_time_load(lo):  # pragma: no cover - compiled through its overload
+    """Whether there is a time load (a `LoadOps`, not `NoLoad`): a constant of the type."""
+    return not isinstance(lo, NoLoad)
+
+
+@overload(has_time_load)
+def _has_time_load_compiled(lo):  # pragma: no cover - compiled
+    if is_load_free(lo):
+        return lambda lo: False
+    return lambda lo: True
 
 
 def load_points(lo):  # pragma: no cover - compiled through its overload
