@@ -435,9 +435,14 @@ def shared_work(case: Any, scheme: Any, inputs: dict[str, Any]) -> tuple[tuple, 
     workers read them): the scheme's compiled kernels, one set per scheme class, mass
     and problem form; and, for a scene declaring a numerical reference
     (`Case.reference_run`), the reference of the run's mesh and time grid (the same for
-    every scheme at the same inputs)."""
-    out: tuple[tuple, ...] = (("kernels", type(scheme).__module__, type(scheme).__qualname__,
-                               scheme.mass_kind(), case.form),)
+    every scheme at the same inputs). None shared when the plugin cannot say (its run
+    is then an error row that says why)."""
+    try:
+        kernels = ("kernels", type(scheme).__module__, type(scheme).__qualname__,
+                   str(scheme.mass_kind()), str(case.form))
+    except Exception:  # noqa: BLE001 - a broken plugin: its own run reports it
+        return ()
+    out: tuple[tuple, ...] = (kernels,)
     if type(case).reference_run is not Case.reference_run:
         grid = {k: v for k, v in inputs.items() if k not in ("scheme", "plugins")}
         out += (("reference", json.dumps(grid, sort_keys=True, default=str)),)
