@@ -14,8 +14,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from contact_bench.api.registry import make_case, make_scheme
 from contact_bench.cli.main import main
 from contact_bench.output.report import write_tables
+from contact_bench.sweeps import sweep
 from contact_bench.sweeps.analysis import convergence_table, fit_order, pareto_mask
 from contact_bench.sweeps.cache import Cache
 from contact_bench.sweeps.study import plan_study
@@ -23,9 +25,12 @@ from contact_bench.sweeps.sweep import (
     VOLATILE_COLUMNS,
     classify,
     load_table,
+    next_free,
     plan,
     run_sweep,
     save_table,
+    shared_work,
+    time_run,
 )
 from contact_bench.sweeps.time_order import time_order_table
 
@@ -53,6 +58,67 @@ def test_parallel_and_dask_give_the_serial_table():
     pd.testing.assert_frame_equal(_metrics(serial.table), _metrics(dask.table))
     env = serial.table.filter(like="env_").iloc[0]
     assert env["env_numpy"] and env["env_cpu"] and env["env_git"]
+
+
+def test_a_run_waits_while_another_makes_the_work_it_shares():
+    shared = {"a1": (("k", "A"),), "a2": (("k", "A"),), "b1": (("k", "B"), ("r", 1)),
+              "b2": (("k", "B"), ("r", 1)), "c": ()}
+    started, ready = {("k", "A")}, set()  # a1 runs, compiling A
+    assert next_free(["a2", "b1", "b2"], shared, started, ready) == 1  # b1 makes B and r
+    started |= {("k", "B"), ("r", 1)}
+    assert next_free(["a2", "b2"], shared, started, ready) is None  # both wait
+    assert next_free(["a2", "b2", "c"], shared, started, ready) == 2
+    ready.add(("k", "A"))  # a1 done
+    assert next_free(["a2", "b2"], shared, started, ready) == 0
+    ready.add(("k", "B"))  # b2 still waits for the reference
+    assert next_free(["b2"], shared, started, ready) is None
+    ready.add(("r", 1))
+    assert next_free(["b2"], shared, started, ready) == 0
+
+
+def test_shared_work_is_the_kernels_and_the_scenes_numerical_reference():
+    disc = make_case("disc_drop[degree=1]")
+    a, b = make_scheme("standard"), make_scheme("nitsche")
+    inputs = {"case": disc.spec, "nx": 5, "cfl": 0.1, "dt": None, "T": 30.0, "stride": 1,
+              "max_samples": 500, "grading": 1.0}
+    sa = shared_work(disc, a, dict(inputs, scheme=a.spec))
+    sb = shared_work(disc, b, dict(inputs, scheme=b.spec))
+    assert sa[0] != sb[0] and sa[1] == sb[1] and sa[1][0] == "reference"  # one reference
+    assert shared_work(disc, a, dict(inputs, scheme=a.spec, nx=10))[1] != sa[1]
+    bar = make_case("clamped_bar")  # an exact solution: kernels only
+    assert shared_work(bar, a, dict(inputs, case=bar.spec)) == (sa[0][:-1] + ("banded1d",),)
+
+
+class _Stepper:
+    """A stepper whose calls take `call_s` on a clock of its own (`perf_counter`)."""
+
+    def __init__(self, call_s: float) -> None:
+        self.calls: list[tuple[int, int]] = []
+        self.call_s, self.now = call_s, 0.0
+
+    def run(self, steps: int, stride: int) -> None:
+        self.calls.append((steps, stride))
+        self.now += self.call_s
+
+    def perf_counter(self) -> float:
+        return self.now
+
+
+def test_timing_pass_keeps_a_long_warm_up_call_and_discards_a_short_one(monkeypatch):
+    row = {"case": "clamped_bar", "scheme": "standard", "nx": 8, "grading": 1.0,
+           "dt": 0.1, "steps": 50, "stride": 5}
+    scheme = make_scheme("standard")
+    for call_s, kept in ((0.5 * sweep.WARM_UP_KEPT_S, False), (sweep.WARM_UP_KEPT_S, True)):
+        stepper = _Stepper(call_s)
+        monkeypatch.setattr(type(scheme), "prepare", lambda self, p, dt, s=stepper: s)
+        monkeypatch.setattr(sweep, "TIME_BUDGET_S", 100.0)  # 3 calls a mode
+        monkeypatch.setattr(sweep, "time", stepper)  # the sweep's clock
+        times, steps = time_run(row, repeats=3)
+        assert times == pytest.approx([call_s] * 3) and steps == pytest.approx([call_s] * 3)
+        # one-step compilation, the warm-up, 3 + 3 timed calls (the warm-up one of them
+        # when kept)
+        assert len(stepper.calls) == 1 + (6 if kept else 7)
+        assert stepper.calls[1:4] == [(50, 5)] * 3 and stepper.calls[-1] == (50, 50)
 
 
 def test_second_identical_sweep_is_served_from_the_cache(tmp_path):

@@ -89,7 +89,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                          "friction_sweep.csv, friction.html; docs/study.md)")
     _figure_options(st)
     _runner_options(st)
-    # the study times its ~240 work-precision runs 3 times (within its 5 minutes)
+    # the study times each of its ~480 work-precision runs up to 3 times a mode
+    # (docs/study.md: where its time goes)
     st.set_defaults(default_repeats=3)
 
 

@@ -490,8 +490,9 @@ nav ul {{ margin: 0.2em 0; }}
 <h2 id="runs">Runs <a class="anchor" href="#runs">#</a></h2>
 <p>Errors are relative norms against the exact solution. Stepping times are measured
 apart from the error runs, serially, with nothing else running from the sweep: the
-scheme's stepper prepared once (its set-up not timed), one discarded warm-up call of its
-<code>run</code> (JIT compilation before it), then
+scheme's stepper prepared once (its set-up not timed), one warm-up call of its
+<code>run</code> (JIT compilation before it; discarded, unless it took a second or more
+without compiling: then it is the first timed call), then
 the repeats with the garbage collector off: minimum, median and interquartile range.
 Work-precision plots <code>step_s</code>, the stepping alone (samples at the first and
 last step only); its tables also give <code>time_s</code>, the same run recording the

@@ -64,9 +64,10 @@ ends of each parameter sweep.
 
 At most `max_samples` samples are kept per run (the stride grows with the number of
 steps): the metrics' cost grows with the samples, and the sampling interval stays
-about T / max_samples across refinements. `FULL` is sized for the 15-minute budget
-on 2 cores (error runs dominate; see the report's timing note); `quick=True` is the
-same study on tiny grids (a smoke test, about a minute).
+about T / max_samples across refinements. `FULL` is the published grid, not sized for a
+time budget: on a quiet 2-core machine its main part takes over an hour, two thirds of
+it the serial timing pass of the refine runs (docs/study.md, "Where the time goes");
+`quick=True` is the same study on tiny grids (a smoke test, about a minute).
 """
 
 from __future__ import annotations

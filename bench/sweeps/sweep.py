@@ -14,11 +14,13 @@ them and returns one DataFrame:
 3. then, with no run going on, a *timing pass*, serial in this process (on Dask: each
    run on a worker of the cluster, one per worker thread at a time): for every
    ok row of a timed task, the scheme's stepper prepared once (`scheme.prepare`, outside
-   the timings), a one-step run (JIT compilation) and one discarded warm-up call of
-   `stepper.run`, then two timings of `repeats` timed calls each with the garbage
-   collector off: `time_s`, the run with the row's recording (its stride), and
-   `step_s`, the stepping alone (stride = steps: samples at the first and the last step
-   only). Each gives its minimum and, through
+   the timings), a one-step run (JIT compilation) and one warm-up call of `stepper.run`
+   (discarded, unless it took `WARM_UP_KEPT_S` or more without compiling: then it is the
+   first timed call), then two timings of `repeats` timed calls each (no more than two
+   once they took `TIME_BUDGET_S`) with the garbage collector off: `time_s`, the run
+   with the row's recording (its stride), and `step_s`, the stepping alone (stride =
+   steps: samples at the first and the last step only). Each gives its minimum and,
+   through
    `timing_stats`, `<name>_median_s`, `<name>_iqr_s` (interquartile range),
    `<name>_repeats` and `<name>_noisy` (IQR above NOISY_SPREAD x the median: re-time
    it). Timings are cached too, keyed on the run and the CPU model; `retime` measures
@@ -60,8 +62,10 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numba.core import event as numba_event
 
 from contact_bench.api.params import expand_spec
+from contact_bench.api.plugin import Case
 from contact_bench.api.registry import make_case, make_scheme, plugin_dirs, use_plugin_dirs
 from contact_bench.core.errors import BenchError, shown
 from contact_bench.core.sampling import BLOWUP_FACTOR, blown_up_rows
@@ -338,6 +342,11 @@ def _energy_extras(row: dict[str, Any], t: np.ndarray, E: np.ndarray) -> None:
 
 #: a slow run stops repeating once its timed calls have taken this long (>= 2 calls)
 TIME_BUDGET_S = 3.0
+#: a warm-up call at least this long, during which numba compiled nothing, is the first
+#: timed call rather than discarded: what a warm-up settles (first-touch page faults,
+#: caches) is far below a call of a second, and a discarded call of a run that gets two
+#: timed calls a mode would be a fifth of its timing pass for nothing shown
+WARM_UP_KEPT_S = 1.0
 
 
 def timing_stats(samples: Sequence[float], name: str = "time") -> dict[str, Any]:
@@ -371,7 +380,8 @@ def time_run(row: dict[str, Any], repeats: int, modes: tuple[bool, ...] = (False
     """The timed calls for each mode (False: the row's stride, True: the stepping alone)
     on one set-up: the problem read (`problem_for`: the task's own when this process
     ran it and still keeps it), the scheme's stepper prepared and the kernels compiled
-    once."""
+    once. The first mode's first call is a warm-up, discarded unless it took at least
+    `WARM_UP_KEPT_S` without compiling (then it is that mode's first timed call)."""
     case, scheme = make_case(row["case"]), make_scheme(row["scheme"])
     semi = problem_for(case, scheme, int(row["nx"]), float(row["grading"]))
     dt, steps = float(row["dt"]), int(row["steps"])
@@ -380,13 +390,18 @@ def time_run(row: dict[str, Any], repeats: int, modes: tuple[bool, ...] = (False
     out = []
     for i, stepping in enumerate(modes):
         stride = steps if stepping else int(row["stride"])
-        if i == 0:  # discarded warm-up call (the next mode runs warm after it)
-            stepper.run(steps, stride)
         times: list[float] = []
         gc.collect()
         enabled = gc.isenabled()
         gc.disable()
         try:
+            if i == 0:  # the warm-up call (the next mode runs warm after it)
+                with numba_event.install_recorder("numba:compile") as compiled:
+                    t0 = time.perf_counter()
+                    stepper.run(steps, stride)
+                    first = time.perf_counter() - t0
+                if first >= WARM_UP_KEPT_S and not compiled.buffer:
+                    times.append(first)
             while len(times) < max(1, repeats) and not (len(times) >= 2
                                                         and sum(times) > TIME_BUDGET_S):
                 t0 = time.perf_counter()
@@ -414,20 +429,79 @@ def _ignore_sigint() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
-def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict], None]) -> None:
+def shared_work(case: Any, scheme: Any, inputs: dict[str, Any]) -> tuple[tuple, ...]:
+    """What a run makes that the runs after it in the same process reuse (a worker
+    keeps both, `cache=True` kernels and the reference cache on disk let the other
+    workers read them): the scheme's compiled kernels, one set per scheme class, mass
+    and problem form; and, for a scene declaring a numerical reference
+    (`Case.reference_run`), the reference of the run's mesh and time grid (the same for
+    every scheme at the same inputs). None shared when the plugin cannot say (its run
+    is then an error row that says why)."""
+    try:
+        kernels = ("kernels", type(scheme).__module__, type(scheme).__qualname__,
+                   str(scheme.mass_kind()), str(case.form))
+    except Exception:  # noqa: BLE001 - a broken plugin: its own run reports it
+        return ()
+    out: tuple[tuple, ...] = (kernels,)
+    if type(case).reference_run is not Case.reference_run:
+        grid = {k: v for k, v in inputs.items() if k not in ("scheme", "plugins")}
+        out += (("reference", json.dumps(grid, sort_keys=True, default=str)),)
+    return out
+
+
+def next_free(keys: Sequence[str], shared: dict[str, tuple[tuple, ...]],
+              started: set[tuple], ready: set[tuple]) -> int | None:
+    """The index of the first run of `keys` that waits for no piece of shared work: each
+    of its pieces (`shared[key]`) either not yet started by any run (it will make it) or
+    made (`ready`); None when every run waits for a running one."""
+    return next((i for i, key in enumerate(keys)
+                 if all(p in ready or p not in started for p in shared.get(key, ()))), None)
+
+
+def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict], None],
+              shared: dict[str, tuple[tuple, ...]] | None = None) -> None:
+    """The runs on `jobs` worker processes, at most `jobs` at a time, in todo's order but
+    for one rule: while the first run making a piece of `shared` work (`shared_work`:
+    kernels to compile, a numerical reference to compute) is running, the other runs
+    needing it wait and the free worker takes the next run that does not, so that each
+    piece is made once rather than once per worker at the same time."""
     ctx = mp.get_context("spawn")  # no fork of a process holding threads (tqdm, numba)
-    # the workers start with SIGINT blocked (the mask is inherited), then ignore it
+    shared = shared or {}
+    pending = list(todo)
+    started: set[tuple] = set()  # pieces whose first run was submitted
+    ready: set[tuple] = set()  # ... and finished
+    running: dict[Any, tuple[str, list[tuple]]] = {}
+    # the workers start with SIGINT blocked (the mask is inherited; a worker is spawned
+    # at a submit), then ignore it
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_ignore_sigint)
-        pending = {pool.submit(execute_task, task): key for key, task in todo}
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+    def submit() -> None:
+        while len(running) < jobs and pending:
+            i = next_free([key for key, _ in pending], shared, started, ready)
+            if i is None:  # every pending run waits for a running one
+                return
+            key, task = pending.pop(i)
+            firsts = [p for p in shared.get(key, ()) if p not in started]
+            started.update(firsts)
+            mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+            try:
+                running[pool.submit(execute_task, task)] = (key, firsts)
+            finally:
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
     try:
-        while pending:
-            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+        submit()
+        while running:
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
-                done(pending.pop(fut), fut.result())
+                key, firsts = running.pop(fut)
+                ready.update(firsts)
+                done(key, fut.result())
+            submit()
     except BaseException:
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()  # interrupted: the running tasks are not waited for
@@ -583,7 +657,9 @@ def run_sweep(tasks: Sequence[Task], jobs: int = 1, dask: str | None = None,
             if client is not None:
                 _run_dask(todo, client, done, lost)
             elif jobs > 1 and len(todo) > 1:
-                _run_pool(todo, min(jobs, len(todo)), done)
+                shared = {key: shared_work(*made[(meta[key]["case"], meta[key]["scheme"])],
+                                           meta[key]["inputs"]) for key, _ in todo}
+                _run_pool(todo, min(jobs, len(todo)), done, shared)
             else:
                 _run_serial(todo, done)
         finally:
