@@ -26,9 +26,13 @@ a bound proportional to n and to the factor's size allows; `zcol` maps a row to 
 column), so that a step whose pushing rows lie in the patch costs its one contact-free
 solve plus Z's columns times mu (`push`); a step pushing outside the patch makes one more
 solve with G^T mu. The columns come from the set-up's solves for W: keeping them costs
-no solve. `contact_ops` builds it. A selection row keeps the exact
-arithmetic of the dof-by-dof kernels (its gap is gap0 + X[dof], an active one is put on
-the obstacle exactly: `hold`); a general row's gap is its CSR product.
+no solve. `contact_ops` builds it. Lazy operators (`contact_ops`' `first`, the implicit
+Newmark step's) compute W's columns only for the rows near contact at set-up and the
+others in the loop when a row is needed (`contact_lcp`): a candidate row that never
+comes near the obstacle costs no solve (docs/sparse.md, "Lazy contact operators"). A
+selection row keeps the exact arithmetic of the dof-by-dof kernels (its gap is gap0 +
+X[dof], an active one is put on the obstacle exactly: `hold`); a general row's gap is its
+CSR product.
 
 A curved obstacle (`contact_bench.core.obstacle.Sphere`: gap_j = |x_j + U_j - c| - R,
 nonlinear) keeps its tangent in the same `ContactOps` (`Curve`): `gaps(ct, X, out)`
