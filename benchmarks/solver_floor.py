@@ -3,8 +3,10 @@ factor kind of the loops (`pardiso`: MKL PARDISO's Cholesky, every SPD factor an
 mass's SPD test; `lu`: SuperLU's L and U; `ldlt`: its L and D, `Factor.of(S, ldlt=True)`;
 the last two with PARDISO off), the set-up split (assembly, factorisation, contact operators),
 one solve of that factor, one implicit step of `redistributed` (every step in contact at
-lift 1e-6), their ratio, the solves a step makes (`LU.solves`), the contact patch kept
-(`contact_bench.kernels.contact.patch_rows`) and the peak memory.
+lift 1e-6), their ratio, the solves a step makes (`LU.solves`), W's columns computed (lazy
+contact operators: at set-up -> after the run), the contact patch kept
+(`contact_bench.kernels.contact.patch_rows`) and the peak memory after the assembly, after
+the set-up and at the end.
 
     python benchmarks/solver_floor.py                      # the issue's three configurations
     python benchmarks/solver_floor.py "disc_drop[degree=2,lift=1e-6]:24" --kinds pardiso,lu
@@ -43,9 +45,15 @@ REPEATS = 5
 #: (less perturbed by other jobs on a loaded machine; with PARDISO's threads summed, so
 #: --cpu sets CONTACT_BENCH_PARDISO_THREADS=1)
 CLOCK = time.perf_counter
-COLUMNS = ("config", "kind", "dofs", "n_c", "patch", "factor entries", "assembly s",
-           "factor s", "contact s", "setup s", "solve ms", "step ms", "step / solve",
-           "solves / step", "peak GB", "M K factor GB", "peak / (M K factor)")
+COLUMNS = ("config", "kind", "dofs", "n_c", "W cols", "patch", "factor entries",
+           "assembly s", "factor s", "contact s", "setup s", "solve ms", "step ms",
+           "step / solve", "solves / step", "assembly peak GB", "setup peak GB", "peak GB",
+           "M K factor GB", "peak / (M K factor)")
+
+
+def _peak_gb() -> float:
+    """This process's peak resident memory so far (ru_maxrss, VmHWM), GB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
 def solve_seconds(fac) -> float:
@@ -84,14 +92,17 @@ def measure(config: str, kind: str, steps: int) -> dict:
         t0 = time.perf_counter()
         p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
         t_asm = time.perf_counter() - t0
+        peak_asm = _peak_gb()
         t0 = time.perf_counter()
         with recording() as ph:
             st = sch.prepare(p, float(case.dt))
         t_setup = time.perf_counter() - t0
+        peak_setup = _peak_gb()
     finally:
         linalg.USE_LDLT, linalg.PARDISO_MIN_DOFS, ordering.pardiso.PARDISO_MIN_DOFS = keep
     fac, ct = st.factor, st.ops.ct
     n = p.nfree
+    cols0 = int(np.count_nonzero(ct.known))  # lazy operators: W's columns at set-up
     solve = solve_seconds(fac)
     st.run(steps, steps)  # compiles
     before = int(fac.arrays.solves[0])
@@ -99,10 +110,13 @@ def measure(config: str, kind: str, steps: int) -> dict:
     tr = st.run(steps, steps)
     step = (CLOCK() - t0) / steps
     solves = (int(fac.arrays.solves[0]) - before) / steps
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    peak = _peak_gb()
+    # W's columns at set-up -> after the run (lazy operators), or "all"
+    wcols = f"{cols0}->{int(np.count_nonzero(ct.known))}" if ct.known.size else "all"
     mkf = (sum(m.data.nbytes + m.indices.nbytes + m.indptr.nbytes
                for m in (sp.csr_matrix(p.M), sp.csr_matrix(p.K))) + fac.nbytes) / 2**30
     return {"config": config, "kind": fac.kind, "dofs": n, "n_c": int(ct.gap0.size),
+            "W cols": wcols,
             "patch": "whole" if ct.keep_z else int(np.count_nonzero(ct.zcol >= 0)),
             "factor entries": fac.entries, "assembly s": round(t_asm, 2),
             "factor s": round(ph.get("factor", 0.0), 2),
@@ -110,6 +124,7 @@ def measure(config: str, kind: str, steps: int) -> dict:
             "setup s": round(t_setup, 2), "solve ms": round(1e3 * solve, 2),
             "step ms": round(1e3 * step, 2), "step / solve": round(step / solve, 2),
             "solves / step": solves, "in contact": bool(tr.stress[-1] != 0.0),
+            "assembly peak GB": round(peak_asm, 2), "setup peak GB": round(peak_setup, 2),
             "peak GB": round(peak, 2), "M K factor GB": round(mkf, 3),
             "peak / (M K factor)": round(peak / mkf, 2)}
 

@@ -101,3 +101,24 @@ def test_cli_refuses_in_one_line() -> None:
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2, proc.stderr
     assert len(lines) == 1 and "nx = 64" in lines[0] and "ulimit -v" in lines[0]
+
+
+def test_pardiso_2d_model_near_a_measured_factor() -> None:
+    """The 2D PARDISO model's factor term against PARDISO's own report of a P2 disc's
+    factor (iparm[15] + iparm[16]), a size outside the fit (nx 16; fitted at 24-144)."""
+    from contact_bench.core import pardiso
+    from contact_bench.kernels.linalg import Factor
+
+    if pardiso.MKL is None:
+        pytest.skip("MKL PARDISO not loaded")
+    case = make_case("disc_drop[degree=2,lift=1e-6]")
+    p = case.sparse_problem(16, 1.0, "redistributed")
+    dt = float(case.dt)
+    fac = Factor.of(p.M + 0.25 * dt * dt * p.K, pardiso=True)
+    assert fac.kind == "pardiso"
+    n = p.nfree
+    m = footprint.PARDISO_MODELS[(2, 2)]
+    assert 0.67 < m.factor * n * (n / 1e5) ** m.power / fac.nbytes < 1.5
+    big = pardiso.PARDISO_MIN_DOFS
+    assert footprint.model(2, 2, big) is m
+    assert footprint.model(2, 2, big - 1) is footprint.MODELS[(2, 2)]

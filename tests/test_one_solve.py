@@ -43,17 +43,30 @@ def test_whole_response_one_solve_a_step(problem, whole):
 
 
 def test_patch_one_solve_a_step_same_numbers(problem, whole, monkeypatch):
+    """Lazy operators (Z not kept whole): W's and Z's columns of the rows near contact
+    at set-up, the others computed in the loop when their row is needed (one solve
+    counted per column); the rest of the steps one solve each, the whole response's
+    numbers to the bit."""
     monkeypatch.setattr(contact, "KEEP_Z_ENTRIES", 0)
     monkeypatch.setattr(contact, "patch_rows", lambda n, nc, entries: 6)
     tr, solves, in_contact, ct = _run(problem)
     assert not ct.keep_z and ct.Z.shape == (6, problem.nfree)  # columns as rows
-    assert np.count_nonzero(ct.zcol >= 0) == 6
-    # the patch is the rows of smallest initial gap
+    known = int(np.count_nonzero(ct.known))
+    assert 0 < known < problem.contact.size  # not every column computed
+    assert np.count_nonzero(ct.zcol >= 0) == min(6, known) == int(ct.nz[0])
+    # the columns computed at set-up: `near_rows`, the rows of smallest initial gap first
+    st = make_scheme("redistributed").prepare(problem, DT)
+    first = int(np.count_nonzero(st.ops.ct.known))
     g0 = np.asarray(problem.contact.gap0)
-    assert np.max(g0[ct.zcol >= 0]) <= np.min(g0[ct.zcol < 0])
-    assert in_contact == NSTEPS and solves == NSTEPS
+    assert np.max(g0[st.ops.ct.known]) <= np.min(g0[~st.ops.ct.known])
+    assert in_contact == NSTEPS and solves == NSTEPS + (known - first)
     # the same columns of Z times the same mu: the whole response's numbers to the bit
     assert np.array_equal(tr.U, whole[0].U) and np.array_equal(tr.stress, whole[0].stress)
+    # W's known columns are the complete W's (symmetrised among the known rows)
+    Wf = whole[3].W
+    kn = ct.known
+    assert np.array_equal(ct.W[np.ix_(kn, kn)], Wf[np.ix_(kn, kn)])
+    assert np.max(np.abs(ct.W[np.ix_(~kn, kn)] - Wf[np.ix_(~kn, kn)])) <= 1e-14 * np.max(Wf)
 
 
 @pytest.mark.parametrize("rows", [0, 1])
@@ -65,10 +78,12 @@ def test_outside_the_patch_a_second_solve(problem, whole, monkeypatch, rows):
     tr, solves, in_contact, ct = _run(problem)
     assert not ct.keep_z and ct.Z.shape == ((1, problem.nfree) if rows else (1, 1))
     assert in_contact == NSTEPS
+    added = int(np.count_nonzero(ct.known)) - int(np.count_nonzero(
+        make_scheme("redistributed").prepare(problem, DT).ops.ct.known))
     if rows == 0:
-        assert solves == 2 * NSTEPS
-    else:
-        assert NSTEPS < solves < 2 * NSTEPS  # the steps with one active row need no second
+        assert solves == 2 * NSTEPS + added
+    else:  # the steps with one active row need no second
+        assert NSTEPS + added < solves < 2 * NSTEPS + added
     ref = whole[0]
     assert np.max(np.abs(tr.U - ref.U)) <= 1e-10 * np.max(np.abs(ref.U))
     assert np.max(np.abs(tr.stress - ref.stress)) <= 1e-9 * np.max(np.abs(ref.stress))

@@ -6,8 +6,11 @@ Why: an SPD S = M + dt^2/4 K of a 3D mesh is factored by PARDISO's supernodal Ch
 time SuperLU's LU takes, and its factor is stored once (SuperLU's LU keeps both
 triangles). MKL comes from the `mkl` wheel (libmkl_rt, LP64: 32-bit indices).
 
-How the compiled loops call it: `pardiso` is a numba external function named `SYMBOL`,
-resolved by LLVM by name when the code is linked (so `cache=True` callers stay cacheable);
+How it is called: `pardiso` is a numba external function named `SYMBOL`, resolved by
+LLVM by name when the code is linked (so `cache=True` callers stay cacheable), and
+`pardiso_call`, compiled, is the one place that passes its 16 arguments: the loops' solves,
+the set-up's block solves, and the Python side's factorisation (phase 12) and release
+(phase -1, the finaliser) all call it;
 `load` registers that name at MKL's `pardiso` when libmkl_rt loads, and at a stub that
 reports `UNAVAILABLE_ERROR` when it does not (MKL absent or CONTACT_BENCH_PARDISO=0), so
 the code compiles either way. Every pointer argument is passed as an address (uintp).
@@ -141,20 +144,8 @@ def _release(h: np.ndarray, ip: np.ndarray, *keep: np.ndarray) -> None:
     if MKL is None or not h[:64].any():
         return
     dummy = np.zeros(1)
-    _call(h, ip, -1, 1, dummy, dummy)
+    pardiso_call(h, ip, -1, 1, dummy, dummy)
     h[:64] = 0
-
-
-def _call(h: np.ndarray, ip: np.ndarray, phase: int, nrhs: int, b: np.ndarray,
-          x: np.ndarray) -> int:
-    """`pardiso_call` through ctypes (Python-side phases: no compilation needed)."""
-    ip[_PHASE], ip[_NRHS], ip[_ERROR] = phase, nrhs, 0
-    base = ip.ctypes.data
-    MKL.pardiso(h.ctypes.data, base + 4 * _MAXFCT, base + 4 * _MNUM, base + 4 * _MTYPE,
-                base + 4 * _PHASE, base + 4 * _N, int(h[64]), int(h[65]), int(h[66]),
-                base + 4 * _PERM, base + 4 * _NRHS, base, base + 4 * _MSGLVL,
-                b.ctypes.data, x.ctypes.data, base + 4 * _ERROR)
-    return int(ip[_ERROR])
 
 
 class Pardiso(NamedTuple):
@@ -184,15 +175,6 @@ class Pardiso(NamedTuple):
         ip = self.ip
         return 1024 * int(max(ip[14], ip[15] + ip[16]))
 
-    def solve(self, B: np.ndarray) -> np.ndarray:
-        """S^-1 B for B of n or n x k values (Python side: `_call`)."""
-        Bf = np.asfortranarray(B, dtype=float)
-        X = np.empty_like(Bf, order="F")
-        k = 1 if Bf.ndim == 1 else Bf.shape[1]
-        err = _call(self.h, self.ip, 33, k, Bf, X)
-        if err:
-            raise RuntimeError(f"PARDISO's solve failed: error {err} ({ERRORS.get(err, '?')})")
-        return X
 
 
 def upper_csr(S: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -233,7 +215,7 @@ def factor(S_upper_csr: tuple[np.ndarray, np.ndarray, np.ndarray], n: int
     ip[34] = 1  # zero-based indices
     ip[_MAXFCT], ip[_MNUM], ip[_MTYPE], ip[_N], ip[_MSGLVL] = 1, 1, 2, n, 0
     dummy = np.zeros(1)
-    err = _call(h, ip, 12, 1, dummy, dummy)
+    err = int(pardiso_call(h, ip, 12, 1, dummy, dummy))
     if err:
         _release(buf, ip)
         if err == -4:

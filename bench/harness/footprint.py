@@ -8,8 +8,8 @@ matrix (an implicit scheme, or an explicit one whose mass is not diagonal), whic
 like n^p with a fill-reducing ordering (a factor's bytes per unknown nearly constant in
 2D, growing in 3D). The constants are fitted to measured peaks (docs/scale.md names the
 command and the table); the estimate decides only clearly impossible sizes, so it is a
-central fit, not a bound. A 3D body that MKL PARDISO will factor (`PARDISO_MODELS`) has
-its own constants: PARDISO's Cholesky and the contact patch kept beside it.
+central fit, not a bound. A body that MKL PARDISO will factor (`PARDISO_MODELS`) has
+its own constants: PARDISO's Cholesky (in 3D with the contact patch kept beside it).
 
 `memory_limit` is what this process may use: the smallest of the memory the kernel says is
 available (/proc/meminfo's MemAvailable), a cgroup's limit, and the address-space limit
@@ -38,6 +38,9 @@ class Model(NamedTuple):
 
 #: PARDISO's 3D factor and contact patch: bytes per unknown at 1e5 unknowns, and growth
 PARDISO_FACTOR, PARDISO_POWER = 3.4e4, 0.37
+#: PARDISO's 2D factor: bytes per unknown at 1e5 unknowns, and growth (P2 discs,
+#: docs/sparse.md "PARDISO's 2D footprint")
+PARDISO_FACTOR_2D, PARDISO_POWER_2D = 1.4e3, 0.06
 #: per (dimension, degree): the fitted constants for SuperLU's factor (bytes per unknown;
 #: see the module doc)
 MODELS: dict[tuple[int, int], Model] = {
@@ -48,18 +51,22 @@ MODELS: dict[tuple[int, int], Model] = {
 }
 
 
-#: per dimension 3, degree: the constants when MKL PARDISO factors the 3D systems
-#: (`contact_bench.core.pardiso`, from `PARDISO_MIN_DOFS` unknowns): its Cholesky factor
-#: plus the contact patch the set-up keeps (`contact_bench.kernels.contact.patch_rows`:
-#: 3 values per entry of L), fitted to PARDISO's factors of the ball (docs/sparse.md)
+#: per (dimension, degree): the constants when MKL PARDISO factors the systems
+#: (`contact_bench.core.pardiso`, from `PARDISO_MIN_DOFS` unknowns). 3D: its Cholesky
+#: factor plus the contact patch the set-up keeps (`contact_bench.kernels.contact.
+#: patch_rows`: 3 values per entry of L), fitted to PARDISO's factors of the ball; 2D: its
+#: factor alone, fitted to the P2 disc's (the implicit step's operators are lazy there and
+#: keep the patch's columns as rows come into contact); docs/sparse.md
 PARDISO_MODELS: dict[tuple[int, int], Model] = {
+    (2, 1): Model(4.0e3, PARDISO_FACTOR_2D, PARDISO_POWER_2D),
+    (2, 2): Model(4.0e3, PARDISO_FACTOR_2D, PARDISO_POWER_2D),
     (3, 1): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
     (3, 2): Model(1.8e4, PARDISO_FACTOR, PARDISO_POWER),
 }
 
 
 def model(dim: int, degree: int, unknowns: float) -> Model:
-    """The constants for a body: PARDISO's where it will factor (3D, MKL loaded, at least
+    """The constants for a body: PARDISO's where it will factor (MKL loaded, at least
     `PARDISO_MIN_DOFS` unknowns), else SuperLU's (`MODELS`)."""
     key = (int(dim), min(int(degree), 2))
     if (key in PARDISO_MODELS and pardiso.MKL is not None

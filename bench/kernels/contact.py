@@ -26,9 +26,13 @@ a bound proportional to n and to the factor's size allows; `zcol` maps a row to 
 column), so that a step whose pushing rows lie in the patch costs its one contact-free
 solve plus Z's columns times mu (`push`); a step pushing outside the patch makes one more
 solve with G^T mu. The columns come from the set-up's solves for W: keeping them costs
-no solve. `contact_ops` builds it. A selection row keeps the exact
-arithmetic of the dof-by-dof kernels (its gap is gap0 + X[dof], an active one is put on
-the obstacle exactly: `hold`); a general row's gap is its CSR product.
+no solve. `contact_ops` builds it. Lazy operators (`contact_ops`' `first`, the implicit
+Newmark step's) compute W's columns only for the rows near contact at set-up and the
+others in the loop when a row is needed (`contact_lcp`): a candidate row that never
+comes near the obstacle costs no solve (docs/sparse.md, "Lazy contact operators"). A
+selection row keeps the exact arithmetic of the dof-by-dof kernels (its gap is gap0 +
+X[dof], an active one is put on the obstacle exactly: `hold`); a general row's gap is its
+CSR product.
 
 A curved obstacle (`contact_bench.core.obstacle.Sphere`: gap_j = |x_j + U_j - c| - R,
 nonlinear) keeps its tangent in the same `ContactOps` (`Curve`): `gaps(ct, X, out)`
@@ -55,7 +59,13 @@ from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
-from contact_bench.kernels.linalg import Factor, lu
+from contact_bench.kernels.linalg import (
+    MANY_BLOCK_COLUMNS,
+    MANY_BLOCK_ENTRIES,
+    Factor,
+    lu,
+    lu_solve_many,
+)
 from contact_bench.kernels.solvers import coulomb_solve, lcp_solve
 
 #: largest n x n_c response matrix Z = S^-1 G^T kept whole (values); beyond, the patch's
@@ -66,6 +76,12 @@ KEEP_Z_ENTRIES = 10_000_000
 PATCH_SHARE = 3.0
 #: no patch: the response is kept whole or not at all
 NO_PATCH = np.zeros(0, np.int64)
+#: W complete from the set-up (no column computed in the loop)
+ALL_KNOWN = np.zeros(0, np.bool_)
+#: the count of a lazy `ContactOps`' patch rows in use; unused (never written) otherwise
+NO_COUNT = np.zeros(1, np.int64)
+#: the steps whose closing the lazy operators' first columns cover (`near_rows`)
+NEAR_STEPS = 10
 
 
 class Curve(NamedTuple):
@@ -96,7 +112,12 @@ class ContactOps(NamedTuple):
     it selects, or -1 for a general row), W = G S^-1 G^T, Z = S^-1 G^T when `keep_z`,
     a curved obstacle's tangent data (`cv`, `FLAT` for a fixed G), and `zcol`: with a
     patch (not `keep_z`), per row where its column of S^-1 G^T is stored in Z (k x n:
-    the patch's columns as rows), or -1 (`NO_PATCH`: no patch)."""
+    the patch's columns as rows), or -1 (`NO_PATCH`: no patch).
+
+    Lazy operators (`contact_ops`' `first`): `known` (per row: W's column computed) and
+    `nz` (Z's rows in use, of the patch's k); the other columns of W (and of Z while
+    the patch has room) are computed in the loop when their row is needed
+    (`contact_lcp`, `add_columns`). `ALL_KNOWN` (size 0): W complete."""
 
     G: CSR
     GT: CSR
@@ -107,6 +128,8 @@ class ContactOps(NamedTuple):
     keep_z: bool
     cv: Curve | Flat = FLAT
     zcol: np.ndarray = NO_PATCH
+    known: np.ndarray = ALL_KNOWN
+    nz: np.ndarray = NO_COUNT
 
 
 def selection_rows(G: sp.csr_matrix) -> np.ndarray:
@@ -133,17 +156,40 @@ def patch_rows(n: int, nc: int, l_entries: int) -> int:
     return int(min(nc, budget // max(n, 1)))
 
 
+def near_rows(G: sp.spmatrix, gap0: np.ndarray, U: np.ndarray, V: np.ndarray,
+              A: np.ndarray, dt: float, steps: int = NEAR_STEPS) -> np.ndarray:
+    """The rows that can come into contact in the first `steps` steps of dt (a mask):
+    those whose gap gap0 + G U is within the reach of the smallest, reach = h max |G V|
+    + h^2 / 2 max |G A| with h = steps dt (the state U, V, A at t = 0): what the body
+    closes in that time at its initial velocity and acceleration. The first columns of
+    lazy contact operators (`contact_ops`' `first`)."""
+    G = sp.csr_matrix(G)
+    g = np.asarray(gap0, float) + G @ U
+    if g.size == 0:
+        return np.zeros(0, np.bool_)
+    h = steps * dt
+    reach = h * float(np.max(np.abs(G @ V))) + 0.5 * h * h * float(np.max(np.abs(G @ A)))
+    return g <= g.min() + reach
+
+
 @phase("contact")
 def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
                 keep: bool | None = None, obstacle: Sphere | None = None,
-                rank: np.ndarray | None = None) -> ContactOps:
+                rank: np.ndarray | None = None, first: np.ndarray | None = None
+                ) -> ContactOps:
     """`ContactOps` of the gap operator G (n_c x n) with S's factor `fac`: W = G S^-1 G^T
     (symmetrised) from n_c solves in blocks, Z kept whole when `keep` (default: when n
     n_c <= `KEEP_Z_ENTRIES`), else the patch's columns (`patch_rows` of them; the rows
     first in `rank`, default gap0: the smallest initial gaps; `keep` False: no patch). A
     selection G is solved with unit right-hand sides and W read off Z's rows (the numbers
     of the dof-by-dof kernels). With a curved `obstacle` (its dofs numbered as S's), G
-    and gap0 are its tangent at X = 0 (`curved_ops`)."""
+    and gap0 are its tangent at X = 0 (`curved_ops`).
+
+    `first` (a mask of rows, e.g. `near_rows`) makes the operators lazy where Z is not
+    kept whole (by default): W's columns of those rows only, and Z's (the patch, as
+    many as `patch_rows` allows, in the order the rows come); every other column is
+    computed in the loop when its row is needed (`contact_lcp`). W's entries are those
+    of the complete W (symmetrised pairwise as they become known)."""
     if obstacle is not None:
         return curved_ops(fac, obstacle, keep)
     G = sp.csr_matrix(G, dtype=float)
@@ -153,6 +199,14 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
     sel = selection_rows(G)
     GT = sp.csc_matrix(G.T)
     k = patch_rows(n, nc, fac.l_entries) if auto and not keep else 0
+    if first is not None and auto and not keep:
+        # np.zeros: pages untouched until a column is stored there (memory as used)
+        ct = ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(gap0, float), sel,
+                        np.zeros((nc, nc)), np.zeros((k, n)) if k else np.zeros((1, 1)),
+                        False, FLAT, np.full(nc, -1, np.int64) if k else NO_PATCH,
+                        np.zeros(nc, np.bool_), np.zeros(1, np.int64))
+        add_columns(ct, fac.arrays, np.asarray(first, np.bool_))
+        return ct
     zcol = NO_PATCH
     if k:
         order = np.argsort(np.asarray(gap0 if rank is None else rank, float), kind="stable")
@@ -172,6 +226,106 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
     return ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(gap0, float), sel,
                       np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep,
                       FLAT, zcol)
+
+
+@njit(cache=True)
+def add_columns(ct, fac, need):  # pragma: no cover - compiled
+    """Lazy operators (`ContactOps`): W's columns of the rows `need` marks that are not
+    known yet, from solves with G_j^T in blocks of `MANY_BLOCK_COLUMNS` (`lu_solve_many`,
+    one solve counted per column in `fac.solves`); each stored as a row of Z while the
+    patch has room. W_ij for a known row i is the symmetrised (W_ij + W_ji) / 2, the
+    complete W's value; for the other rows the column's own value. Returns the columns
+    added."""
+    known, W = ct.known, ct.W
+    Gp, Gi, Gx = ct.G
+    nc = known.size
+    n = ct.GT[0].size - 1
+    rows = np.flatnonzero(need & ~known)
+    width = max(1, min(MANY_BLOCK_COLUMNS, MANY_BLOCK_ENTRIES // max(n, 1)))
+    for a0 in range(0, rows.size, width):
+        blk = rows[a0:a0 + width]
+        k = blk.size
+        B = np.zeros((n, k))
+        for a in range(k):
+            for kk in range(Gp[blk[a]], Gp[blk[a] + 1]):
+                B[Gi[kk], a] = Gx[kk]
+        X = np.empty((n, k))
+        lu_solve_many(fac, B, X, np.empty((n, k)))
+        fac.solves[0] += k
+        col = np.empty(n)
+        for a in range(k):
+            j = blk[a]
+            for i in range(n):
+                col[i] = X[i, a]
+            for i in range(nc):
+                d = ct.sel[i]
+                wij = col[d] if d >= 0 else row_dot(ct.G, i, col)
+                if known[i]:  # W_ji holds column i's value
+                    v = 0.5 * (wij + W[j, i])
+                    W[i, j] = v
+                    W[j, i] = v
+                else:
+                    W[i, j] = wij
+            if ct.zcol.size and ct.nz[0] < ct.Z.shape[0]:
+                ct.Z[ct.nz[0], :] = col
+                ct.zcol[j] = ct.nz[0]
+                ct.nz[0] += 1
+            known[j] = True
+    return rows.size
+
+
+@njit(cache=True)
+def contact_lcp(ct, fac, q, mu, active, tol, warm):  # pragma: no cover - compiled
+    """`lcp_solve` on W with the gaps q (mu, active in and out as there), for lazy
+    operators on the known rows: the rows with q < 0 get their columns first
+    (`add_columns`), the LCP is solved on the known rows, and a row outside them that the
+    solution pushes below -tol gets its column and the LCP runs again, warm, until none
+    does. W positive definite: the solution is the complete W's. Returns the pivots."""
+    if ct.known.size == 0:
+        return lcp_solve(ct.W, q, mu, active, tol, warm)
+    known, W = ct.known, ct.W
+    nc = q.size
+    need = np.zeros(nc, np.bool_)
+    for j in range(nc):
+        need[j] = q[j] < 0.0 or (warm and active[j])
+    add_columns(ct, fac, need)
+    total = 0
+    while True:
+        idx = np.flatnonzero(known)
+        m = idx.size
+        Wk = np.empty((m, m))
+        qk = np.empty(m)
+        mk = np.zeros(m)
+        ak = np.empty(m, np.bool_)
+        for a in range(m):
+            qk[a] = q[idx[a]]
+            ak[a] = active[idx[a]]
+            for b in range(m):
+                Wk[a, b] = W[idx[a], idx[b]]
+        it = lcp_solve(Wk, qk, mk, ak, tol, warm)
+        if it < 0:
+            return it
+        total += it
+        mu[:] = 0.0
+        active[:] = False
+        for a in range(m):
+            mu[idx[a]] = mk[a]
+            active[idx[a]] = ak[a]
+        on = np.flatnonzero(mu)
+        more = False
+        for i in range(nc):
+            need[i] = False
+            if not known[i]:
+                g = q[i]
+                for j in on:
+                    g += W[i, j] * mu[j]
+                if g < -tol:
+                    need[i] = True
+                    more = True
+        if not more:
+            return total
+        add_columns(ct, fac, need)
+        warm = True
 
 
 def restrict(ob: Sphere | None, cols: np.ndarray, n: int) -> Sphere | None:
@@ -430,7 +584,7 @@ def signorini(ct, fac, X, mu, active, warm, tol, scr):  # pragma: no cover - com
     gf = scr[0]
     pen = gaps(ct, X, gf)
     if pen:
-        lcp_solve(ct.W, gf, mu, active, tol, warm)
+        contact_lcp(ct, fac, gf, mu, active, tol, warm)
         push(ct, fac, mu, X, (scr[1], scr[2], scr[3]))
         hold(ct, active, X, -ct.gap0)
     else:

@@ -151,7 +151,10 @@ def lu(fac, b, out, work):  # pragma: no cover - compiled
 def lu_solve_many(fac, B, out, work):  # pragma: no cover - compiled
     """out = S^-1 B for the k columns of B (n x k, rows contiguous; work: n x k) with
     `lu_solve`'s factor, each column by `lu_solve`'s operations in its order (the same
-    numbers to the bit), the factor read once for all k columns."""
+    numbers to the bit), the factor read once for all k columns; PARDISO's factor: its
+    multi-right-hand-side solve, one call (work unused). The set-up's block solves
+    (`Factor.solve_blocks`) and the loops' columns on demand
+    (`contact_bench.kernels.contact.add_columns`) both use it."""
     n, k = B.shape
     if fac.ph.size != 0:  # PARDISO: its columns contiguous (B^T's rows), one call for all
         Bt = np.ascontiguousarray(B.T)
@@ -249,9 +252,11 @@ class Factor:
     many_backend: str = "superlu"
     #: CHOLMOD's factor, made by the first `solve_many`
     chol: Any = field(default=None, repr=False)
-    #: "ldlt" (L and D kept) or "lu" (L and U): what the loops' solves use
+    #: "pardiso" (PARDISO's Cholesky), "ldlt" (SuperLU's L and D kept) or "lu" (L and
+    #: U): what the loops' solves use
     kind: str = "lu"
-    #: why an L D L^T factor was asked for and not made (one line), else ""
+    #: why the factor asked for (PARDISO's, or an L D L^T) was not made and SuperLU's L
+    #: and U stand in (one line: PARDISO's refusal, S not symmetric or not SPD), else ""
     fallback: str = ""
 
     #: PARDISO's factor (`contact_bench.core.pardiso.Pardiso`) when `kind` is "pardiso"
@@ -280,7 +285,8 @@ class Factor:
         use = (n >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None) if pardiso is None \
             else bool(pardiso)
         why = ""
-        if use and not is_symmetric(C):
+        symmetric = is_symmetric(C)  # tested once: PARDISO's input, then L D L^T's
+        if use and not symmetric:
             why = f"S is not symmetric (beyond {SYMMETRY_TOL:g} relative): SuperLU's L and U"
         elif use:
             made, why = mkl_pardiso.factor(upper_csr(C), n)
@@ -302,7 +308,6 @@ class Factor:
         del Lc
         Lm.sort_indices()
         D = Uc.diagonal()
-        symmetric = is_symmetric(C)
         spd = symmetric and np.array_equal(perm_r, perm_c) and bool(np.all(D > 0))
         want = USE_LDLT if ldlt is None else bool(ldlt)
         keep_u = not (want and spd)
@@ -378,9 +383,7 @@ class Factor:
             blk = np.ascontiguousarray(Bc[:, j0:j1].toarray() if Bc is not None
                                        else B[:, j0:j1], dtype=float)
             X = np.empty(blk.shape)
-            if self.pardiso is not None:  # all the block's columns in one PARDISO call
-                X[:] = self.pardiso.solve(blk)
-            elif chol is None:
+            if chol is None:  # SuperLU's or PARDISO's factor (one call for the block)
                 lu_solve_many(self.arrays, blk, X, np.empty(blk.shape))
             else:
                 chol.solve(blk, X)

@@ -53,12 +53,14 @@ from contact_bench.kernels.contact import (
     ContactOps,
     Friction,
     add_response,
+    contact_lcp,
     contact_ops,
     coulomb,
     friction_ops,
     gaps,
     hold,
     law_ops,
+    near_rows,
     push,
     restrict,
     row_dot,
@@ -194,7 +196,7 @@ def newmark_step(o, s, step):  # pragma: no cover - compiled
         if penalty:
             penalty_solve(o.ct.W, gf, o.cpen, mu, active)
         else:
-            lcp_solve(o.ct.W, gf, mu, active, o.tol, s.was[0])
+            contact_lcp(o.ct, o.fac, gf, mu, active, o.tol, s.was[0])
         push(o.ct, o.fac, mu, X, (rhs, w, s.work))
         if not penalty:
             hold(o.ct, active, X, o.at_contact)  # in contact: the gap is 0 exactly
@@ -546,7 +548,7 @@ class NewmarkStepper(LoopStepper):
             Pm, y0 = G, np.asarray(p.contact.gap0, float)
             lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
             fscale = 1.0
-            ct = contact_ops(fac, G, y0, obstacle=curved)
+            ct = None  # below, from the initial state (`near_rows`)
         if law is not None:  # the sampled energy at t = 0 with the law's terms
             y = np.minimum(0.0, Pm @ p.U0 + y0)
             self.sample0["energy"] = float(p.energy(p.U0, p.V0)
@@ -566,6 +568,9 @@ class NewmarkStepper(LoopStepper):
         # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
         self.initial = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
                         dt * V + dt * dt * (1.0 - gamma) * A)
+        if ct is None:  # exact contact: W's columns of the rows near contact, the rest lazily
+            ct = contact_ops(fac, G, y0, obstacle=curved,
+                             first=near_rows(G, y0, U, V, A, dt))
         tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                                  initial=0.0)), 1e-300)
         self.gamma = gamma
