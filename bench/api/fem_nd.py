@@ -444,8 +444,10 @@ class _MomentSystem:
         at[:, self.r[self.diag]] = self.A[:, self.diag]  # a diagonal entry's coefficients
         mean = self.target[0] / nf
         lp = linprog(np.r_[np.zeros(nf), -1.0],
-                     A_ub=np.hstack([-np.eye(nf), np.full((nf, 1), mean)]), b_ub=np.zeros(nf),
-                     A_eq=np.hstack([at[:, free], np.zeros((q, 1))]), b_eq=self.target,
+                     A_ub=sp.hstack([-sp.eye(nf), sp.csr_matrix(np.full((nf, 1), mean))]),
+                     b_ub=np.zeros(nf),
+                     A_eq=sp.hstack([sp.csr_matrix(at[:, free]), sp.csr_matrix((q, 1))]),
+                     b_eq=self.target,
                      bounds=[(0, None)] * nf + [(None, 1.0)])
         if lp.status != 0 or lp.x[-1] <= 1e-6:
             return None
