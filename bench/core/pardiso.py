@@ -176,7 +176,6 @@ class Pardiso(NamedTuple):
         return 1024 * int(max(ip[14], ip[15] + ip[16]))
 
 
-
 def upper_csr(S: sp.spmatrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """S's upper triangle as CSR (data, indptr, indices), sorted columns, every diagonal
     entry stored (PARDISO's symmetric input)."""
