@@ -471,13 +471,7 @@ def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict
     started: set[tuple] = set()  # pieces whose first run was submitted
     ready: set[tuple] = set()  # ... and finished
     running: dict[Any, tuple[str, list[tuple]]] = {}
-    # the workers start with SIGINT blocked (the mask is inherited; a worker is spawned
-    # at a submit), then ignore it
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_ignore_sigint)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_ignore_sigint)
 
     def submit() -> None:
         while len(running) < jobs and pending:
@@ -487,6 +481,9 @@ def _run_pool(todo: list[tuple[str, dict]], jobs: int, done: Callable[[str, dict
             key, task = pending.pop(i)
             firsts = [p for p in shared.get(key, ()) if p not in started]
             started.update(firsts)
+            # a worker is spawned at a submit (the pool's constructor starts none) and
+            # inherits the signal mask: it starts with SIGINT blocked, then ignores it
+            # (`_ignore_sigint`)
             mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
             try:
                 running[pool.submit(execute_task, task)] = (key, firsts)
