@@ -569,8 +569,9 @@ class NewmarkStepper(LoopStepper):
         self.initial = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
                         dt * V + dt * dt * (1.0 - gamma) * A)
         if ct is None:  # exact contact: W's columns of the rows near contact, the rest lazily
-            ct = contact_ops(fac, G, y0, obstacle=curved,
-                             first=near_rows(G, y0, U, V, A, dt))
+            # (a curved obstacle's operators are its tangent's, `curved_ops`: no rows first)
+            first = None if curved is not None else near_rows(G, y0, U, V, A, dt)
+            ct = contact_ops(fac, G, y0, obstacle=curved, first=first)
         tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                                  initial=0.0)), 1e-300)
         self.gamma = gamma
