@@ -58,7 +58,8 @@ from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor
 from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
-from contact_bench.kernels.sparse_family import condensed_stiffness, massless_solve
+from contact_bench.kernels.sparse import massless_solve
+from contact_bench.kernels.sparse_family import condensed_stiffness
 from contact_bench.kernels.stepper import LoopStepper
 from contact_bench.kernels.time_load import (
     LoadOps,

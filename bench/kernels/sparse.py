@@ -741,6 +741,51 @@ class MasslessSplit:
                    np.asarray(Mhh.diagonal(), float) if diag else np.zeros(0), ct, -gap0, tol)
 
 
+@njit(cache=True)
+def massless_solve(o, F, U, mu, active, warm, scr):  # pragma: no cover - compiled
+    """U[mv] <- u_m(u_h), the massless rows solved with exact contact under the load F
+    (o.F, or the time load's `force_at`); mu (out) the obstacle's forces, active (in/out)
+    the contact dofs on the obstacle; scr: scratch (rm, um, wm of the massless dofs'
+    size, gf of the contact's). Returns whether any contact dof would penetrate without
+    the obstacle (the LCP ran). `o`: any operators carrying a `MasslessSplit`'s mv, Km,
+    mfac, ct, at_contact and tol (`QuasistaticOps`, `sparse_family.MasslessOps`,
+    `semi_explicit.BodyOps`): the one massless solve of every scheme with massless
+    contact dofs."""
+    rm, um, wm, gf = scr
+    mv = o.mv
+    nm = mv.size
+    matvec(o.Km, U, rm)  # K_mh u_h
+    for b in range(nm):
+        rm[b] = F[mv[b]] - rm[b]
+    lu(o.mfac, rm, um, wm)
+    pen = gaps(o.ct, um, gf)
+    if pen:
+        lcp_solve(o.ct.W, gf, mu, active, o.tol, warm)
+        add_response(o.ct.Z, mu, um)
+        hold(o.ct, active, um, o.at_contact)  # on the obstacle: the gap is 0 exactly
+    else:
+        mu[:] = 0.0
+        active[:] = False
+    for b in range(nm):
+        U[mv[b]] = um[b]
+    return pen
+
+
+@njit(cache=True)
+def heavy_acceleration(o, F, U, rh, ah, wh):  # pragma: no cover - compiled
+    """ah = M_hh^-1 (F - K U)_h (rh, wh: scratch; `o` with a `MasslessSplit`'s hv, Kh,
+    hfac and diag_h)."""
+    nh = o.hv.size
+    matvec(o.Kh, U, rh)
+    for a in range(nh):
+        rh[a] = F[o.hv[a]] - rh[a]
+    if o.diag_h.size:
+        for a in range(nh):
+            ah[a] = rh[a] / o.diag_h[a]
+    else:
+        lu(o.hfac, rh, ah, wh)
+
+
 # ------------------------------------------------------- explicit central difference
 
 
@@ -940,40 +985,23 @@ class QuasistaticState(NamedTuple):
 @njit(cache=True)
 def quasistatic_step(o, s, step):  # pragma: no cover - compiled
     """Central differences on the dofs with mass (hv), the massless ones (mv) solved
-    from their own rows each step, with exact contact on the contact dofs among them;
-    both at U_{n+1} with the load at t_{n+1}."""
-    U, V, A, mu, dt, gamma = s.U, s.V, s.A, s.force, o.dt, o.gamma
+    from their own rows each step, with exact contact on the contact dofs among them
+    (`massless_solve`); both at U_{n+1} with the load at t_{n+1}."""
+    U, V, A, dt, gamma = s.U, s.V, s.A, o.dt, o.gamma
     F = force_at(o.load, o.F, step * dt, s.vals, s.Fn)
-    hv, mv = o.hv, o.mv
-    rm, um, rh, ah, gf = s.rm, s.um, s.rh, s.ah, s.gf
+    hv, mv, ah = o.hv, o.mv, s.ah
     nh, nm = hv.size, mv.size
     for a in range(nh):
         i = hv[a]
         U[i] += dt * V[i] + 0.5 * dt * dt * A[i]
-    matvec(o.Km, U, rm)  # K_mh u_h (the massless columns dropped)
-    for b in range(nm):
-        rm[b] = F[mv[b]] - rm[b]
-    lu(o.mfac, rm, um, s.wm)
-    pen = gaps(o.ct, um, gf)
-    if pen:
-        lcp_solve(o.ct.W, gf, mu, s.active, o.tol, s.was[0])
-        add_response(o.ct.Z, mu, um)
-        hold(o.ct, s.active, um, o.at_contact)
-    else:
-        mu[:] = 0.0
-    s.was[0] = pen
-    for b in range(nm):
+    for b in range(nm):  # the massless dofs' old positions, kept in V until solved
+        V[mv[b]] = U[mv[b]]
+    s.was[0] = massless_solve(o, F, U, s.force, s.active, s.was[0],
+                              (s.rm, s.um, s.wm, s.gf))
+    for b in range(nm):  # their backward difference
         i = mv[b]
-        V[i] = (um[b] - U[i]) / dt
-        U[i] = um[b]
-    matvec(o.Kh, U, rh)  # (K U) on the dofs with mass
-    for a in range(nh):
-        rh[a] = F[hv[a]] - rh[a]
-    if o.diag_h.size:
-        for a in range(nh):
-            ah[a] = rh[a] / o.diag_h[a]
-    else:
-        lu(o.hfac, rh, ah, s.wh)
+        V[i] = (U[i] - V[i]) / dt
+    heavy_acceleration(o, F, U, s.rh, ah, s.wh)
     for a in range(nh):
         i = hv[a]
         V[i] += dt * ((1.0 - gamma) * A[i] + gamma * ah[a])

@@ -59,12 +59,16 @@ from contact_bench.core.contact_stats import (
 )
 from contact_bench.core.loop import OK, START_PROJECTED, drive
 from contact_bench.core.sampling import blown_up, n_samples
-from contact_bench.kernels.contact import ContactOps, add_response, gaps, hold, row_dot
+from contact_bench.kernels.contact import ContactOps, row_dot
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy
-from contact_bench.kernels.solvers import lcp_solve
-from contact_bench.kernels.sparse import Factor, MasslessSplit
+from contact_bench.kernels.sparse import (
+    Factor,
+    MasslessSplit,
+    heavy_acceleration,
+    massless_solve,
+)
 from contact_bench.kernels.stepper import LoopStepper, SparseStepper
 from contact_bench.kernels.time_load import (
     LoadOps,
@@ -101,47 +105,6 @@ def massless_ops(split: MasslessSplit, p: SparseProblem) -> MasslessOps:
     return MasslessOps(np.asarray(p.F, float), split.hv, split.mv, split.Kh, split.Kmh,
                        split.mfac, split.hfac, split.diag_h, split.ct, split.at_contact,
                        split.tol, load_ops(p))
-
-
-@njit(cache=True)
-def massless_solve(o, F, U, mu, active, warm, scr):  # pragma: no cover - compiled
-    """U[mv] <- u_m(u_h), the massless rows solved with exact contact under the load F
-    (o.F, or the time load's `force_at`); mu (out) the obstacle's forces, active (in/out)
-    the contact dofs on the obstacle; scr: scratch (rm, um, wm of the massless dofs'
-    size, gf of the contact's). Returns whether any contact dof would penetrate without
-    the obstacle (the LCP ran)."""
-    rm, um, wm, gf = scr
-    mv = o.mv
-    nm = mv.size
-    matvec(o.Km, U, rm)  # K_mh u_h
-    for b in range(nm):
-        rm[b] = F[mv[b]] - rm[b]
-    lu(o.mfac, rm, um, wm)
-    pen = gaps(o.ct, um, gf)
-    if pen:
-        lcp_solve(o.ct.W, gf, mu, active, o.tol, warm)
-        add_response(o.ct.Z, mu, um)
-        hold(o.ct, active, um, o.at_contact)  # on the obstacle: the gap is 0 exactly
-    else:
-        mu[:] = 0.0
-        active[:] = False
-    for b in range(nm):
-        U[mv[b]] = um[b]
-    return pen
-
-
-@njit(cache=True)
-def heavy_acceleration(o, F, U, rh, ah, wh):  # pragma: no cover - compiled
-    """ah = M_hh^-1 (F - K U)_h (rh, wh: scratch)."""
-    nh = o.hv.size
-    matvec(o.Kh, U, rh)
-    for a in range(nh):
-        rh[a] = F[o.hv[a]] - rh[a]
-    if o.diag_h.size:
-        for a in range(nh):
-            ah[a] = rh[a] / o.diag_h[a]
-    else:
-        lu(o.hfac, rh, ah, wh)
 
 
 @njit(cache=True)
