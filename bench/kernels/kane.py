@@ -69,7 +69,7 @@ from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor
-from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.stepper import LoopStepper, with_tforce
 from contact_bench.kernels.time_load import LoadOps, NoLoad, force_at, load_ops, load_scratch
 
 #: the predictors (step 1) and velocity updates (step 3), as the kernel's codes
@@ -187,6 +187,17 @@ def kane_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
     return drive(kane_step, plain_sample, ops, st, rec, nsteps, stride)
 
 
+def kane_state(o: KaneOps, initial: tuple[np.ndarray, ...]) -> KaneState:
+    """A fresh `KaneState` from the initial (U, V), copied, and zeroed scratch."""
+    U, V = (a.copy() for a in initial)
+    n, nc = U.size, o.at_contact.size
+    vals, Fa = load_scratch(o.load, n)
+    return KaneState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                     np.zeros(nc, np.bool_), np.zeros(2, np.bool_), np.empty(n), np.empty(n),
+                     np.empty(n), np.empty(n), np.empty(n), np.empty(nc), Fa, np.empty(n),
+                     vals)
+
+
 class KaneStepper(LoopStepper):
     """Kane's step prepared (module docstring): S = M + h^2/4 K factored with its Delassus
     matrix and, with a projected predictor, M factored with C M^-1 C^T."""
@@ -223,13 +234,7 @@ class KaneStepper(LoopStepper):
         self.initial = (p.U0.astype(float).copy(), p.V0.astype(float).copy())
 
     def new_state(self) -> KaneState:
-        n, nc = self.problem.nfree, self.ops.at_contact.size
-        U, V = (a.copy() for a in self.initial)
-        vals, Fa = load_scratch(self.ops.load, n)
-        return KaneState(U, V, np.zeros(nc), np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
-                         np.zeros(nc, np.bool_), np.zeros(2, np.bool_), np.empty(n),
-                         np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(nc),
-                         Fa, np.empty(n), vals)
+        return kane_state(self.ops, self.initial)
 
 
 def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneStepper:
@@ -246,28 +251,10 @@ def prepare_kane(p: SparseProblem, dt: float, predictor: str = "none") -> KaneSt
 # ------------------------------------------------- Coulomb friction (Krause-Walloth)
 
 
-class FrictionalKaneState(NamedTuple):
-    """`KaneState` with the step's force on each tangent row (`tforce`, for the loop's
-    friction work, `contact_bench.core.loop`)."""
-
-    U: np.ndarray
-    V: np.ndarray
-    force: np.ndarray
-    mu: np.ndarray
-    mup: np.ndarray
-    active: np.ndarray
-    activep: np.ndarray
-    was: np.ndarray
-    Ut: np.ndarray
-    X: np.ndarray
-    rhs: np.ndarray
-    w: np.ndarray
-    work: np.ndarray
-    gf: np.ndarray
-    Fa: np.ndarray
-    Fb: np.ndarray
-    vals: np.ndarray
-    tforce: np.ndarray
+FrictionalKaneState = with_tforce(
+    KaneState, "FrictionalKaneState",
+    """`KaneState` with the step's force on each tangent row (`tforce`); `mu` holds (r_n,
+    r_t).""")
 
 
 class FrictionalKaneOps(NamedTuple):
@@ -352,16 +339,9 @@ class FrictionalKaneStepper(KaneStepper):
         self.ops = FrictionalKaneOps(self.ops, friction_ops(self.factor, p.contact, p.nfree))
 
     def new_state(self) -> FrictionalKaneState:
-        n, nc = self.problem.nfree, self.ops.base.at_contact.size
-        U, V = (a.copy() for a in self.initial)
-        vals, Fa = load_scratch(self.ops.base.load, n)
-        nr = self.ops.fr.ct.gap0.size
-        return FrictionalKaneState(U, V, np.zeros(nc), np.zeros(nr),
-                                   np.zeros(nc), np.zeros(nc, np.bool_),
-                                   np.zeros(nc, np.bool_), np.zeros(2, np.bool_),
-                                   np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                                   np.empty(n), np.empty(nc), Fa, np.empty(n), vals,
-                                   np.zeros(nr - nc))
+        st = kane_state(self.ops.base, self.initial)
+        nc, nr = st.force.size, self.ops.fr.ct.gap0.size
+        return FrictionalKaneState(*st._replace(mu=np.zeros(nr)), np.zeros(nr - nc))
 
 
 # ------------------------------------------------------------------ the bar, banded

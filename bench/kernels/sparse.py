@@ -71,7 +71,7 @@ from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, Factor, lu
 from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve, penalty_coulomb_solve, penalty_solve
-from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.stepper import LoopStepper, with_tforce
 from contact_bench.kernels.time_load import (
     LoadOps,
     NoLoad,
@@ -236,27 +236,10 @@ def newmark_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 # ------------------------------------------------- Newmark with Coulomb friction
 
 
-class FrictionalNewmarkState(NamedTuple):
-    """`NewmarkState` with the step's force on each tangent row (`tforce`, for the loop's
-    friction work, `contact_bench.core.loop`); `mu` holds (r_n, r_t)."""
-
-    U: np.ndarray
-    V: np.ndarray
-    P: np.ndarray
-    Q: np.ndarray
-    force: np.ndarray
-    mu: np.ndarray
-    active: np.ndarray
-    was: np.ndarray
-    Fn: np.ndarray
-    vals: np.ndarray
-    rhs: np.ndarray
-    X: np.ndarray
-    work: np.ndarray
-    w: np.ndarray
-    gf: np.ndarray
-    y: np.ndarray
-    tforce: np.ndarray
+FrictionalNewmarkState = with_tforce(
+    NewmarkState, "FrictionalNewmarkState",
+    """`NewmarkState` with the step's force on each tangent row (`tforce`); `mu` holds
+    (r_n, r_t).""")
 
 
 class FrictionalNewmarkOps(NamedTuple):
@@ -504,6 +487,16 @@ def is_spring(law: ContactLaw, G: sp.spmatrix) -> bool:
                     for A in (law.P, law.Q)))
 
 
+def newmark_state(o: NewmarkOps, initial: tuple[np.ndarray, ...]) -> NewmarkState:
+    """A fresh `NewmarkState` from the initial (U, V, P, Q), copied, and zeroed scratch."""
+    U, V, P, Q = (a.copy() for a in initial)
+    n, nc = U.size, o.ct.gap0.size
+    vals, Fn = load_scratch(o.load, n)
+    return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
+                        np.zeros(1, np.bool_), Fn, vals, np.empty(n), np.empty(n),
+                        np.empty(n), np.empty(n), np.empty(nc), np.empty(nc))
+
+
 class NewmarkStepper(LoopStepper):
     """`newmark_sparse` prepared: S factored, the contact operators (Z, W or the law's),
     the initial acceleration and the predictors (P, Q) computed once."""
@@ -582,12 +575,7 @@ class NewmarkStepper(LoopStepper):
             lk * (beta * dt * dt), ew, sc, fscale, float(alpha), load_ops(p))
 
     def new_state(self) -> NewmarkState:
-        n, nc = self.problem.nfree, self.ops.ct.gap0.size
-        U, V, P, Q = (a.copy() for a in self.initial)
-        vals, Fn = load_scratch(self.ops.load, n)
-        return NewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nc), np.zeros(nc, np.bool_),
-                            np.zeros(1, np.bool_), Fn, vals, np.empty(n), np.empty(n),
-                            np.empty(n), np.empty(n), np.empty(nc), np.empty(nc))
+        return newmark_state(self.ops, self.initial)
 
 
 class FrictionalNewmarkStepper(NewmarkStepper):
@@ -606,14 +594,9 @@ class FrictionalNewmarkStepper(NewmarkStepper):
                                                                p.nfree))
 
     def new_state(self) -> FrictionalNewmarkState:
-        n, b = self.problem.nfree, self.ops.base
-        nc, nh = b.ct.gap0.size, self.ops.fr.ct.gap0.size
-        U, V, P, Q = (a.copy() for a in self.initial)
-        vals, Fn = load_scratch(b.load, n)
-        return FrictionalNewmarkState(U, V, P, Q, np.zeros(nc), np.zeros(nh),
-                                      np.zeros(nc, np.bool_), np.zeros(1, np.bool_), Fn, vals,
-                                      np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                                      np.empty(nc), np.empty(nc), np.zeros(nh - nc))
+        st = newmark_state(self.ops.base, self.initial)
+        nc, nh = st.force.size, self.ops.fr.ct.gap0.size
+        return FrictionalNewmarkState(*st._replace(mu=np.zeros(nh)), np.zeros(nh - nc))
 
 
 class FrictionalPenaltyStepper(FrictionalNewmarkStepper):

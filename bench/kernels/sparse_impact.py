@@ -67,7 +67,7 @@ from contact_bench.kernels.linalg import LU, lu
 from contact_bench.kernels.recording import csr_energy, plain_sample
 from contact_bench.kernels.solvers import lcp_solve
 from contact_bench.kernels.sparse import Factor, initial_acceleration
-from contact_bench.kernels.stepper import LoopStepper
+from contact_bench.kernels.stepper import LoopStepper, with_tforce
 from contact_bench.kernels.time_load import (
     LoadOps,
     NoLoad,
@@ -378,31 +378,10 @@ def mj_loop(ops, st, rec, nsteps, stride):  # pragma: no cover - compiled
 # ------------------------------------------------- Moreau-Jean with Coulomb friction
 
 
-class FrictionalImpactState(NamedTuple):
-    """`ImpactState` with the step's force on each tangent row (`tforce`: its impulse
-    over dt, for the loop's friction work, `contact_bench.core.loop`); `mu` holds (P_n,
-    P_t)."""
-
-    Um: np.ndarray
-    U: np.ndarray
-    V: np.ndarray
-    X: np.ndarray
-    force: np.ndarray
-    mu: np.ndarray
-    active: np.ndarray
-    was: np.ndarray
-    rhs: np.ndarray
-    tmp: np.ndarray
-    w: np.ndarray
-    work: np.ndarray
-    gf: np.ndarray
-    gm: np.ndarray
-    idx: np.ndarray
-    Fn: np.ndarray
-    Fa: np.ndarray
-    Fb: np.ndarray
-    vals: np.ndarray
-    tforce: np.ndarray
+FrictionalImpactState = with_tforce(
+    ImpactState, "FrictionalImpactState",
+    """`ImpactState` with the step's force on each tangent row (`tforce`: its impulse over
+    dt); `mu` holds (P_n, P_t).""")
 
 
 class FrictionalImpactOps(NamedTuple):

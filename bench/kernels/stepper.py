@@ -14,7 +14,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -26,6 +26,17 @@ from contact_bench.core.loop import START_DATA, Record
 from contact_bench.core.obstacle import Sphere
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.recording import SampleBuffers
+
+
+def with_tforce(state: type, name: str, doc: str) -> type:
+    """The named tuple `name`: the fields of the named tuple `state` (owned there), then
+    `tforce`, the step's force on each tangent row, which the loop's friction work reads
+    (`contact_bench.core.loop.book_friction`): a frictional scheme's state beside its
+    frictionless one. Made in `state`'s module, where it must be bound to `name` (numba's
+    cache finds it there by name)."""
+    cls = NamedTuple(name, [*state.__annotations__.items(), ("tforce", np.ndarray)])
+    cls.__module__, cls.__doc__ = state.__module__, doc
+    return cls
 
 
 class SparseStepper(Stepper, ABC):
