@@ -32,6 +32,8 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from contact_bench.core.refcount import uncounted
+
 #: status switches of the contact dofs (chatter)
 CHATTER = 0
 #: the first contact's start, between the last step without force and the first with
@@ -81,7 +83,7 @@ def new_stats(force0: float = 0.0, samples: int = 0) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@uncounted
 def free_crossing(ta, ga, tb, gb, lo, hi):  # pragma: no cover - compiled
     """The time where the line through the free gaps (ta, ga), (tb, gb) crosses zero,
     clipped to [lo, hi] (the step that brackets the switch); its midpoint when the gaps
@@ -123,7 +125,7 @@ def sampled_switches(t: np.ndarray, on: np.ndarray, gap: np.ndarray
     return a, b, start, end
 
 
-@njit(cache=True)
+@uncounted
 def stats_gap(stats, gap, t):  # pragma: no cover - compiled
     """Keep the smallest gap `gap` at time t as the last one (the one before it shifts)."""
     stats[GAP_2] = stats[GAP_1]
@@ -132,7 +134,7 @@ def stats_gap(stats, gap, t):  # pragma: no cover - compiled
     stats[TIME_1] = t
 
 
-@njit(cache=True)
+@uncounted
 def stats_update(stats, status, lam, gap, t):  # pragma: no cover - compiled
     """Update the contact statistics with the contact forces lam of the state at time t
     (one per contact dof, >= 0) and its smallest gap; status (in/out) the previous
@@ -173,7 +175,7 @@ def stats_update(stats, status, lam, gap, t):  # pragma: no cover - compiled
     stats_gap(stats, gap, t)
 
 
-@njit(cache=True)
+@uncounted
 def first_contact_impulse(stats, impulse):  # pragma: no cover - compiled
     """Keep `impulse` as the first contact's once that contact has ended (and not yet
     kept)."""
@@ -181,7 +183,7 @@ def first_contact_impulse(stats, impulse):  # pragma: no cover - compiled
         stats[FIRST_CONTACT_IMPULSE] = impulse
 
 
-@njit(cache=True)
+@uncounted
 def impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
     """Add the step's contact impulse dt (gamma F_{n+1} + (1 - gamma) F_n), F the total
     force sum(lam) (F_{n+1} this step's, F_n the previous step's, `LAST_FORCE`); gamma the

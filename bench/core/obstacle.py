@@ -15,10 +15,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numba.extending import overload
 
 from contact_bench.core.numba_types import is_tuple_type
+from contact_bench.core.refcount import uncounted
 
 
 class Sphere(NamedTuple):
@@ -46,14 +46,14 @@ def sphere(centre: np.ndarray, radius: float, points: np.ndarray,
     return Sphere(c, float(radius), P, D)
 
 
-@njit(cache=True)
+@uncounted
 def point_u(ob, j, a, U):  # pragma: no cover - compiled
     """Component a of contact point j's displacement in U (0 for a held component)."""
     d = ob.dofs[j, a]
     return U[d] if d >= 0 else 0.0
 
 
-@njit(cache=True)
+@uncounted
 def sphere_gap(ob, j, U):  # pragma: no cover - compiled
     """The exact gap of contact point j of the sphere `ob` in state U."""
     acc = 0.0

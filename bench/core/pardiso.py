@@ -39,7 +39,9 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 from llvmlite import binding as llvm
-from numba import njit, types
+from numba import types
+
+from contact_bench.core.refcount import uncounted
 
 #: the name the compiled code calls PARDISO by
 SYMBOL = "contact_bench_pardiso"
@@ -120,7 +122,7 @@ MKL, UNAVAILABLE = load()
 pardiso = types.ExternalFunction(SYMBOL, types.void(*([types.uintp] * 16)))
 
 
-@njit(cache=True)
+@uncounted
 def pardiso_call(h, ip, phase, nrhs, b, x):  # pragma: no cover - compiled
     """PARDISO's `phase` on the handle (h, ip) with nrhs right-hand sides b (n x nrhs,
     each column contiguous) into x; returns PARDISO's error (0: none)."""

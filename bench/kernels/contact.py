@@ -57,6 +57,7 @@ from numba.extending import overload
 
 from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
+from contact_bench.core.refcount import counted, uncounted
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import (
@@ -387,7 +388,7 @@ def curved_ops(fac: Factor, ob: Sphere, keep: bool | None = None) -> ContactOps:
     return ct
 
 
-@njit(cache=True)
+@uncounted
 def relinearise(ct, X, out):  # pragma: no cover - compiled
     """The curved obstacle's tangent at X (module docstring): G's and G^T's normals,
     gap0, W and (kept) Z updated in place; out = the exact gaps of X."""
@@ -465,7 +466,7 @@ def follow(ct, X, out):  # pragma: no cover - compiled
     tangent_at(ct, X, out)
 
 
-@njit(cache=True)
+@uncounted
 def row_dot(G, j, X):  # pragma: no cover - compiled
     """G_j X for row j of G (CSR arrays)."""
     Gp, Gi, Gx = G
@@ -475,7 +476,7 @@ def row_dot(G, j, X):  # pragma: no cover - compiled
     return acc
 
 
-@njit(cache=True)
+@uncounted
 def gaps(ct, X, out):  # pragma: no cover - compiled
     """out = gap0 + G X; True if a gap is negative. A curved obstacle's: its exact gaps
     at X, its tangent moved to X first (`relinearise`)."""
@@ -495,7 +496,7 @@ def gaps(ct, X, out):  # pragma: no cover - compiled
     return pen
 
 
-@njit(cache=True)
+@uncounted
 def apply_gt(ct, mu, out):  # pragma: no cover - compiled
     """out = G^T mu (n values)."""
     Tp, Ti, Tx = ct.GT
@@ -504,6 +505,19 @@ def apply_gt(ct, mu, out):  # pragma: no cover - compiled
         for kk in range(Tp[i], Tp[i + 1]):
             acc += Tx[kk] * mu[Ti[kk]]
         out[i] = acc
+
+
+@uncounted
+def spread(ct, mu, out):  # pragma: no cover - compiled
+    """out = G^T mu (n values): mu scattered onto the selected dofs where every row is a
+    selection, else `apply_gt`."""
+    for j in range(ct.sel.size):
+        if ct.sel[j] < 0:
+            apply_gt(ct, mu, out)
+            return
+    out[:] = 0.0
+    for j in range(ct.sel.size):
+        out[ct.sel[j]] = mu[j]
 
 
 @njit(cache=True)
@@ -544,7 +558,7 @@ def add_patch(Zt, zcol, mu, X, acc):  # pragma: no cover - compiled
         X[i] += acc[i]
 
 
-@njit(cache=True)
+@counted
 def push(ct, fac, mu, X, scr):  # pragma: no cover - compiled
     """X += S^-1 G^T mu: Z mu if Z is kept or the pushing rows lie in the patch, else one
     solve with S's factor `fac` (scr: (rhs, w, work), scratch of X's size)."""
@@ -555,18 +569,13 @@ def push(ct, fac, mu, X, scr):  # pragma: no cover - compiled
     if in_patch(ct.zcol, mu):
         add_patch(ct.Z, ct.zcol, mu, X, w)
         return
-    if np.all(ct.sel >= 0):
-        rhs[:] = 0.0
-        for j in range(ct.sel.size):
-            rhs[ct.sel[j]] = mu[j]
-    else:
-        apply_gt(ct, mu, rhs)
+    spread(ct, mu, rhs)
     lu(fac, rhs, w, work)
     for i in range(X.size):
         X[i] += w[i]
 
 
-@njit(cache=True)
+@uncounted
 def hold(ct, active, X, target):  # pragma: no cover - compiled
     """Put each active selection row's dof exactly on `target` (its gap's value there:
     -gap0 for a gap of zero); a general row's gap is the LCP's, zero to round-off."""

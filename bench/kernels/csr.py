@@ -11,7 +11,8 @@ from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
+
+from contact_bench.core.refcount import uncounted
 
 
 class CSR(NamedTuple):
@@ -22,7 +23,7 @@ class CSR(NamedTuple):
     data: np.ndarray
 
 
-@njit(cache=True)
+@uncounted
 def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
     """out = A x for A in CSR."""
     for i in range(indptr.size - 1):
@@ -32,7 +33,7 @@ def csr_matvec(indptr, indices, data, x, out):  # pragma: no cover - compiled
         out[i] = s
 
 
-@njit(cache=True)
+@uncounted
 def matvec(A, x, out):  # pragma: no cover - compiled
     """out = A x for A a `CSR`."""
     csr_matvec(A.indptr, A.indices, A.data, x, out)

@@ -46,14 +46,15 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
+from contact_bench.core.refcount import uncounted
 from contact_bench.kernels.contact import (
     ContactOps,
-    apply_gt,
     contact_ops,
     gaps,
     hold,
     push,
     row_dot,
+    spread,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
@@ -96,7 +97,7 @@ class MidpointOps(NamedTuple):
 class MidpointState(NamedTuple):
     """(U, V), the obstacle's force lambda and the step's force with Laursen-Love's update
     (`force`), the LCP's unknowns and active set, the gaps at t_n and t_{n+1}, the load,
-    scratch."""
+    scratch (`target`: the values the held contact dofs are put on)."""
 
     U: np.ndarray
     V: np.ndarray
@@ -115,15 +116,15 @@ class MidpointState(NamedTuple):
     y: np.ndarray
     Fn: np.ndarray
     vals: np.ndarray
+    target: np.ndarray
 
 
-@njit(cache=True)
+@uncounted
 def midpoint_step(o, s, step):  # pragma: no cover - compiled
     """The midpoint step with the contact condition `o.mode` (module docstring); F is the
-    load at the midpoint t_{n+1/2}. Every field is read once, first: the structures are
-    then dead before the step's first branch, so numba's pruning drops the references it
-    took to the arrays the step does not use (docs/reference-counting.md)."""
-    U, V, X, rhs, w, work, qg = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg
+    load at the midpoint t_{n+1/2}. Compiled without reference counting
+    (`contact_bench.core.refcount`): it allocates nothing (the held targets in `s.target`)."""
+    U, V, X, rhs, w, work, qg, target = s.U, s.V, s.X, s.rhs, s.w, s.work, s.qg, s.target
     mu, lam, kick, active, y, g0, g1 = s.mu, s.lam, s.force, s.active, s.y, s.g0, s.g1
     was, vals, Fn = s.was, s.vals, s.Fn
     M, K, F0, fac, ct, load, at_contact = o.M, o.K, o.F, o.fac, o.ct, o.load, o.at_contact
@@ -160,7 +161,9 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
         lcp_solve(W, qg, mu, active, tol, was[0])
         push(ct, fac, mu, X, (rhs, w, work))
         # exactly: no increment (persistency), or gap 0 (Signorini)
-        hold(ct, active, X, U[np.maximum(sel, 0)] if mode == PERSISTENCY else at_contact)
+        for j in range(nc):
+            target[j] = U[max(sel[j], 0)] if mode == PERSISTENCY else at_contact[j]
+        hold(ct, active, X, target)
     else:
         mu[:] = 0.0
     was[0] = pen
@@ -185,12 +188,7 @@ def midpoint_step(o, s, step):  # pragma: no cover - compiled
                     acc += Y[i, j] * lam[j]
                 y[i] = acc
         else:
-            if np.all(sel >= 0):
-                rhs[:] = 0.0
-                for j in range(nc):
-                    rhs[sel[j]] = lam[j]
-            else:
-                apply_gt(ct, lam, rhs)
+            spread(ct, lam, rhs)
             lu(mfac, rhs, y, work)
         a = 0.0
         b = 0.0
@@ -271,7 +269,7 @@ class MidpointContactStepper(LoopStepper):
         return MidpointState(U, V, np.empty(nc), np.empty(nc), np.zeros(nc), np.zeros(nc),
                              np.zeros(nc), np.zeros(nc, np.bool_), np.zeros(1, np.bool_),
                              np.empty(nc), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
-                             np.empty(n), Fn, vals)
+                             np.empty(n), Fn, vals, np.empty(nc))
 
 
 def prepare_midpoint_contact(p: SparseProblem, dt: float, mode: int) -> MidpointContactStepper:

@@ -45,6 +45,7 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, drive
+from contact_bench.core.refcount import counted, uncounted
 from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, push
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
@@ -89,7 +90,7 @@ def _residual(g, gf, gn, k, W, a, out):  # pragma: no cover - compiled
     return worst
 
 
-@njit(cache=True)
+@counted
 def discrete_gradient_solve(gf, gn, k, W, a, g, phi):  # pragma: no cover - compiled
     """The gaps g at t_{n+1} solving g = gf - a W phi(g) (module docstring) by Newton
     with backtracking on max |R|, from g = gf; phi is left at phi(g). Runs until the
@@ -176,10 +177,11 @@ class PenaltyMidpointState(NamedTuple):
     vals: np.ndarray
 
 
-@njit(cache=True)
+@uncounted
 def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     """Advance (U, V) in place (module docstring); a step whose Newton iteration does not
-    converge stops the run as blown up. F is the load at the midpoint t_{n+1/2}."""
+    converge stops the run as blown up. F is the load at the midpoint t_{n+1/2}. Compiled
+    without reference counting (`contact_bench.core.refcount`)."""
     U, V, X, rhs, mv, ku = s.U, s.V, s.X, s.rhs, s.mv, s.ku
     gf, gn, lam, mu, dt = s.gf, s.gn, s.force, s.mu, o.dt
     n = U.size

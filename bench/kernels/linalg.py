@@ -50,6 +50,7 @@ from numba import njit
 from contact_bench.core import pardiso as mkl_pardiso
 from contact_bench.core.ordering import symmetric_lu
 from contact_bench.core.pardiso import PARDISO_MIN_DOFS, pardiso_call, upper_csr
+from contact_bench.core.refcount import uncounted
 from contact_bench.core.timers import phase
 
 try:  # CHOLMOD (SuiteSparse) in a wheel; optional: SuperLU does everything without it
@@ -77,7 +78,7 @@ SYMMETRY_TOL = 1e-14
 INDEX = np.int32
 
 
-@njit(cache=True)
+@uncounted
 def lu_solve(fac, b, out, work):  # pragma: no cover - compiled
     """out = S^-1 b from SuperLU's Pr S Pc = L U (`fac`, an `LU`: L unit lower, U upper,
     both CSR with sorted columns, L's diagonal last in its row, U's first), or from

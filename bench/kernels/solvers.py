@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from contact_bench.core.refcount import counted
+
 #: pivoting steps of `lcp_solve` before it gives up (a multiple of n_c)
 LCP_MAX_PIVOTS = 50
 
@@ -32,7 +34,7 @@ def _solve_active(W, q, active, mu):  # pragma: no cover - compiled
             mu[idx[a]] = sol[a]
 
 
-@njit(cache=True)
+@counted
 def lcp_solve(W, q, mu, active, tol, warm=False):  # pragma: no cover - compiled
     """mu >= 0 with g = q + W mu >= 0 and mu.g = 0 (W symmetric positive definite).
 

@@ -99,10 +99,12 @@ def _load_points_compiled(lo):  # pragma: no cover - compiled
 
 def force_at(lo, F, t, vals, Fn):  # pragma: no cover - compiled through its overload
     """The load at time t: F + B v(t) written to Fn (vals: the density's values, scratch)
-    and returned; without a time load (`NoLoad`), F itself (nothing written)."""
+    and returned; without a time load (`NoLoad`), F itself (nothing written). Inlined
+    (numba `inline="always"`): it returns an array, which a step compiled without
+    reference counting (`contact_bench.core.refcount`) may only take from inlined code."""
 
 
-@overload(force_at)
+@overload(force_at, inline="always")
 def _force_at_compiled(lo, F, t, vals, Fn):  # pragma: no cover - compiled
     if is_load_free(lo):
         return lambda lo, F, t, vals, Fn: F
