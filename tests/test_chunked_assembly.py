@@ -89,8 +89,8 @@ def test_blocked_zone_projection_keeps_the_dense_entries(monkeypatch):
     facets = body.boundary_facets(lambda x: x[2] < -0.01)
     dense = fem_nd.contact_zone(body, facets, axis=2, plane=-1.0)
     shear = fem_nd.contact_shear(body, facets, 2, 0)
-    monkeypatch.setattr(fem_nd, "ZONE_DENSE_ENTRIES", 10)
-    monkeypatch.setattr(fem_nd, "ZONE_BLOCK", 13)
+    nc = dense.scalar.size
+    monkeypatch.setattr(fem_nd, "ZONE_BLOCK_ENTRIES", 13 * nc)  # 13 columns a block
     blocked = fem_nd.contact_zone(body, facets, axis=2, plane=-1.0)
     assert blocked.normal_stress.nnz == dense.normal_stress.nnz
     assert abs(blocked.normal_stress - dense.normal_stress).max() == 0.0

@@ -753,35 +753,35 @@ def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) ->
     return _projection(Mf, G, body.ndofs)
 
 
-#: a zone's projection M_f^-1 G (n_c x the columns G touches) is solved at once up to
-#: this many entries, else `ZONE_BLOCK` columns at a time (a million-dof ball: 8,000
-#: zone dofs x 48,000 columns, 3 GB dense)
-ZONE_DENSE_ENTRIES = 50_000_000
-ZONE_BLOCK = 1024
+#: a zone's projection M_f^-1 G (n_c x the columns G touches, dense) is solved in blocks
+#: of columns of at most this many entries (32 MB): the ball at nx 32 has 2,113 zone dofs
+#: x about 12,000 columns, a million-dof ball 8,000 x 48,000 (3 GB dense)
+ZONE_BLOCK_ENTRIES = 2**22
 
 
 def _projection(Mf: sp.csr_matrix, G: sp.csr_matrix, n: int) -> sp.csr_matrix:
     """M_f^-1 G (n_c x n CSR), solved on the columns G touches (the zone's layer of
     elements) only, its entries below 1e-14 of the largest dropped (M_f^-1 is dense but
-    decays away from the diagonal). Solved in blocks of columns: all at once up to
-    `ZONE_DENSE_ENTRIES` dense entries, else `ZONE_BLOCK` columns at a time; each block's
-    entries below 1e-14 of the largest so far are dropped at once (they are below the
-    final cut too), the final cut applied at the end: the same entries at any block size."""
+    decays away from the diagonal). Solved a block of columns at a time (at most
+    `ZONE_BLOCK_ENTRIES` dense entries; a small zone in one block); each block's entries
+    below 1e-14 of the largest so far are dropped at once (they are below the final cut
+    too), the final cut applied at the end: the same entries at any block size."""
     from scipy.sparse.linalg import splu
 
     cols = np.unique(G.indices)
     lu = splu(sp.csc_matrix(Mf))
-    block = cols.size if Mf.shape[0] * cols.size <= ZONE_DENSE_ENTRIES else ZONE_BLOCK
+    block = max(1, ZONE_BLOCK_ENTRIES // Mf.shape[0])
     rows, where, vals, top = [], [], [], 1e-300
     for start in range(0, cols.size, block):
         c = cols[start:start + block]
         X = lu.solve(G[:, c].toarray())
-        top = max(top, float(np.abs(X).max()))
-        r, k = np.nonzero(np.abs(X) >= 1e-14 * top)
+        size = np.abs(X)
+        top = max(top, float(size.max()))
+        r, k = np.nonzero(size >= 1e-14 * top)
         rows.append(r.astype(np.int32))
         where.append(c[k].astype(np.int32) if n < 2**31 else c[k])
         vals.append(X[r, k])
-        del X
+        del X, size
     v = np.concatenate(vals)
     keep = (np.abs(v) >= 1e-14 * top) & (v != 0.0)
     out = sp.csr_matrix((v[keep], (np.concatenate(rows)[keep], np.concatenate(where)[keep])),
