@@ -203,9 +203,10 @@ def assemble(mesh: fe.Mesh, E: float, nu: float, rho: float, degree: int = 1) ->
     Assembled `chunk_elements` elements at a time (the whole mesh when it fits: one
     chunk), so that the temporaries stay near `ASSEMBLY_CHUNK_BYTES` at any size; the
     chunks' CSR matrices are summed pairwise (a chunk with its neighbour, then pairs of
-    those, ...: each entry passes through about log2(chunks) sums, and no more than two
-    partial sums of each size are held). The same matrices as one whole-mesh assembly
-    up to the order of the sums. The `Elasticity` keeps one-element bases (its doc)."""
+    those, ...: each entry passes through about log2(chunks) sums, and at most one
+    partial sum of each size waits). The same matrices as one whole-mesh assembly up to
+    the order of the sums, except that an entry cancelling exactly across chunks is not
+    stored (scipy's sum drops it). The `Elasticity` keeps one-element bases (its doc)."""
     lam, mu = lame(float(E), float(nu))
     if not (rho > 0 and np.isfinite(rho)):
         raise ValueError(f"rho must be finite and > 0, got {rho!r}")
