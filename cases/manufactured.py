@@ -143,7 +143,7 @@ class ManufacturedContact(BodyCase):
             E_contact=LAM + 2 * MU, h_contact=fem_nd.contact_length(body, 1.0 / int(nx)),
             normal_stress=zone.normal_stress, load=load,
             extra={"mass": fem_nd.vector_mass(body.Ms, dim), "points": P,
-                   "gradient": fem_nd.vector_mass(laplace.assemble(body.scalar), dim),
+                   "gradient": fem_nd.vector_mass(laplace.assemble(body.full_basis()), dim),
                    "face_points": Xf, "face_weights": wf})
 
     def quantity_errors(self, problem, traj, row) -> dict[str, float]:

@@ -192,7 +192,7 @@ class MeshBody(BodyCase):
         simplices, |element| / |facet| for quadrilaterals and hexahedra."""
         m = body.mesh
         one = fe.Functional(lambda w: 1.0 + 0.0 * w.x[0])
-        vol = one.elemental(body.scalar)[m.f2t[0, facets]]
+        vol = one.elemental(body.full_basis())[m.f2t[0, facets]]
         area = one.elemental(fe.FacetBasis(m, body.scalar.elem, facets=facets))
         simplex = m.t.shape[0] == m.dim() + 1
         return float(np.mean(vol / area * (m.dim() if simplex else 1.0)))

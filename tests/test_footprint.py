@@ -82,6 +82,18 @@ def test_a_diagonal_mass_needs_no_factor() -> None:
     assert (footprint.estimate_bytes(fp, False) < footprint.estimate_bytes(fp, True))
 
 
+def test_million_dof_ball_estimate_near_its_measured_peak() -> None:
+    """The lumped explicit lattice ball at nx 62 (976,875 unknowns, no factor): the
+    estimate within a factor of two of the growth `benchmarks/scale.py --scene ball_1e6`
+    measured (4,160 MiB, docs/scale.md), so that a machine with 8 GB available runs it."""
+    case, sch = make_case("sphere_drop[ball=lattice]"), make_scheme("taylor_flanagan[mass=lumped]")
+    fp = case.footprint(62)
+    assert fp.unknowns == 976_875
+    estimate = footprint.estimate_bytes(fp, footprint.factors(sch))
+    assert 0.5 < estimate / (4160.1 * 2**20) < 2.0
+    assert estimate < 8e9
+
+
 def test_memory_limit_is_the_smallest(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(footprint, "_meminfo_available", lambda: 8e9)
     monkeypatch.setattr(footprint, "_cgroup_limit", lambda: 5e9)

@@ -84,11 +84,14 @@ def _scalar_mass(u, v, w):
 
 @dataclass(frozen=True)
 class Elasticity:
-    """Stiffness and consistent scalar mass of a body, and the bases they came from.
+    """Stiffness and consistent scalar mass of a body, and the dof maps they came from.
 
-    K is over the vector dofs (`dim * s + c`), Ms over the scalar dofs s. On a mesh
-    assembled in chunks (`assemble`) the bases cover the first element only (the mesh's
-    dofs and dof locations, not its integrals).
+    K is over the vector dofs (`dim * s + c`), Ms over the scalar dofs s. `scalar` and
+    `vector` are bases over the body's first element only: they carry the mesh's dofs,
+    dof locations and element, not its integrals (a basis over every element holds each
+    shape function at every quadrature point, the bulk of an assembly's memory, and a
+    body is kept for the whole run). A form integrated over the body takes
+    `full_basis()`, built for that call.
     """
 
     mesh: fe.Mesh
@@ -99,6 +102,14 @@ class Elasticity:
     lam: float
     mu: float
     rho: float
+
+    def full_basis(self, vector: bool = False) -> fe.CellBasis:
+        """The scalar (or vector) basis over every element, with the assembly's
+        quadrature and dofs: for integrating a form over the body; the caller owns it
+        (it is not kept, see the class doc)."""
+        dofs = self.vector if vector else self.scalar
+        return fe.CellBasis(self.mesh, dofs.elem, quadrature=self.scalar.quadrature,
+                            dofs=dofs.dofs)
 
     @property
     def dim(self) -> int:
@@ -170,50 +181,61 @@ def element_for(mesh: fe.Mesh, degree: int) -> fe.Element:
     return table[degree]()
 
 
-#: meshes of more elements than this are assembled `CHUNK_ELEMENTS` elements at a time: a
-#: basis over every element holds each shape function and its gradient at every
-#: quadrature point (for P1 tetrahedra about 11 kB an element with the COO triplets, tens
-#: of GB at a million dofs), a chunk's basis only its own
-ASSEMBLY_CHUNK_ABOVE = 300_000
-CHUNK_ELEMENTS = 100_000
+#: the assembly's temporaries (a chunk's vector basis at every quadrature point, its COO
+#: triplets and their CSR copy) are bounded by about this many bytes: the mesh is
+#: assembled `chunk_elements` elements at a time, the chunks' matrices summed
+ASSEMBLY_CHUNK_BYTES = 2**27
+
+
+def chunk_elements(basis: fe.Basis) -> int:
+    """How many elements of a vector `basis`'s mesh one chunk of the assembly takes: its
+    estimated temporaries per element (each shape function's value and gradient at each
+    quadrature point, 8 bytes each; the local matrix's COO triplets and their CSR copy,
+    about 50 bytes an entry) into `ASSEMBLY_CHUNK_BYTES`, at least one."""
+    d, nf, nq = basis.mesh.dim(), basis.Nbfun, basis.quadrature[1].size
+    per_element = 8 * nf * nq * (d + d * d) + 50 * nf * nf
+    return max(1, ASSEMBLY_CHUNK_BYTES // per_element)
 
 
 def assemble(mesh: fe.Mesh, E: float, nu: float, rho: float, degree: int = 1) -> Elasticity:
     """Plane strain (2D meshes) or 3D linear elasticity: sparse K and the scalar mass.
 
-    Above `ASSEMBLY_CHUNK_ABOVE` elements, K and Ms are sums of the assemblies over
-    chunks of `CHUNK_ELEMENTS` elements (bounded memory; the same matrices up to the
-    order of the sums), and the bases kept in the `Elasticity` cover the first element
-    only: their dofs, dof locations and element are the mesh's, but a form assembled
-    over them integrates that element alone."""
+    Assembled `chunk_elements` elements at a time (the whole mesh when it fits: one
+    chunk), so that the temporaries stay near `ASSEMBLY_CHUNK_BYTES` at any size; the
+    chunks' CSR matrices are summed pairwise (a chunk with its neighbour, then pairs of
+    those, ...: each entry passes through about log2(chunks) sums, and at most one
+    partial sum of each size waits). The same matrices as one whole-mesh assembly up to
+    the order of the sums, except that an entry cancelling exactly across chunks is not
+    stored (scipy's sum drops it). The `Elasticity` keeps one-element bases (its doc)."""
     lam, mu = lame(float(E), float(nu))
     if not (rho > 0 and np.isfinite(rho)):
         raise ValueError(f"rho must be finite and > 0, got {rho!r}")
     elem = element_for(mesh, degree)
-    if mesh.nelements <= ASSEMBLY_CHUNK_ABOVE:
-        scalar = fe.Basis(mesh, elem)
-        vector = fe.Basis(mesh, fe.ElementVector(elem), quadrature=scalar.quadrature)
-        K = _stiffness.assemble(vector, lam=lam, mu=mu).tocsr()
-        Ms = _scalar_mass.assemble(scalar, rho=float(rho)).tocsr()
-        return Elasticity(mesh, scalar, vector, K, Ms, lam, mu, float(rho))
     scalar = fe.CellBasis(mesh, elem, elements=np.array([0]))
     vector = fe.CellBasis(mesh, fe.ElementVector(elem), elements=np.array([0]),
                           quadrature=scalar.quadrature)
-    K = Ms = None
-    for start in range(0, mesh.nelements, CHUNK_ELEMENTS):
-        part = np.arange(start, min(start + CHUNK_ELEMENTS, mesh.nelements))
-        sb = fe.CellBasis(mesh, elem, elements=part, quadrature=scalar.quadrature,
-                          dofs=scalar.dofs, disable_doflocs=True)
-        vb = fe.CellBasis(mesh, fe.ElementVector(elem), elements=part,
-                          quadrature=scalar.quadrature, dofs=vector.dofs,
-                          disable_doflocs=True)
-        k = _stiffness.assemble(vb, lam=lam, mu=mu).tocsr()
-        del vb
-        m = _scalar_mass.assemble(sb, rho=float(rho)).tocsr()
-        del sb
-        K = k if K is None else K + k
-        Ms = m if Ms is None else Ms + m
+    step = chunk_elements(vector)
+    sums: list[tuple[int, sp.csr_matrix, sp.csr_matrix]] = []  # (chunks summed, K, Ms)
+    for start in range(0, mesh.nelements, step):
+        part = np.arange(start, min(start + step, mesh.nelements))
+        whole = part.size == mesh.nelements
+        k = _stiffness.assemble(fe.CellBasis(
+            mesh, vector.elem, elements=None if whole else part,
+            quadrature=scalar.quadrature, dofs=vector.dofs, disable_doflocs=True),
+            lam=lam, mu=mu)
+        m = _scalar_mass.assemble(fe.CellBasis(
+            mesh, elem, elements=None if whole else part, quadrature=scalar.quadrature,
+            dofs=scalar.dofs, disable_doflocs=True), rho=float(rho))
+        count, k, m = 1, k.tocsr(), m.tocsr()
+        while sums and sums[-1][0] == count:  # pairwise: equal-sized partial sums merge
+            _, k0, m0 = sums.pop()
+            count, k, m = 2 * count, k0 + k, m0 + m
+        sums.append((count, k, m))
         del k, m
+    _, K, Ms = sums.pop()
+    while sums:
+        _, k0, m0 = sums.pop()
+        K, Ms = k0 + K, m0 + Ms
     return Elasticity(mesh, scalar, vector, sp.csr_matrix(K), sp.csr_matrix(Ms), lam, mu,
                       float(rho))
 
@@ -732,39 +754,35 @@ def contact_shear(body: Elasticity, where: Facets, axis: int, direction: int) ->
     return _projection(Mf, G, body.ndofs)
 
 
-#: a zone's projection M_f^-1 G (n_c x the columns G touches) is solved at once up to
-#: this many entries, else `ZONE_BLOCK` columns at a time (a million-dof ball: 8,000
-#: zone dofs x 48,000 columns, 3 GB dense)
-ZONE_DENSE_ENTRIES = 50_000_000
-ZONE_BLOCK = 1024
+#: a zone's projection M_f^-1 G (n_c x the columns G touches, dense) is solved in blocks
+#: of columns of at most this many entries (32 MB): the ball at nx 32 has 2,113 zone dofs
+#: x about 12,000 columns, a million-dof ball 8,000 x 48,000 (3 GB dense)
+ZONE_BLOCK_ENTRIES = 2**22
 
 
 def _projection(Mf: sp.csr_matrix, G: sp.csr_matrix, n: int) -> sp.csr_matrix:
     """M_f^-1 G (n_c x n CSR), solved on the columns G touches (the zone's layer of
     elements) only, its entries below 1e-14 of the largest dropped (M_f^-1 is dense but
-    decays away from the diagonal). Past `ZONE_DENSE_ENTRIES` a block of columns at a
-    time, each block's entries below 1e-14 of the largest so far dropped at once (they
-    are below the final cut too), the final cut applied at the end: the same entries
-    kept as the dense solve."""
+    decays away from the diagonal). Solved a block of columns at a time (at most
+    `ZONE_BLOCK_ENTRIES` dense entries; a small zone in one block); each block's entries
+    below 1e-14 of the largest so far are dropped at once (they are below the final cut
+    too), the final cut applied at the end: the same entries at any block size."""
     from scipy.sparse.linalg import splu
 
     cols = np.unique(G.indices)
     lu = splu(sp.csc_matrix(Mf))
-    if Mf.shape[0] * cols.size <= ZONE_DENSE_ENTRIES:
-        X = lu.solve(G[:, cols].toarray())
-        X[np.abs(X) < 1e-14 * max(np.abs(X).max(), 1e-300)] = 0.0
-        r, k = np.nonzero(X)
-        return sp.csr_matrix((X[r, k], (r, cols[k])), shape=(Mf.shape[0], n))
+    block = max(1, ZONE_BLOCK_ENTRIES // Mf.shape[0])
     rows, where, vals, top = [], [], [], 1e-300
-    for start in range(0, cols.size, ZONE_BLOCK):
-        c = cols[start:start + ZONE_BLOCK]
+    for start in range(0, cols.size, block):
+        c = cols[start:start + block]
         X = lu.solve(G[:, c].toarray())
-        top = max(top, float(np.abs(X).max()))
-        r, k = np.nonzero(np.abs(X) >= 1e-14 * top)
+        size = np.abs(X)
+        top = max(top, float(size.max()))
+        r, k = np.nonzero(size >= 1e-14 * top)
         rows.append(r.astype(np.int32))
         where.append(c[k].astype(np.int32) if n < 2**31 else c[k])
         vals.append(X[r, k])
-        del X
+        del X, size
     v = np.concatenate(vals)
     keep = (np.abs(v) >= 1e-14 * top) & (v != 0.0)
     out = sp.csr_matrix((v[keep], (np.concatenate(rows)[keep], np.concatenate(where)[keep])),

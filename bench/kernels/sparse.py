@@ -524,24 +524,14 @@ class NewmarkStepper(LoopStepper):
             kappa = np.asarray(kappa, float)
             law = ContactLaw(G, G, np.asarray(p.contact.gap0, float), kappa, 1.0, kappa)
         K = p.K if law is None or law.K_extra is None else sp.csr_matrix(p.K + law.K_extra)
-        fac = Factor.of(p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K)
-        self.factor = fac
-        if law is not None:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
+        if law is not None:
             Pm, y0 = sp.csr_matrix(law.P), np.asarray(law.y0, float)
             lk, ew, sc = np.asarray(law.c, float), float(law.ew), np.asarray(law.sc, float)
             fscale = float(law.fscale)
-            if curved is not None:  # the spring on the curved obstacle's tangent
-                ct = contact_ops(fac, G, y0, keep=True, obstacle=curved)
-            else:
-                Z = fac.solve_many(sp.csc_matrix(law.Q.T))
-                W = np.ascontiguousarray(law.P @ Z)
-                ct = ContactOps(csr_arrays(Pm), csr_arrays(sp.csr_matrix(law.Q).T), y0,
-                                selection_rows(Pm), W, np.ascontiguousarray(Z), True)
         else:
             Pm, y0 = G, np.asarray(p.contact.gap0, float)
             lk, ew, sc = np.zeros(0), 0.0, np.zeros(0)
             fscale = 1.0
-            ct = None  # below, from the initial state (`near_rows`)
         if law is not None:  # the sampled energy at t = 0 with the law's terms
             y = np.minimum(0.0, Pm @ p.U0 + y0)
             self.sample0["energy"] = float(p.energy(p.U0, p.V0)
@@ -561,10 +551,22 @@ class NewmarkStepper(LoopStepper):
         # Q = dt V + (1 - gamma) dt^2 A (the 1D kernel's, `contact_bench.kernels.newmark`)
         self.initial = (U, V, U + dt * V + (0.5 - beta) * dt * dt * A,
                         dt * V + dt * dt * (1.0 - gamma) * A)
-        if ct is None:  # exact contact: W's columns of the rows near contact, the rest lazily
+        # S factored after the initial acceleration, whose factor of M (as large as S's)
+        # is released by then: the two factors are never held at once (the set-up's peak
+        # memory); S built in CSC, the factor's own format, so that no CSR copy of it waits
+        fac = Factor.of((p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K).tocsc())
+        self.factor = fac
+        if law is None:  # exact contact: W's columns of the rows near contact, the rest lazily
             # (a curved obstacle's operators are its tangent's, `curved_ops`: no rows first)
             first = None if curved is not None else near_rows(G, y0, U, V, A, dt)
             ct = contact_ops(fac, G, y0, obstacle=curved, first=first)
+        elif curved is not None:  # the spring on the curved obstacle's tangent
+            ct = contact_ops(fac, G, y0, keep=True, obstacle=curved)
+        else:  # Z = S^-1 Q^T, W = P Z (unsymmetric for Nitsche, theta != 1)
+            Z = fac.solve_many(sp.csc_matrix(law.Q.T))
+            W = np.ascontiguousarray(law.P @ Z)
+            ct = ContactOps(csr_arrays(Pm), csr_arrays(sp.csr_matrix(law.Q).T), y0,
+                            selection_rows(Pm), W, np.ascontiguousarray(Z), True)
         tol = 1e-13 * max(float(np.max(np.abs(U))), float(np.max(np.abs(p.contact.gap0),
                                                                  initial=0.0)), 1e-300)
         self.gamma = gamma
