@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-from contact_bench.core.refcount import uncounted
+from contact_bench.core.refcount import uncounted, uncounted_inline
 
 #: status switches of the contact dofs (chatter)
 CHATTER = 0
@@ -134,7 +134,7 @@ def stats_gap(stats, gap, t):  # pragma: no cover - compiled
     stats[TIME_1] = t
 
 
-@uncounted
+@uncounted_inline
 def stats_update(stats, status, lam, gap, t):  # pragma: no cover - compiled
     """Update the contact statistics with the contact forces lam of the state at time t
     (one per contact dof, >= 0) and its smallest gap; status (in/out) the previous
@@ -183,7 +183,7 @@ def first_contact_impulse(stats, impulse):  # pragma: no cover - compiled
         stats[FIRST_CONTACT_IMPULSE] = impulse
 
 
-@uncounted
+@uncounted_inline
 def impulse_update(stats, lam, dt, gamma):  # pragma: no cover - compiled
     """Add the step's contact impulse dt (gamma F_{n+1} + (1 - gamma) F_n), F the total
     force sum(lam) (F_{n+1} this step's, F_n the previous step's, `LAST_FORCE`); gamma the

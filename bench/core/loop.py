@@ -61,7 +61,7 @@ from contact_bench.core.contact_stats import (
     stats_update,
 )
 from contact_bench.core.obstacle import min_gap
-from contact_bench.core.refcount import uncounted
+from contact_bench.core.refcount import uncounted_inline
 from contact_bench.core.sampling import blown_up
 
 #: `step`'s return: the step is done
@@ -127,7 +127,7 @@ def _store_state_compiled(out, k, X):  # pragma: no cover - compiled
     return None
 
 
-@uncounted
+@uncounted_inline
 def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
     """min(start, the smallest gap of the contact points in U): gap0 + G U for G's CSR
     arrays, the exact nonlinear gaps for a curved obstacle (`contact_bench.core.obstacle.
@@ -135,7 +135,7 @@ def smallest_gap(G, gap0, U, start):  # pragma: no cover - compiled
     return min_gap(G, gap0, U, start)
 
 
-@uncounted
+@uncounted_inline
 def book_forces(stats, status, force, gap, n, dt, gamma):  # pragma: no cover - compiled
     """The statistics of step n (step dt, impulse weight gamma) from its contact forces and
     its smallest gap (`stats_update`, `impulse_update`), on the arrays they write: numba

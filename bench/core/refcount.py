@@ -8,12 +8,16 @@ arrays, branches and calls never meets, so a step pays two calls per array it ho
 every step (docs/reference-counting.md). A step whose arrays all belong to its caller
 (its operators and state live as long as the loop that passes them) needs no count.
 
-Two modes, each function declaring its own:
+Each function declares its mode:
 
-* `uncounted`: a scheme's step, the loop's per-step bookkeeping and the helpers they call
-  (a product, a solve, the gaps), compiled with the runtime switched off (numba's
-  `_nrt=False`) and inlined into their caller (numba's `forceinline`: the loop passes a
-  step's structures without copying their hundreds of fields into a call);
+* `uncounted_inline`: a scheme's step, the loop's per-step bookkeeping and the small
+  helpers they call each step (the gaps, the statistics' updates), compiled with the
+  runtime switched off (numba's `_nrt=False`) and inlined into their caller (numba's
+  `forceinline`: the loop passes a step's structures without copying their hundreds of
+  fields into a call);
+* `uncounted`: a helper of theirs with loops over the dofs (a product, a solve), compiled
+  the same way as a function of its own (inlined into a large step, its loops compile
+  less well: 10 % slower steps on the bar at n = 1000, docs/reference-counting.md);
 * `counted`: a helper such a step calls that allocates (the contact solver), compiled
   with reference counting as a function of its own whoever calls it; it takes and drops
   its own references.
@@ -39,11 +43,18 @@ from typing import Any
 from numba import njit
 
 
-def uncounted(fn: Callable[..., Any]) -> Any:
+def uncounted_inline(fn: Callable[..., Any]) -> Any:
     """`fn` compiled (cached) without reference counting and inlined into its caller: a
-    scheme's step over structures its loop owns, the loop's bookkeeping, or a helper of
-    theirs that allocates nothing and returns no array."""
+    scheme's step over structures its loop owns, the loop's bookkeeping, a small helper
+    of theirs (module docstring)."""
     return njit(cache=True, _nrt=False, forceinline=True)(fn)
+
+
+def uncounted(fn: Callable[..., Any]) -> Any:
+    """`fn` compiled (cached) without reference counting as a function of its own: a
+    helper of an uncounted step, with loops over the dofs, that allocates nothing and
+    returns no array."""
+    return njit(cache=True, _nrt=False, forceinline=False)(fn)
 
 
 def counted(fn: Callable[..., Any]) -> Any:

@@ -57,7 +57,7 @@ from numba.extending import overload
 
 from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
-from contact_bench.core.refcount import counted, uncounted
+from contact_bench.core.refcount import counted, uncounted, uncounted_inline
 from contact_bench.core.timers import phase
 from contact_bench.kernels.csr import CSR, csr_arrays
 from contact_bench.kernels.linalg import (
@@ -476,7 +476,7 @@ def row_dot(G, j, X):  # pragma: no cover - compiled
     return acc
 
 
-@uncounted
+@uncounted_inline
 def gaps(ct, X, out):  # pragma: no cover - compiled
     """out = gap0 + G X; True if a gap is negative. A curved obstacle's: its exact gaps
     at X, its tangent moved to X first (`relinearise`)."""

@@ -46,7 +46,7 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import OK, drive
-from contact_bench.core.refcount import uncounted
+from contact_bench.core.refcount import uncounted_inline
 from contact_bench.kernels.contact import (
     ContactOps,
     contact_ops,
@@ -119,7 +119,7 @@ class MidpointState(NamedTuple):
     target: np.ndarray
 
 
-@uncounted
+@uncounted_inline
 def midpoint_step(o, s, step):  # pragma: no cover - compiled
     """The midpoint step with the contact condition `o.mode` (module docstring); F is the
     load at the midpoint t_{n+1/2}. Compiled without reference counting

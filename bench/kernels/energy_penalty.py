@@ -45,7 +45,7 @@ from numba import njit
 
 from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, drive
-from contact_bench.core.refcount import counted, uncounted
+from contact_bench.core.refcount import counted, uncounted_inline
 from contact_bench.kernels.contact import ContactOps, contact_ops, gaps, push
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
@@ -177,7 +177,7 @@ class PenaltyMidpointState(NamedTuple):
     vals: np.ndarray
 
 
-@uncounted
+@uncounted_inline
 def penalty_midpoint_step(o, s, step):  # pragma: no cover - compiled
     """Advance (U, V) in place (module docstring); a step whose Newton iteration does not
     converge stops the run as blown up. F is the load at the midpoint t_{n+1/2}. Compiled
