@@ -80,6 +80,21 @@ def test_not_positive_definite_is_refused_in_one_line():
     assert not ordering.is_spd(S)  # the same answer by SuperLU below PARDISO_MIN_DOFS
 
 
+def test_banded_stays_with_superlu_at_any_size(monkeypatch):
+    """The default choice reads S's structure: a tridiagonal S (the 1D bar's) stays with
+    SuperLU from `PARDISO_MIN_DOFS` rows on, a 2D grid's Laplacian goes to PARDISO."""
+    monkeypatch.setattr(linalg, "PARDISO_MIN_DOFS", 100)
+    m = 400
+    bar = sp.diags([-np.ones(m - 1), 2.1 * np.ones(m), -np.ones(m - 1)], [-1, 0, 1])
+    grid = _laplacian(20, 0.1)  # half-bandwidth 20
+    assert linalg.banded(bar) and linalg.banded(bar.tocsr()[::-1, ::-1]) is True
+    assert not linalg.banded(grid) and linalg.banded(grid, width=20)
+    assert not linalg.banded(sp.csr_matrix(([1.0, 1.0], ([0, m - 1], [m - 1, 0])), (m, m)))
+    assert Factor.of(bar).kind == "lu" and Factor.of(bar).fallback == ""
+    if mkl.MKL is not None:
+        assert Factor.of(grid).kind == "pardiso"
+
+
 def test_not_symmetric_keeps_superlu():
     S = _laplacian(10, 0.1).tolil()
     S[0, 1] = -0.5

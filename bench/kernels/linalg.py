@@ -18,7 +18,8 @@
   columns (each column the numbers of `lu_solve`, to the bit). The two agree to
   round-off; `Factor.many_backend` says which one a factor uses.
 
-From `contact_bench.core.pardiso.PARDISO_MIN_DOFS` rows on, a symmetric S is factored by
+From `contact_bench.core.pardiso.PARDISO_MIN_DOFS` rows on, a symmetric S that is not
+banded (`banded`: the 2D and 3D meshes' matrices) is factored by
 MKL PARDISO's Cholesky when MKL loads (`Factor.of`'s `pardiso`): the loops' `lu_solve` and
 the set-up's block solves call PARDISO with the kept handle (`LU.ph`, `LU.pip`); S not
 positive definite (PARDISO's error -4) or MKL absent falls back to SuperLU, the reason in
@@ -73,6 +74,12 @@ MANY_BLOCK_ENTRIES = 32_000_000
 USE_LDLT = os.environ.get("CONTACT_BENCH_LDLT", "") == "1"
 #: relative asymmetry max |S - S^T| / max |S| up to which S counts as symmetric
 SYMMETRY_TOL = 1e-14
+#: half-bandwidth (in S's own numbering) up to which S counts as banded and stays with
+#: SuperLU whatever its size: a banded S (the 1D bars: tridiagonal) factors without fill,
+#: and SuperLU's sweep solves it an order of magnitude faster than PARDISO's supernodal
+#: solve, whose per-supernode overhead dominates when every supernode is one column
+#: (docs/sparse.md, "PARDISO on the bar's tridiagonal S")
+BANDED_MAX = 8
 #: the factor's index type in the loops: 32-bit indices read a quarter less memory per
 #: solve than 64-bit ones (the solves are bound by memory traffic); 64-bit past 2^31 entries
 INDEX = np.int32
@@ -240,6 +247,21 @@ def spd_failure(symmetric: bool, perm_r: np.ndarray, perm_c: np.ndarray,
             "kept L and U")
 
 
+def banded(A: sp.spmatrix, width: int = BANDED_MAX) -> bool:
+    """Whether every nonzero of A lies within `width` of the diagonal (A's numbering):
+    read from each column's first and last row, no array of A's size beside it."""
+    C = A if sp.isspmatrix_csc(A) else sp.csc_matrix(A)
+    if not C.has_sorted_indices:
+        C = C.sorted_indices()
+    counts = np.diff(C.indptr)
+    cols = np.flatnonzero(counts)
+    if cols.size == 0:
+        return True
+    first = C.indices[C.indptr[cols]]
+    last = C.indices[C.indptr[cols + 1] - 1]
+    return bool(max(np.max(cols - first), np.max(last - cols)) <= width)
+
+
 @dataclass
 class Factor:
     """S factored once: SuperLU's arrays for the compiled loops' `lu_solve`, and
@@ -276,15 +298,16 @@ class Factor:
         `ldlt` (default `USE_LDLT`): keep L and D only when S is SPD (module docstring);
         otherwise L and U, the reason in `fallback`.
 
-        `pardiso` (default: S has at least `PARDISO_MIN_DOFS` rows and MKL loads): a
+        `pardiso` (default: S has at least `PARDISO_MIN_DOFS` rows, is not `banded`
+        and MKL loads): a
         symmetric S is factored by PARDISO's Cholesky (`contact_bench.core.pardiso`)
         and the loops solve with it; S not positive definite, or MKL not loaded, falls
         back to SuperLU with the reason in `fallback` (one line, no second PARDISO
         factorisation)."""
         C = sp.csc_matrix(S)
         n = S.shape[0]
-        use = (n >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None) if pardiso is None \
-            else bool(pardiso)
+        use = (n >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None
+               and not banded(C)) if pardiso is None else bool(pardiso)
         why = ""
         symmetric = is_symmetric(C)  # tested once: PARDISO's input, then L D L^T's
         if use and not symmetric:
