@@ -59,7 +59,7 @@ from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.refcount import counted, uncounted, uncounted_inline
 from contact_bench.core.timers import phase
-from contact_bench.kernels.csr import CSR, csr_arrays
+from contact_bench.kernels.csr import CSR, csr_arrays, index_type
 from contact_bench.kernels.linalg import (
     MANY_BLOCK_COLUMNS,
     MANY_BLOCK_ENTRIES,
@@ -145,6 +145,12 @@ def selection_rows(G: sp.csr_matrix) -> np.ndarray:
     return out
 
 
+def gap_rows(G: sp.csr_matrix, sel: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """G X for a block X of n-vectors: X's rows `sel` where every row of G is a selection
+    (`selection_rows`: the same numbers, no product), else the sparse product."""
+    return X[sel] if np.all(sel >= 0) else G @ X
+
+
 def is_selection(G: sp.csr_matrix) -> bool:
     """Whether every row of G selects one dof (a plane normal to an axis)."""
     return bool(np.all(selection_rows(G) >= 0))
@@ -223,7 +229,7 @@ def contact_ops(fac: Factor, G: sp.spmatrix, gap0: np.ndarray,
             cols = zcol[j0:j1]
             mine = cols >= 0
             Z[cols[mine], :] = X[:, mine].T
-        W[:, j0:j1] = X[sel] if np.all(sel >= 0) else G @ X
+        W[:, j0:j1] = gap_rows(G, sel, X)
     return ContactOps(csr_arrays(G), csr_arrays(G.T), np.asarray(gap0, float), sel,
                       np.ascontiguousarray(0.5 * (W + W.T)), np.ascontiguousarray(Z), keep,
                       FLAT, zcol)
@@ -371,12 +377,14 @@ def curved_ops(fac: Factor, ob: Sphere, keep: bool | None = None) -> ContactOps:
         B[cols, j0:j1] = X[used]
     gpos = np.full(flat.size, -1, np.int64)
     gpos[free] = np.arange(used.size)
-    G = CSR(np.concatenate([[0], np.cumsum(free.reshape(nc, dim).sum(axis=1))]).astype(
-        np.int64), used.astype(np.int64), np.zeros(used.size))
+    ix = index_type(max(n, flat.size) + 1)
+    G = CSR(np.concatenate([[0], np.cumsum(free.reshape(nc, dim).sum(axis=1))]).astype(ix),
+            used.astype(ix), np.zeros(used.size))
     order = np.argsort(used, kind="stable")  # G^T: one entry in each contact dof's row
-    counts = np.zeros(n + 1, np.int64)
+    counts = np.zeros(n + 1, ix)
     counts[used + 1] = 1
-    GT = CSR(np.cumsum(counts), (cols[order] // dim).astype(np.int64), np.zeros(used.size))
+    GT = CSR(np.cumsum(counts).astype(ix), (cols[order] // dim).astype(ix),
+             np.zeros(used.size))
     tpos = np.full(flat.size, -1, np.int64)
     tpos[cols[order]] = np.arange(used.size)
     cv = Curve(ob, gpos.reshape(nc, dim), tpos.reshape(nc, dim),

@@ -57,6 +57,7 @@ from contact_bench.kernels.contact import (
     contact_ops,
     coulomb,
     friction_ops,
+    gap_rows,
     gaps,
     hold,
     law_ops,
@@ -475,7 +476,7 @@ def response_rows(fac: Factor, G: sp.csr_matrix, keep: bool) -> tuple[np.ndarray
     for j0, j1, X in fac.solve_blocks(sp.csc_matrix(G.T)):
         if keep:
             Z[:, j0:j1] = X
-        Zr[:, j0:j1] = X[sel] if np.all(sel >= 0) else G @ X
+        Zr[:, j0:j1] = gap_rows(G, sel, X)
     return Z, Zr
 
 

@@ -54,10 +54,10 @@ from contact_bench.api.sparse import SparseProblem
 from contact_bench.core.loop import BLOWN, OK, drive
 from contact_bench.kernels.contact import (
     ContactOps,
-    apply_gt,
     gaps,
     row_dot,
     selection_rows,
+    spread,
 )
 from contact_bench.kernels.csr import CSR, csr_arrays, matvec
 from contact_bench.kernels.linalg import LU, lu
@@ -500,12 +500,7 @@ def tf_step(o, s, step):  # pragma: no cover - compiled
                 V[i] += acc
                 U[i] += dt * acc
         else:  # matrix-free: M^-1 G^T dmu
-            if np.all(sel >= 0):
-                rhs[:] = 0.0
-                for b in range(nc):
-                    rhs[sel[b]] = dmu[b]
-            else:
-                apply_gt(ct, dmu, rhs)
+            spread(ct, dmu, rhs)
             lu(o.fac, rhs, w, s.work)
             for i in range(n):
                 V[i] += w[i]
