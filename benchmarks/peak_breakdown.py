@@ -31,12 +31,20 @@ def _rss_gb() -> float:
 
 def array_bytes(x: Any, seen: set[int]) -> int:
     """The bytes of the arrays reachable from x (arrays, sparse matrices, tuples and
-    objects' attributes), each counted once across calls sharing `seen`."""
+    objects' attributes), each counted once across calls sharing `seen` (a view as its
+    root array: two views of one buffer count it once)."""
     if id(x) in seen:
         return 0
     seen.add(id(x))
-    if isinstance(x, np.ndarray):
-        return int(x.nbytes) if x.base is None or id(x.base) not in seen else 0
+    if isinstance(x, np.ndarray):  # a view counts its root array's bytes, once
+        root = x
+        while isinstance(root.base, np.ndarray):
+            root = root.base
+        if root is not x:
+            if id(root) in seen:
+                return 0
+            seen.add(id(root))
+        return int(root.nbytes)
     if sp.issparse(x):
         return sum(array_bytes(getattr(x, a), seen) for a in ("data", "indices", "indptr")
                    if hasattr(x, a))

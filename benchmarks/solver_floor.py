@@ -20,7 +20,9 @@ A configuration is `scene:nx`; each (configuration, kind) runs in its own proces
 that its peak memory (ru_maxrss) is its own. The step is the mean over `--steps` steps
 after one warm-up run of the same length (compilation excluded); the solve the minimum of
 `REPEATS` calls. `M K factor GB`: the bytes of M's and K's CSR and of the factor
-(`Factor.nbytes`), the must-show's memory floor. Times are perturbed by whatever else
+(`Factor.nbytes`), the must-show's memory floor; `start GB` the process's resident memory
+before it builds anything (Python and the suite imported), which the last column takes
+off the peak. Times are perturbed by whatever else
 runs on the machine.
 """
 
@@ -48,12 +50,22 @@ CLOCK = time.perf_counter
 COLUMNS = ("config", "kind", "dofs", "n_c", "W cols", "patch", "factor entries",
            "assembly s", "factor s", "contact s", "setup s", "solve ms", "step ms",
            "step / solve", "solves / step", "assembly peak GB", "setup peak GB", "peak GB",
-           "M K factor GB", "peak / (M K factor)")
+           "M K factor GB", "peak / (M K factor)", "start GB",
+           "(peak - start) / (M K factor)")
 
 
 def _peak_gb() -> float:
     """This process's peak resident memory so far (ru_maxrss, VmHWM), GB."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+
+
+def _rss_gb() -> float:
+    """This process's resident memory now (VmRSS), GB."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS"):
+                return int(line.split()[1]) / 2**20
+    return float("nan")
 
 
 def solve_seconds(fac) -> float:
@@ -80,6 +92,7 @@ def measure(config: str, kind: str, steps: int) -> dict:
     from contact_bench.core.timers import recording
     from contact_bench.kernels import linalg
 
+    start = _rss_gb()  # the process with the suite imported, before building anything
     spec, nx = config.rsplit(":", 1)
     case, sch = make_case(spec), make_scheme("redistributed")
     # the kind decides the assembly's SPD test of the mass too (PARDISO or SuperLU);
@@ -126,7 +139,8 @@ def measure(config: str, kind: str, steps: int) -> dict:
             "solves / step": solves, "in contact": bool(tr.stress[-1] != 0.0),
             "assembly peak GB": round(peak_asm, 2), "setup peak GB": round(peak_setup, 2),
             "peak GB": round(peak, 2), "M K factor GB": round(mkf, 3),
-            "peak / (M K factor)": round(peak / mkf, 2)}
+            "peak / (M K factor)": round(peak / mkf, 2), "start GB": round(start, 2),
+            "(peak - start) / (M K factor)": round((peak - start) / mkf, 2)}
 
 
 def active(config: str, nsteps: int) -> dict:

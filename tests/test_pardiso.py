@@ -95,6 +95,32 @@ def test_banded_stays_with_superlu_at_any_size(monkeypatch):
         assert Factor.of(grid).kind == "pardiso"
 
 
+@pytest.mark.parametrize("use", [True, False, None])
+def test_factor_of_a_sum_is_the_factor_of_the_sum(use, monkeypatch):
+    """`Factor.of_sum(A, B, c)` (S not held whole while PARDISO factors) solves to the bit
+    as `Factor.of(A + c B)`, by PARDISO, by SuperLU, and by the default rule (banded: a
+    banded A beside a 2D Laplacian B is not banded)."""
+    if use and mkl.MKL is None:
+        pytest.skip(f"MKL not loaded: {mkl.UNAVAILABLE}")
+    monkeypatch.setattr(linalg, "PARDISO_MIN_DOFS", 100)
+    B = _laplacian(20, 0.0)
+    A = sp.diags(np.linspace(1.0, 2.0, B.shape[0])).tocsr()
+    c = 0.37
+    f1, f2 = Factor.of_sum(A, B, c, pardiso=use), Factor.of(A + c * B, pardiso=use)
+    assert f1.kind == f2.kind == ("pardiso" if (use is not False and mkl.MKL is not None)
+                                  else "lu")
+    b = np.random.default_rng(4).standard_normal(B.shape[0])
+    assert np.array_equal(f1.solve(b), f2.solve(b))
+
+
+@needs_mkl
+def test_factor_of_a_sum_not_positive_definite_falls_back_in_one_line():
+    B = _laplacian(20, 0.0)
+    fac = Factor.of_sum(sp.identity(B.shape[0], format="csr"), B, -1.0, pardiso=True)
+    assert fac.kind == "lu" and "not positive definite" in fac.fallback
+    assert "\n" not in fac.fallback
+
+
 def test_not_symmetric_keeps_superlu():
     S = _laplacian(10, 0.1).tolil()
     S[0, 1] = -0.5

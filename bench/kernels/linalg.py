@@ -262,6 +262,13 @@ def banded(A: sp.spmatrix, width: int = BANDED_MAX) -> bool:
     return bool(max(np.max(cols - first), np.max(last - cols)) <= width)
 
 
+def pardiso_by_default(*parts: sp.spmatrix) -> bool:
+    """`Factor.of`'s default choice for S (or for the sum of `parts`): PARDISO when S has at
+    least `PARDISO_MIN_DOFS` rows, is not `banded` (a part is not) and MKL loads."""
+    return (parts[0].shape[0] >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None
+            and not all(banded(X) for X in parts))
+
+
 @dataclass
 class Factor:
     """S factored once: SuperLU's arrays for the compiled loops' `lu_solve`, and
@@ -306,8 +313,7 @@ class Factor:
         factorisation)."""
         C = sp.csc_matrix(S)
         n = S.shape[0]
-        use = (n >= PARDISO_MIN_DOFS and mkl_pardiso.MKL is not None
-               and not banded(C)) if pardiso is None else bool(pardiso)
+        use = pardiso_by_default(C) if pardiso is None else bool(pardiso)
         why = ""
         symmetric = is_symmetric(C)  # tested once: PARDISO's input, then L D L^T's
         if use and not symmetric:
@@ -315,11 +321,7 @@ class Factor:
         elif use:
             made, why = mkl_pardiso.factor(upper_csr(C), n)
             if made is not None:
-                ix, f0 = INDEX, np.zeros(0)
-                empty = np.zeros(0, ix)
-                arrays = LU(np.zeros(1, ix), empty, f0, empty, empty, f0, empty, empty,
-                            np.zeros(1, np.int64), made.h, made.ip)
-                return cls(arrays, n, kind="pardiso", pardiso=made)
+                return cls.of_pardiso(made, n)
             why = f"PARDISO refused S: {why}: SuperLU's L and U"
         lu, q = symmetric_lu(C)
         Lc, Uc, perm_r, perm_c = lu.L, lu.U, lu.perm_r, lu.perm_c
@@ -352,6 +354,37 @@ class Factor:
         chol = USE_CHOLMOD and cholespy is not None and spd
         return cls(arrays, S.shape[0], C if chol else None, "cholmod" if chol else "superlu",
                    kind="lu" if keep_u else "ldlt", fallback=why or fallback)
+
+    @classmethod
+    def of_pardiso(cls, made: Any, n: int) -> Factor:
+        """The factor around PARDISO's (`contact_bench.core.pardiso.Pardiso`): its handle
+        in the loops' arrays, SuperLU's arrays empty."""
+        ix, f0 = INDEX, np.zeros(0)
+        empty = np.zeros(0, ix)
+        arrays = LU(np.zeros(1, ix), empty, f0, empty, empty, f0, empty, empty,
+                    np.zeros(1, np.int64), made.h, made.ip)
+        return cls(arrays, n, kind="pardiso", pardiso=made)
+
+    @classmethod
+    @phase("factor")
+    def of_sum(cls, A: sp.spmatrix, B: sp.spmatrix, c: float, ldlt: bool | None = None,
+               pardiso: bool | None = None) -> Factor:
+        """S = A + c B factored as `of(S)` would, without S held whole beside PARDISO's
+        factor while it is made (the set-up's peak memory): where PARDISO factors (the
+        same rule) and A and B are symmetric, PARDISO reads the sum of their upper
+        triangles, S's upper triangle entry for entry (c B_ij + A_ij, the same rounding);
+        otherwise, and if PARDISO refuses, `of(A + c B)`."""
+        n = A.shape[0]
+        use = pardiso_by_default(A, B) if pardiso is None else bool(pardiso)
+        if not (use and is_symmetric(A) and is_symmetric(B)):
+            return cls.of(sp.csc_matrix(A + c * B), ldlt=ldlt, pardiso=pardiso)
+        made, why = mkl_pardiso.factor(upper_csr(sp.triu(A, format="csr")
+                                                 + c * sp.triu(B, format="csr")), n)
+        if made is not None:
+            return cls.of_pardiso(made, n)
+        fac = cls.of(sp.csc_matrix(A + c * B), ldlt=ldlt, pardiso=False)
+        fac.fallback = f"PARDISO refused S: {why}: SuperLU's L and U"
+        return fac
 
     @property
     def entries(self) -> int:

@@ -554,8 +554,8 @@ class NewmarkStepper(LoopStepper):
                         dt * V + dt * dt * (1.0 - gamma) * A)
         # S factored after the initial acceleration, whose factor of M (as large as S's)
         # is released by then: the two factors are never held at once (the set-up's peak
-        # memory); S built in CSC, the factor's own format, so that no CSR copy of it waits
-        fac = Factor.of((p.M + ((1.0 + float(alpha)) * beta * dt * dt) * K).tocsc())
+        # memory); S not held whole beside PARDISO's factor (`Factor.of_sum`)
+        fac = Factor.of_sum(p.M, K, (1.0 + float(alpha)) * beta * dt * dt)
         self.factor = fac
         if law is None:  # exact contact: W's columns of the rows near contact, the rest lazily
             # (a curved obstacle's operators are its tangent's, `curved_ops`: no rows first)
