@@ -59,7 +59,7 @@ from contact_bench.core.numba_types import is_tuple_type
 from contact_bench.core.obstacle import Sphere, point_u
 from contact_bench.core.refcount import counted, uncounted, uncounted_inline
 from contact_bench.core.timers import phase
-from contact_bench.kernels.csr import CSR, csr_arrays, index_type
+from contact_bench.kernels.csr import CSR, INDEX, csr_arrays
 from contact_bench.kernels.linalg import (
     MANY_BLOCK_COLUMNS,
     MANY_BLOCK_ENTRIES,
@@ -377,7 +377,7 @@ def curved_ops(fac: Factor, ob: Sphere, keep: bool | None = None) -> ContactOps:
         B[cols, j0:j1] = X[used]
     gpos = np.full(flat.size, -1, np.int64)
     gpos[free] = np.arange(used.size)
-    ix = index_type(max(n, flat.size) + 1)
+    ix = INDEX
     G = CSR(np.concatenate([[0], np.cumsum(free.reshape(nc, dim).sum(axis=1))]).astype(ix),
             used.astype(ix), np.zeros(used.size))
     order = np.argsort(used, kind="stable")  # G^T: one entry in each contact dof's row

@@ -14,15 +14,14 @@ import scipy.sparse as sp
 
 from contact_bench.core.refcount import uncounted
 
-#: the loops' CSR index type: 32-bit indices read a third less memory per product than
-#: 64-bit ones, and scipy's own (32-bit below 2^31 entries) are then used as they are;
-#: 64-bit past 2^31 entries
-INDEX = np.int32
+#: the loops' CSR index type: numba's loops over 64-bit indices are the faster ones
+#: (a 32-bit CSR product measured about 30% slower: docs/sparse.md), so the indices are
+#: copied to 64 bits; the values are shared
+INDEX = np.int64
 
 
 class CSR(NamedTuple):
-    """A sparse matrix's CSR arrays: row pointers and column indices (`index_type`),
-    values."""
+    """A sparse matrix's CSR arrays: row pointers and column indices (`INDEX`), values."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -45,18 +44,12 @@ def matvec(A, x, out):  # pragma: no cover - compiled
     csr_matvec(A.indptr, A.indices, A.data, x, out)
 
 
-def index_type(entries: int) -> type:
-    """The CSR index type for a matrix of `entries` stored values or rows (`INDEX`)."""
-    return INDEX if entries < np.iinfo(INDEX).max else np.int64
-
-
 def csr_arrays(A: sp.spmatrix) -> CSR:
     """A's CSR arrays for `matvec`: A's own arrays where they already have the loops' types
-    (a CSR matrix with 32-bit indices and float values: nothing copied, so the
-    problem's M and K are not held twice), else converted copies. The loops read them
-    and never write them (the curved obstacle's G, which `contact.relinearise`
+    (`INDEX` indices, float values: the values of a scipy matrix are shared, so the
+    problem's M and K values are not held twice), else converted copies. The loops read
+    them and never write them (the curved obstacle's G, which `contact.relinearise`
     rewrites, has arrays of its own)."""
     A = sp.csr_matrix(A)
-    ix = index_type(max(A.nnz, A.shape[0] + 1, A.shape[1]))
-    return CSR(A.indptr.astype(ix, copy=False), A.indices.astype(ix, copy=False),
+    return CSR(A.indptr.astype(INDEX, copy=False), A.indices.astype(INDEX, copy=False),
                A.data.astype(float, copy=False))
