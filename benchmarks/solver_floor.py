@@ -59,15 +59,6 @@ def _peak_gb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
 
 
-def _rss_gb() -> float:
-    """This process's resident memory now (VmRSS), GB."""
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmRSS"):
-                return int(line.split()[1]) / 2**20
-    return float("nan")
-
-
 def solve_seconds(fac) -> float:
     """One solve of a factor (`contact_bench.kernels.linalg.Factor`) by the loops'
     `lu_solve` on a random right-hand side: the least of `REPEATS` calls after one
@@ -92,7 +83,10 @@ def measure(config: str, kind: str, steps: int) -> dict:
     from contact_bench.core.timers import recording
     from contact_bench.kernels import linalg
 
-    start = _rss_gb()  # the process with the suite imported, before building anything
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from scale import rss_mib
+
+    start = rss_mib() / 1024  # the process with the suite imported, before building anything
     spec, nx = config.rsplit(":", 1)
     case, sch = make_case(spec), make_scheme("redistributed")
     # the kind decides the assembly's SPD test of the mass too (PARDISO or SuperLU);
