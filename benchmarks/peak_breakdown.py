@@ -22,13 +22,6 @@ import numpy as np
 import scipy.sparse as sp
 
 
-def _rss_gb() -> float:
-    for line in open("/proc/self/status"):
-        if line.startswith("VmRSS"):
-            return int(line.split()[1]) / 2**20
-    return float("nan")
-
-
 def array_bytes(x: Any, seen: set[int]) -> int:
     """The bytes of the arrays reachable from x (arrays, sparse matrices, tuples and
     objects' attributes), each counted once across calls sharing `seen` (a view as its
@@ -57,6 +50,8 @@ def array_bytes(x: Any, seen: set[int]) -> int:
 
 def breakdown(config: str, steps: int) -> dict[str, float]:
     """The parts of the resident set at the end of the run, GB (module docstring)."""
+    from scale import rss_mib
+
     from contact_bench.api.registry import make_case, make_scheme
     from contact_bench.core import ordering
     from contact_bench.kernels import linalg
@@ -64,13 +59,13 @@ def breakdown(config: str, steps: int) -> dict[str, float]:
     linalg.PARDISO_MIN_DOFS = ordering.pardiso.PARDISO_MIN_DOFS = 0
     spec, nx = config.rsplit(":", 1)
     case, sch = make_case(spec), make_scheme("redistributed")
-    before = _rss_gb()
+    before = rss_mib() / 1024
     p = case.sparse_problem(int(nx), 1.0, sch.mass_kind())
     st = sch.prepare(p, float(case.dt))
     st.run(steps, steps)
     st.run(steps, steps)
     gc.collect()
-    rss = _rss_gb()
+    rss = rss_mib() / 1024
     seen: set[int] = set()
     fac, ops = st.factor, st.ops
     body = case.body(int(nx))
